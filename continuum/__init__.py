@@ -1,0 +1,1 @@
+"""continuum package (see docs/DESIGN.md)."""

@@ -1,0 +1,1 @@
+"""particles package (see docs/DESIGN.md)."""
