@@ -1,0 +1,340 @@
+"""The ``colony`` command: run either engine or one of the paper's cases.
+
+::
+
+    colony continuum --lam LAM (--radius R | --time T) [--shape circle|ellipse:A,B|polygon:FILE.csv]
+                     [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
+    colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
+                     [--division-noise EPS] [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
+    colony case NAME [--scale smoke|paper] [--out DIR] [--from-data] [--scheduler ADDRESS]
+
+Every run is configured by one dataclass (``ContinuumConfig`` / ``ParticleConfig``), built from
+the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
+flags; the run writes it back as ``config.json`` next to its results.
+
+Output folders are never left half-written: a run writes into ``DIR.partial/`` and renames it to
+``DIR`` only when everything (engine output, ``profile.csv``, the PNG) is written. A stopped
+particle run keeps its checkpoint in ``DIR.partial/`` and resumes from it when the same command
+is given again. Bad input ends with a one-line message on stderr and exit status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import importlib
+import math
+import shutil
+import sys
+import tomllib
+from pathlib import Path
+
+import numpy as np
+
+#: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
+CONTINUUM_EDGE_WIDTH = 0.05
+#: Particle profiles: the outermost annulus about one particle diameter wide.
+PARTICLE_EDGE_WIDTH = 0.5
+#: Number of area-uniform sample points per annulus for continuum profiles.
+SAMPLES_PER_ANNULUS = 64
+
+CASES = ("fig2", "fig3", "fig4", "crosscheck")
+
+
+class UsageError(ValueError):
+    """Bad command-line input (reported in one line, exit status 2)."""
+
+
+# --------------------------------------------------------------------------- configuration
+
+
+def _coerce(value: str, like):
+    """Parse a ``--set`` string into the type of the dataclass field's default ``like``."""
+    if isinstance(like, bool):
+        if value.lower() in ("1", "true", "yes", "on"):
+            return True
+        if value.lower() in ("0", "false", "no", "off"):
+            return False
+        raise UsageError(f"expected a boolean, got {value!r}")
+    if isinstance(like, int):
+        return int(value)
+    if isinstance(like, float) or like is None:
+        try:
+            return float(value)
+        except ValueError:
+            return value
+    return value
+
+
+def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
+    """Engine defaults <- TOML file <- ``--set KEY=VALUE`` <- explicit flags; then ``validate()``."""
+    names = {f.name: f for f in dataclasses.fields(cls)}
+    values: dict = {}
+    if toml_file:
+        path = Path(toml_file)
+        if not path.is_file():
+            raise UsageError(f"config file not found: {path}")
+        with path.open("rb") as fh:
+            try:
+                values.update(tomllib.load(fh))
+            except tomllib.TOMLDecodeError as err:
+                raise UsageError(f"{path}: {err}") from None
+    defaults = cls.__new__(cls)  # field defaults without running validation
+    for item in sets:
+        key, sep, raw = item.partition("=")
+        key = key.strip().replace("-", "_")
+        if not sep:
+            raise UsageError(f"--set expects KEY=VALUE, got {item!r}")
+        if key not in names:
+            raise UsageError(f"unknown setting {key!r}; known: {', '.join(sorted(names))}")
+        default = names[key].default
+        if default is dataclasses.MISSING:
+            default = getattr(defaults, key, None)
+        values[key] = _coerce(raw, default)
+    values.update({k: v for k, v in flags.items() if v is not None})
+    unknown = set(values) - set(names)
+    if unknown:
+        raise UsageError(f"unknown setting(s) {', '.join(sorted(unknown))}")
+    config = cls(**values)
+    config.validate()
+    return config
+
+
+# --------------------------------------------------------------------------- staged output
+
+
+def stage(out: Path, overwrite: bool) -> Path:
+    """Return the staging folder ``out.partial`` (kept if it exists: it may hold a checkpoint)."""
+    if out.exists() and not overwrite:
+        raise UsageError(f"output folder {out} exists (use --overwrite to replace it)")
+    partial = out.with_name(out.name + ".partial")
+    partial.mkdir(parents=True, exist_ok=True)
+    return partial
+
+
+def publish(partial: Path, out: Path) -> None:
+    """Atomically move the finished ``partial`` folder to ``out``."""
+    if out.exists():
+        shutil.rmtree(out)
+    partial.rename(out)
+
+
+def write_csv(path: Path, columns: dict) -> None:
+    """Write equal-length 1D columns as a CSV with a header row."""
+    names = list(columns)
+    data = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
+
+
+# --------------------------------------------------------------------------- profiles
+
+
+def area_uniform_points(center, radius: float, n: int) -> np.ndarray:
+    """Vogel spiral: ``n`` points uniform in area in the disc |x - center| < radius.
+
+    Point k sits at r_k = radius sqrt((k + 1/2)/n), angle k * pi (3 - sqrt 5), so that every
+    equal-area annulus of the disc holds the same number of points (up to one).
+    """
+    k = np.arange(n) + 0.5
+    r = radius * np.sqrt(k / n)
+    a = np.arange(n) * math.pi * (3.0 - math.sqrt(5.0))
+    return np.column_stack([center[0] + r * np.cos(a), center[1] + r * np.sin(a)])
+
+
+def continuum_profile(state, edge_width: float = CONTINUUM_EDGE_WIDTH) -> dict:
+    """Equal-area radial profile of ``mean_length`` and ``pressure`` about the centroid.
+
+    The P1 fields are sampled at area-uniform points of the disc reaching the farthest boundary
+    point; samples outside the domain are dropped, so the profile is the average over each
+    annulus' intersection with the colony.
+    """
+    from cases.analysis import radial_profile
+
+    boundary = np.asarray(state.boundary)
+    center = _polygon_centroid(boundary)
+    radius = float(np.max(np.hypot(*(boundary - center).T)))
+    n_annuli = max(1, math.ceil(1.0 / (1.0 - (1.0 - edge_width / radius) ** 2)))
+    xy = area_uniform_points(center, radius, n_annuli * SAMPLES_PER_ANNULUS)
+    fields = state.sample(xy)
+    inside = np.isfinite(fields["p"])
+    values = {"mean_length": fields["mean_length"][inside], "pressure": fields["p"][inside]}
+    return radial_profile(xy[inside], values, center=center, radius=radius, n_annuli=n_annuli)
+
+
+def particle_profile(colony, edge_width: float = PARTICLE_EDGE_WIDTH) -> dict:
+    """Equal-area radial profile of particle ``length`` and ``stress`` about the centroid."""
+    from cases.analysis import radial_profile
+
+    xy = np.column_stack([colony.x, colony.y])
+    center = xy.mean(axis=0)
+    radius = float(colony.radius())
+    values = {"mean_length": np.asarray(colony.length), "stress": np.asarray(colony.stress)}
+    return radial_profile(xy, values, center=center, radius=radius, edge_width=edge_width)
+
+
+def _polygon_centroid(poly: np.ndarray) -> np.ndarray:
+    """Area centroid of a simple polygon (shoelace formula)."""
+    x, y = poly[:, 0], poly[:, 1]
+    xn, yn = np.roll(x, -1), np.roll(y, -1)
+    cross = x * yn - xn * y
+    area = cross.sum() / 2.0
+    return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6.0 * area)
+
+
+# --------------------------------------------------------------------------- runs
+
+
+def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True):
+    """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG."""
+    from continuum.simulation import run
+
+    partial = stage(out, overwrite)
+    state = run(config, out=partial, progress=progress)
+    write_csv(partial / "profile.csv", continuum_profile(state))
+    _draw_continuum(state, partial / "mean_length")
+    publish(partial, out)
+    return state
+
+
+def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True):
+    """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
+    from particles.simulation import run
+
+    partial = stage(out, overwrite)
+    colony = run(config, out=partial, progress=progress)
+    write_csv(partial / "profile.csv", particle_profile(colony))
+    _draw_particles(colony, partial / "colony")
+    publish(partial, out)
+    return colony
+
+
+def _draw_continuum(state, stem: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cases.draw import draw_field, save_figure
+
+    fig, ax = plt.subplots(figsize=(6, 6))
+    draw_field(state.points, state.triangles, state.fields["mean_length"], ax=ax)
+    ax.set_title(f"continuum, t = {state.t:.3g}")
+    save_figure(fig, stem, formats=("png",))
+    plt.close(fig)
+
+
+def _draw_particles(colony, stem: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from cases.draw import draw_particles, save_figure
+
+    fig, ax = plt.subplots(figsize=(6, 6))
+    draw_particles(colony.x, colony.y, colony.theta, colony.length, ax=ax)
+    ax.set_title(f"particles, N = {len(colony.x)}, t = {colony.t:.3g}")
+    save_figure(fig, stem, formats=("png",))
+    plt.close(fig)
+
+
+# --------------------------------------------------------------------------- parser
+
+
+def _common(p: argparse.ArgumentParser, default_out: str) -> None:
+    p.add_argument("--lam", type=float, required=True, help="stress sensitivity lambda")
+    stop = p.add_mutually_exclusive_group(required=True)
+    stop.add_argument("--radius", type=float, help="stop when the colony radius reaches R")
+    stop.add_argument("--time", type=float, help="stop at time T")
+    p.add_argument("--out", default=default_out, help=f"output folder (default {default_out})")
+    p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
+    p.add_argument("--config", help="TOML file of configuration values")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="override one configuration value (repeatable)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def parser() -> argparse.ArgumentParser:
+    """The ``colony`` argument parser."""
+    top = argparse.ArgumentParser(prog="colony", description=__doc__.split("\n")[0])
+    sub = top.add_subparsers(dest="command", required=True)
+
+    c = sub.add_parser("continuum", help="2D moving-boundary continuum colony")
+    _common(c, "runs/continuum")
+    c.add_argument("--shape", default=None,
+                   help="initial shape: circle (default), ellipse:A,B or polygon:FILE.csv")
+
+    p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
+    _common(p, "runs/particles")
+    p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length")
+    p.add_argument("--seed", type=int, help="random seed (division noise)")
+    p.add_argument("--dt", type=float, help="time step")
+    p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
+
+    k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
+    k.add_argument("name", choices=CASES)
+    k.add_argument("--scale", choices=("smoke", "paper"), default="smoke")
+    k.add_argument("--out", default=None, help="output folder (default runs/case-NAME-SCALE)")
+    k.add_argument("--from-data", action="store_true",
+                   help="redraw from the data committed in cases/data/NAME (no computation)")
+    k.add_argument("--scheduler", help="address of an existing dask scheduler for sweeps")
+    return top
+
+
+def _finite(name: str, value):
+    if value is not None and not math.isfinite(value):
+        raise UsageError(f"--{name} must be finite, got {value}")
+    return value
+
+
+def _dispatch(args) -> int:
+    progress = not args.__dict__.get("quiet", False)
+    if args.command == "continuum":
+        from continuum.simulation import ContinuumConfig
+
+        flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
+                 "time": _finite("time", args.time), "shape": args.shape}
+        config = build_config(ContinuumConfig, args.config, args.set, flags)
+        run_continuum(config, Path(args.out), args.overwrite, progress)
+        print(f"continuum run written to {args.out}")
+    elif args.command == "particles":
+        from particles.simulation import ParticleConfig
+
+        flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
+                 "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
+                 "dt": _finite("dt", args.dt),
+                 "division_noise": _finite("division-noise", args.division_noise)}
+        config = build_config(ParticleConfig, args.config, args.set, flags)
+        run_particles(config, Path(args.out), args.overwrite, progress)
+        print(f"particle run written to {args.out}")
+    else:
+        module = importlib.import_module(f"cases.{args.name}")
+        out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
+        out.mkdir(parents=True, exist_ok=True)
+        if args.from_data:
+            data = Path(__file__).parent / "data" / args.name
+            if not data.is_dir():
+                raise UsageError(f"no committed data for case {args.name} in {data}")
+        else:
+            data = module.compute(scale=args.scale, out=out, scheduler=args.scheduler)
+        module.plot(data, out)
+        print(f"case {args.name} written to {out}")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point of the ``colony`` console script; returns the exit status."""
+    args = parser().parse_args(argv)
+    try:
+        return _dispatch(args)
+    except KeyboardInterrupt:
+        print("colony: interrupted; finished work is kept in the .partial folder", file=sys.stderr)
+        return 130
+    except (ValueError, FileNotFoundError, RuntimeError, OSError) as err:
+        message = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        print(f"colony: error: {message}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,88 @@
+"""The ``colony`` command: configuration layering, staging, bad input, end-to-end runs."""
+
+import dataclasses
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from cases import cli
+
+
+@dataclasses.dataclass
+class _Config:
+    lam: float = 0.0
+    radius: float | None = None
+    n: int = 3
+    flag: bool = False
+
+    def validate(self):
+        if self.lam < 0:
+            raise ValueError("lam must be >= 0")
+
+
+def test_config_layers(tmp_path):
+    toml = tmp_path / "c.toml"
+    toml.write_text("lam = 0.5\nn = 7\n")
+    c = cli.build_config(_Config, str(toml), ["n=9", "flag=true"], {"radius": 4.0, "lam": None})
+    assert (c.lam, c.n, c.flag, c.radius) == (0.5, 9, True, 4.0)
+
+
+@pytest.mark.parametrize(
+    "toml,sets,match",
+    [(None, ["nope=1"], "unknown setting"), (None, ["n"], "KEY=VALUE"),
+     ("missing.toml", [], "not found"), (None, ["lam=-1"], "lam must be")],
+)
+def test_config_errors(toml, sets, match):
+    with pytest.raises(ValueError, match=match):
+        cli.build_config(_Config, toml, sets, {})
+
+
+def test_vogel_points_fill_equal_area_annuli():
+    n_annuli, per = 40, 64
+    xy = cli.area_uniform_points((1.0, -2.0), 3.0, n_annuli * per)
+    r = np.hypot(xy[:, 0] - 1.0, xy[:, 1] + 2.0)
+    edges = 3.0 * np.sqrt(np.arange(n_annuli + 1) / n_annuli)
+    counts = np.histogram(r, edges)[0]
+    assert counts.min() >= per - 1 and counts.max() <= per + 1
+
+
+def test_polygon_centroid_of_square():
+    sq = np.array([[0, 0], [2, 0], [2, 2], [0, 2]], float) + [3, 1]
+    assert np.allclose(cli._polygon_centroid(sq), [4, 2])
+
+
+def test_stage_publish(tmp_path):
+    out = tmp_path / "run"
+    partial = cli.stage(out, overwrite=False)
+    (partial / "a.csv").write_text("x\n1\n")
+    cli.publish(partial, out)
+    assert (out / "a.csv").exists() and not partial.exists()
+    with pytest.raises(ValueError, match="exists"):
+        cli.stage(out, overwrite=False)
+
+
+def _colony(*args):
+    return subprocess.run([sys.executable, "-m", "cases.cli", *args],
+                          capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.parametrize("args", [
+    ["continuum", "--lam", "nan", "--radius", "2"],
+    ["particles", "--lam", "0.01", "--radius", "inf"],
+    ["continuum", "--lam", "0.01", "--radius", "-1"],
+    ["continuum", "--lam", "0.01", "--radius", "2", "--config", "missing.toml"],
+])
+def test_bad_arguments_one_line_exit_2(args, tmp_path):
+    res = _colony(*args, "--out", str(tmp_path / "o"))
+    assert res.returncode == 2
+    assert res.stderr.count("\n") == 1 and res.stderr.startswith("colony: error:")
+    assert "Traceback" not in res.stderr
+    assert not (tmp_path / "o").exists()
+
+
+def test_argparse_errors_exit_2():
+    res = _colony("continuum", "--lam", "0.1")  # neither --radius nor --time
+    assert res.returncode == 2 and "Traceback" not in res.stderr
