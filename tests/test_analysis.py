@@ -1,0 +1,219 @@
+"""cases.analysis on synthetic data with known answers."""
+
+import math
+
+import numpy as np
+import pytest
+
+from cases import analysis as A
+
+
+def _uniform_disc(n: int, R: float, rng: np.random.Generator) -> np.ndarray:
+    """n points uniform in the disc of radius R (r = R sqrt(U))."""
+    r = R * np.sqrt(rng.random(n))
+    phi = 2 * np.pi * rng.random(n)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+
+
+# ---------------------------------------------------------------- equal-area annuli
+
+
+def test_annuli_have_equal_area_and_edge_width_rule():
+    R = 37.0
+    for w in (0.05, 0.3, 1.0, 5.0):
+        N = A.annuli_for_edge_width(R, w)
+        edges = R * np.sqrt(np.arange(N + 1) / N)
+        areas = np.pi * np.diff(edges**2)
+        np.testing.assert_allclose(areas, np.pi * R**2 / N, rtol=1e-12)
+        assert edges[-1] - edges[-2] <= w
+        if N > 1:  # N is the smallest such number
+            assert R * (1 - math.sqrt(1 - 1 / (N - 1))) > w
+    assert A.annuli_for_edge_width(1.0, 2.0) == 1
+
+
+def test_equal_area_annuli_counts_means_and_std_exact():
+    R, N = 10.0, 7
+    # two samples per annulus, placed inside it, with values k and k + 2 (mean k + 1, std 1)
+    k = np.repeat(np.arange(N), 2)
+    r = R * np.sqrt((k + np.tile([0.25, 0.75], N)) / N)
+    v = k + np.tile([0.0, 2.0], N)
+    r_mid, mean, std, count = A.equal_area_annuli(r, v, radius=R, n_annuli=N)
+    np.testing.assert_array_equal(count, 2)
+    np.testing.assert_allclose(mean, np.arange(N) + 1.0)
+    np.testing.assert_allclose(std, 1.0)
+    # r_mid halves each annulus' area
+    edges = R * np.sqrt(np.arange(N + 1) / N)
+    np.testing.assert_allclose(r_mid**2, 0.5 * (edges[:-1] ** 2 + edges[1:] ** 2))
+
+
+def test_equal_area_annuli_weights_edge_sample_and_empty_annulus():
+    r = np.array([0.1, 0.1, 1.0, 5.0])  # r = R goes into the last annulus; r > R is ignored
+    v = np.array([1.0, 4.0, 7.0, 100.0])
+    w = np.array([2.0, 1.0, 1.0, 1.0])
+    _, mean, std, count = A.equal_area_annuli(r, v, weights=w, radius=1.0, n_annuli=3)
+    assert mean[0] == pytest.approx(2.0)  # (2*1 + 4)/3
+    assert std[0] == pytest.approx(math.sqrt((2 * 1 + 4) / 3))
+    assert np.isnan(mean[1]) and count[1] == 0
+    assert mean[2] == 7.0 and count.tolist() == [2, 0, 1]
+
+
+def test_uniform_disc_fills_annuli_equally():
+    rng = np.random.default_rng(0)
+    xy = _uniform_disc(40000, 20.0, rng)
+    prof = A.radial_profile(xy, {"one": np.ones(len(xy))}, center=np.zeros(2), radius=20.0,
+                            n_annuli=20)
+    # multinomial counts: mean 2000, std ~ 44; every annulus within 5 sigma
+    assert np.all(np.abs(prof["count"] - 2000) < 5 * math.sqrt(2000))
+    assert set(prof) == {"r", "one", "one_std", "count"}
+    np.testing.assert_allclose(prof["one"], 1.0)
+    np.testing.assert_allclose(prof["one_std"], 0.0, atol=1e-12)
+
+
+def test_radial_profile_recovers_radial_function_about_offset_centroid():
+    rng = np.random.default_rng(1)
+    xy = _uniform_disc(200000, 30.0, rng)
+    xy += [5.0, -3.0]
+    r = np.hypot(xy[:, 0] - 5.0, xy[:, 1] + 3.0)
+    prof = A.radial_profile(xy, {"f": r**2}, edge_width=0.5)  # centre = centroid
+    # in an annulus, <r^2> = (r_k^2 + r_{k+1}^2)/2 = r_mid^2 exactly for uniform density
+    np.testing.assert_allclose(prof["f"], prof["r"] ** 2, rtol=0.02, atol=0.5)
+
+
+def test_bad_input_errors():
+    with pytest.raises(ValueError, match="exactly one"):
+        A.equal_area_annuli([1.0], [1.0])
+    with pytest.raises(ValueError, match="differ"):
+        A.equal_area_annuli([1.0, 2.0], [1.0], n_annuli=2)
+    with pytest.raises(ValueError, match="radius"):
+        A.annuli_for_edge_width(-1.0, 0.1)
+    with pytest.raises(ValueError, match="shape"):
+        A.radial_profile(np.zeros((3, 3)), {"a": np.zeros(3)}, n_annuli=2)
+
+
+# ---------------------------------------------------------------- ring peaks / wavelength
+
+
+@pytest.mark.parametrize("w", [3.0, 5.0, 12.0])
+def test_ring_wavelength_of_noisy_cosine_from_particles(w):
+    """Particles uniform in a disc, length 1.5 + 0.25 cos(2 pi r / w) + noise(0.15), binned in
+    equal-area annuli like the real data: the wavelength is w within 3 %, and every peak where
+    the annuli resolve the wave (width <= w/4) is found, none spurious."""
+    rng = np.random.default_rng(int(w * 10))
+    R = 60.0
+    xy = _uniform_disc(60000, R, rng)
+    r = np.hypot(*xy.T)
+    length = 1.5 + 0.25 * np.cos(2 * np.pi * r / w) + rng.normal(0, 0.15, r.size)
+    prof = A.radial_profile(xy, {"mean_length": length}, center=np.zeros(2), radius=R,
+                            edge_width=0.25)
+    se = prof["mean_length_std"] / np.sqrt(prof["count"])
+    lam_w = A.ring_wavelength(prof["r"], prof["mean_length"], stderr=se)
+    assert abs(lam_w - w) < 0.03 * w
+    peaks = A.ring_peaks(prof["r"], prof["mean_length"], stderr=se)
+    N = prof["r"].size
+    r_min = R**2 / (2 * N) / (w / 4)  # annulus width ~ R^2 / (2 N r) <= w/4 beyond r_min
+    expected = w * np.arange(1, int(R / w) + 1)
+    expected = expected[(expected > r_min) & (expected < prof["r"].max() - 0.5)]
+    found = peaks[peaks > r_min - 0.25 * w]
+    assert found.size == expected.size
+    np.testing.assert_allclose(found, expected, atol=0.05 * w)
+
+
+def test_noise_threshold_uses_standard_errors():
+    """A weak wave (amplitude 0.05) under noise 0.03 per sample: without stderr the noise makes
+    spurious peaks; with stderr the 3-sigma prominence rejects them and finds the wave."""
+    rng = np.random.default_rng(5)
+    r = np.linspace(0, 40, 800)
+    f = 1.5 + 0.05 * np.cos(2 * np.pi * r / 8.0) + rng.normal(0, 0.03, r.size)
+    se = np.full(r.size, 0.03)
+    peaks = A.ring_peaks(r, f, stderr=se, smoothing=1.0)
+    np.testing.assert_allclose(peaks, 8.0 * np.arange(1, 5), atol=0.4)
+    assert A.ring_peaks(r, f, smoothing=0.1, min_prominence=0.0).size > 10
+
+
+def test_ring_peaks_exact_on_smooth_profile_and_parabolic_refinement():
+    r = np.linspace(1, 20, 3801)
+    f = np.cos(2 * np.pi * (r - 0.3) / 4.0)
+    peaks = A.ring_peaks(r, f, smoothing=0.2)
+    np.testing.assert_allclose(peaks, 0.3 + 4.0 * np.arange(1, 5), atol=2e-3)
+
+
+def test_pure_noise_and_short_profiles_give_nan():
+    rng = np.random.default_rng(3)
+    r = np.linspace(0, 50, 500)
+    noise = 1.5 + rng.normal(0, 0.02, r.size)
+    se = np.full(r.size, 0.02)
+    assert A.ring_peaks(r, noise, stderr=se).size == 0
+    assert math.isnan(A.ring_wavelength(r, noise, stderr=se))
+    assert math.isnan(A.ring_wavelength([0.0, 1.0], [1.0, 2.0]))
+    one_bump = np.exp(-((r - 25) ** 2) / 4.0)
+    assert A.ring_peaks(r, one_bump).size == 1
+    assert math.isnan(A.ring_wavelength(r, one_bump))
+
+
+def test_ring_peaks_ignores_nan_annuli():
+    r = np.linspace(0, 30, 601)
+    f = np.cos(2 * np.pi * r / 6.0)
+    f[::7] = np.nan
+    assert A.ring_wavelength(r, f, smoothing=0.3) == pytest.approx(6.0, abs=0.01)
+
+
+def test_smooth_profile_is_exact_for_lines_on_nonuniform_samples():
+    r = np.sqrt(np.linspace(0, 400, 300))  # equal-area spacing
+    grid = np.linspace(1, 19, 50)
+    fs, es = A.smooth_profile(r, 2 * r - 1, 0.7, grid, stderr=np.full(r.size, 0.1))
+    np.testing.assert_allclose(fs, 2 * grid - 1, atol=1e-9)
+    # standard error of a local fit over ~ n_eff samples: 0.1 / sqrt(n_eff), n_eff in (1, 300)
+    assert np.all((es > 0.1 / np.sqrt(300)) & (es < 0.1))
+
+
+# ---------------------------------------------------------------- time series, fits
+
+
+def test_late_slope_of_exact_line_and_late_window():
+    t = np.linspace(0, 10, 101)
+    R = np.where(t < 8, np.exp(t / 2), np.exp(4) + 3.0 * (t - 8))
+    assert A.late_slope(t, R, fraction=0.2) == pytest.approx(3.0, rel=1e-12)
+    assert A.late_slope(t, 2 * t + 1, fraction=1.0) == pytest.approx(2.0, rel=1e-12)
+    with pytest.raises(ValueError):
+        A.late_slope([1.0], [2.0])
+
+
+def test_max_value_and_power_law_fit():
+    assert A.max_value([1.0, np.nan, 3.0, -np.inf]) == 3.0
+    with pytest.raises(ValueError):
+        A.max_value([np.nan])
+    x = np.logspace(-4, -2, 5)
+    a, C = A.power_law_fit(x, 0.7 * x**-0.5)
+    assert a == pytest.approx(-0.5, abs=1e-12) and C == pytest.approx(0.7, rel=1e-10)
+    with pytest.raises(ValueError):
+        A.power_law_fit([1.0, 1.0], [2.0, 3.0])
+
+
+def test_ecoli_lambda_is_the_papers_estimate():
+    # v = 1.3e-2 um/s * 3240 s / 1 um = 42.12; lam = 2 / v^2 = 1.127e-3 (paper: ~1.1e-3)
+    lam = A.ecoli_lambda()
+    assert lam == pytest.approx(2 / 42.12**2, rel=1e-12)
+    assert round(lam, 4) == 1.1e-3
+    # consistency: the asymptotic speed sqrt(2/lam) returns the measured one
+    assert math.sqrt(2 / lam) * 1.0 / (54 * 60) == pytest.approx(1.3e-2, rel=1e-12)
+    with pytest.raises(ValueError):
+        A.ecoli_lambda(tau_min=0)
+
+
+def test_radial_solution_formulas():
+    lam, R = 1e-2, 40.0
+    r = np.linspace(0, R, 9)
+    p = A.radial_pressure(r, lam, R)
+    assert p[-1] == pytest.approx(0.0, abs=1e-12)
+    # -Laplace p = exp(-lam p) by finite differences in r (second order, checked at r = 20)
+    h, r0 = 1e-3, 20.0
+    pm, p0, pp = A.radial_pressure(np.array([r0 - h, r0, r0 + h]), lam, R)
+    lap = (pp - 2 * p0 + pm) / h**2 + (pp - pm) / (2 * h) / r0
+    assert -lap == pytest.approx(math.exp(-lam * p0), rel=1e-5)
+    # u(R) = -p'(R) = 4 c R, tending to sqrt(2/lam)
+    dp = (A.radial_pressure(np.array([R]), lam, R) - A.radial_pressure(np.array([R - h]), lam, R))
+    assert -dp[0] / h == pytest.approx(A.radial_speed(lam, R), rel=1e-3)
+    assert A.radial_speed(lam, 1e8) == pytest.approx(math.sqrt(2 / lam), rel=1e-6)
+    assert A.radial_max_pressure(0.0, 4.0) == 4.0
+    # small lam tends to the lam = 0 solution
+    assert A.radial_max_pressure(1e-9, 4.0) == pytest.approx(4.0, rel=1e-6)
