@@ -1,0 +1,172 @@
+"""Pictures of colonies: particles as sphero-cylinders and the continuum mean-length field.
+
+Both are coloured by length with the limits [l0, 2 l0] = [1, 2] of the paper's Fig 2, so particle
+and continuum panels share one colour scale. Uses matplotlib's Agg backend (no display needed).
+
+A sphero-cylinder (x, y, theta, l) is every point within b/2 of the segment of length L = l - b
+centred at (x, y) along p = (cos theta, sin theta); it is drawn as one polygon (two half-circle
+caps of `n_cap` + 1 points each) built for all particles at once with numpy and handed to a
+single PolyCollection, which stays fast at 1e5 particles and is exact in data units whatever the
+figure size or format.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.axes import Axes  # noqa: E402
+from matplotlib.collections import PolyCollection  # noqa: E402
+from matplotlib.figure import Figure  # noqa: E402
+
+__all__ = ["LENGTH_LIMITS", "DEFAULT_CMAP", "spherocylinder_polygons", "draw_particles",
+           "draw_field", "save_figure", "colorbar"]
+
+LENGTH_LIMITS = (1.0, 2.0)
+DEFAULT_CMAP = "viridis"
+
+
+def _new_axes(ax: Axes | None) -> Axes:
+    if ax is None:
+        _, ax = plt.subplots(figsize=(5, 5))
+    return ax
+
+
+def spherocylinder_polygons(
+    x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray, b: float = 0.5,
+    n_cap: int = 6,
+) -> np.ndarray:
+    """Outline polygons of sphero-cylinders, shape (n, 2 (n_cap + 1), 2).
+
+    Vertex j of the cap at end s = +-1 is c + s (L/2) p + (b/2) (cos a_j, sin a_j), with the angles
+    a_j sweeping the half circle facing outward from that end (theta - pi/2 .. theta + pi/2 for
+    s = +1), L = l - b.
+    """
+    x, y, theta, length = (np.asarray(a, dtype=float).ravel() for a in (x, y, theta, length))
+    n = x.size
+    if not (y.size == theta.size == length.size == n):
+        raise ValueError("x, y, theta and length must have the same length")
+    if b <= 0 or n_cap < 1:
+        raise ValueError("b must be > 0 and n_cap >= 1")
+    if n and np.any(length < b):
+        raise ValueError(f"every length must be >= b = {b}")
+    half = 0.5 * (length - b)
+    px, py = np.cos(theta), np.sin(theta)
+    a = np.linspace(-0.5 * np.pi, 0.5 * np.pi, n_cap + 1)
+    ang = theta[:, None] + np.concatenate([a, a + np.pi])[None, :]  # (n, 2(n_cap+1))
+    sgn = np.concatenate([np.ones(n_cap + 1), -np.ones(n_cap + 1)])
+    vx = x[:, None] + sgn * half[:, None] * px[:, None] + 0.5 * b * np.cos(ang)
+    vy = y[:, None] + sgn * half[:, None] * py[:, None] + 0.5 * b * np.sin(ang)
+    return np.stack([vx, vy], axis=-1)
+
+
+def draw_particles(
+    x: np.ndarray,
+    y: np.ndarray,
+    theta: np.ndarray,
+    length: np.ndarray,
+    ax: Axes | None = None,
+    color_by: np.ndarray | None = None,
+    cmap: str = DEFAULT_CMAP,
+    b: float = 0.5,
+    clim: tuple[float, float] = LENGTH_LIMITS,
+    n_cap: int = 6,
+) -> PolyCollection:
+    """Draw particles as sphero-cylinders of diameter b coloured by `color_by` (default: length).
+
+    Colour limits `clim` = [1, 2] (birth and division length) as in the paper's Fig 2.
+    The axes get equal aspect and limits that hold every particle.
+
+    Returns
+    -------
+    The PolyCollection (a ScalarMappable, usable for a colorbar).
+    """
+    ax = _new_axes(ax)
+    verts = spherocylinder_polygons(x, y, theta, length, b=b, n_cap=n_cap)
+    c = np.asarray(length if color_by is None else color_by, dtype=float).ravel()
+    if c.size != verts.shape[0]:
+        raise ValueError("color_by must have one value per particle")
+    coll = PolyCollection(verts, array=c, cmap=cmap, edgecolors="none", linewidths=0,
+                          antialiaseds=False)
+    coll.set_clim(*clim)
+    ax.add_collection(coll)
+    if verts.shape[0]:
+        lo, hi = verts.reshape(-1, 2).min(0), verts.reshape(-1, 2).max(0)
+        pad = 0.02 * float(max(hi - lo)) + b
+        ax.set_xlim(lo[0] - pad, hi[0] + pad)
+        ax.set_ylim(lo[1] - pad, hi[1] + pad)
+    ax.set_aspect("equal")
+    return coll
+
+
+def draw_field(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    values: np.ndarray,
+    ax: Axes | None = None,
+    cmap: str = DEFAULT_CMAP,
+    clim: tuple[float, float] = LENGTH_LIMITS,
+):
+    """Draw a nodal (P1) field on a triangle mesh, Gouraud-shaded (e.g. the mean length lbar).
+
+    Parameters
+    ----------
+    points : node coordinates, shape (n, 2).
+    triangles : node indices of the triangles, shape (m, 3).
+    values : nodal values, shape (n,).
+
+    Returns
+    -------
+    The TriMesh/PolyCollection of `tripcolor` (usable for a colorbar).
+    """
+    ax = _new_axes(ax)
+    points = np.asarray(points, dtype=float)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    values = np.asarray(values, dtype=float).ravel()
+    if points.ndim != 2 or points.shape[1] != 2:
+        raise ValueError(f"points must have shape (n, 2), got {points.shape}")
+    if triangles.ndim != 2 or triangles.shape[1] != 3:
+        raise ValueError(f"triangles must have shape (m, 3), got {triangles.shape}")
+    if values.size != points.shape[0]:
+        raise ValueError("values must have one value per point")
+    if triangles.size and (triangles.min() < 0 or triangles.max() >= points.shape[0]):
+        raise ValueError("triangles index points out of range")
+    coll = ax.tripcolor(points[:, 0], points[:, 1], triangles, values, shading="gouraud",
+                        cmap=cmap, vmin=clim[0], vmax=clim[1])
+    ax.set_aspect("equal")
+    return coll
+
+
+def colorbar(fig: Figure, mappable, ax, label: str = r"length $\ell$"):
+    """A colour bar for a particle or field panel (one call, shared styling)."""
+    cb = fig.colorbar(mappable, ax=ax, shrink=0.8)
+    cb.set_label(label)
+    return cb
+
+
+def save_figure(
+    fig: Figure, path_without_suffix: str | Path, formats: Sequence[str] = ("png", "pdf"),
+    dpi: int = 150, close: bool = True,
+) -> list[Path]:
+    """Save `fig` once per format as `path_without_suffix.<format>`; returns the paths.
+
+    The parent folder is created. The figure is closed afterwards unless `close` is False.
+    """
+    base = Path(path_without_suffix)
+    if not formats:
+        raise ValueError("formats must name at least one format")
+    base.parent.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for fmt in formats:
+        p = base.with_name(f"{base.name}.{fmt}")
+        fig.savefig(p, dpi=dpi, bbox_inches="tight")
+        paths.append(p)
+    if close:
+        plt.close(fig)
+    return paths
