@@ -318,9 +318,7 @@ def _integrate(lam: float, rho_start: NDArray, s_from: float, s_to: float, rtol:
     if s_to == s_from:
         return rho_start.copy(), np.zeros_like(rho_start)
     y0 = np.concatenate((rho_start, np.zeros_like(rho_start)))
-    sol = solve_ivp(
-        _rhs(lam), (s_from, s_to), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-3
-    )
+    sol = solve_ivp(_rhs(lam), (s_from, s_to), y0, method="DOP853", rtol=rtol, atol=rtol * 1e-3)
     if not sol.success:  # pragma: no cover - DOP853 on this smooth system does not fail
         raise RuntimeError(f"radial characteristics: {sol.message}")
     n = rho_start.size

@@ -44,7 +44,7 @@ def test_velocity_and_growth_rate_are_consistent_with_pressure(lam):
         rd.growth_rate(r, R, lam), np.exp(-lam * rd.pressure(r, R, lam)), rtol=1e-13
     )
     assert rd.radius_rate(R, lam) == pytest.approx(rd.velocity(R, R, lam), rel=1e-14)
-    # model.md's form p = (2/lam) ln(1/(8c) - c lam r^2) with c = [sqrt(1 + lam R^2/2) - 1]/(2 lam R^2)
+    # model.md's form p = (2/lam) ln(1/(8c) - c lam r^2), c = [sqrt(1 + lam R^2/2) - 1]/(2 lam R^2)
     if lam != 0:
         c = (math.sqrt(1 + lam * R**2 / 2) - 1) / (2 * lam * R**2)
         assert rd.c_of_R(R, lam) == pytest.approx(c, rel=1e-12)
@@ -68,8 +68,13 @@ def test_lam_zero_is_the_limit_of_small_lam():
 def test_radius_matches_independent_ode_solution(lam):
     t_eval = np.array([0.0, 0.5, 1.5, 2.5, 2.9])
     sol = solve_ivp(
-        lambda t, y: [rd.radius_rate(y[0], lam)], (0, t_eval[-1]), [rd.R0],
-        method="DOP853", rtol=1e-13, atol=1e-15, t_eval=t_eval,
+        lambda t, y: [rd.radius_rate(y[0], lam)],
+        (0, t_eval[-1]),
+        [rd.R0],
+        method="DOP853",
+        rtol=1e-13,
+        atol=1e-15,
+        t_eval=t_eval,
     )
     np.testing.assert_allclose(rd.radius(t_eval, lam), sol.y[0], rtol=1e-11)
     np.testing.assert_allclose(rd.time_to_radius(rd.radius(t_eval, lam), lam), t_eval, atol=1e-12)
@@ -134,8 +139,14 @@ def test_characteristics_match_an_independent_solve_in_time(lam):
         r = np.minimum(y[:7], R)
         return np.concatenate((rd.velocity(r, R, lam), rd.growth_rate(r, R, lam)))
 
-    sol = solve_ivp(f, (0, t_end), np.concatenate((back.r0, np.zeros(7))),
-                    method="DOP853", rtol=1e-11, atol=1e-13)
+    sol = solve_ivp(
+        f,
+        (0, t_end),
+        np.concatenate((back.r0, np.zeros(7))),
+        method="DOP853",
+        rtol=1e-11,
+        atol=1e-13,
+    )
     np.testing.assert_allclose(sol.y[:7, -1], back.r, rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(sol.y[7:, -1], back.G, rtol=1e-7)
     assert back.G[-1] == pytest.approx(t_end, rel=1e-9)  # the edge grows at g = 1
@@ -146,8 +157,10 @@ def test_growth_phase_converges_with_its_tolerance():
     lam, R = 1e-2, 150.0
     r = np.linspace(0, R, 31)
     ref = rd.growth_phase(lam, r, radius=R, rtol=1e-13)
-    errs = [np.max(np.abs(rd.growth_phase(lam, r, radius=R, rtol=tol) - ref))
-            for tol in (1e-6, 1e-8, 1e-10)]
+    errs = [
+        np.max(np.abs(rd.growth_phase(lam, r, radius=R, rtol=tol) - ref))
+        for tol in (1e-6, 1e-8, 1e-10)
+    ]
     assert errs[0] > errs[1] > errs[2]
     assert errs[2] < 1e-8 * np.max(ref)
 
