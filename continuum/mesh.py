@@ -1,0 +1,291 @@
+"""Boundary polygons and triangle meshes of the colony domain Omega(t).
+
+The domain is described by its boundary, a simple closed polygon with counter-clockwise
+vertices ``xy`` of shape (K, 2) (the closing edge from the last vertex back to the first is
+implicit). Meshes are built by Shewchuk's Triangle (the ``triangle`` package) with the
+boundary vertices kept as the first K mesh nodes, in order, and no Steiner points inserted on
+the boundary (switch ``Y``), so the boundary nodes of a mesh are always ``range(K)``.
+
+Mesh size: the target edge length h of equilateral triangles; Triangle receives the maximum
+triangle area sqrt(3)/4 h^2 and the minimum angle 28 degrees.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import triangle as tr
+from scipy.interpolate import CubicSpline
+
+__all__ = [
+    "PolygonError",
+    "check_polygon",
+    "polygon_area",
+    "resample_polygon",
+    "triangulate",
+    "triangle_areas",
+    "triangle_quality",
+    "circle_polygon",
+    "ellipse_polygon",
+    "boundary_spacing",
+    "h_for_nodes",
+    "load_polygon_csv",
+]
+
+
+class PolygonError(ValueError):
+    """A boundary polygon is not a finite, simple, closed curve of positive area."""
+
+
+def polygon_area(xy: np.ndarray) -> float:
+    """Signed area (shoelace), positive for counter-clockwise vertices.
+
+    A = (1/2) sum_k (x_k y_{k+1} - x_{k+1} y_k), indices modulo K.
+    """
+    x, y = xy[:, 0], xy[:, 1]
+    return 0.5 * float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y))
+
+
+def _segments_cross(xy: np.ndarray) -> bool:
+    """True if two non-adjacent edges of the closed polygon intersect (vectorised O(K^2))."""
+    a = xy
+    b = np.roll(xy, -1, axis=0)
+    k = len(xy)
+
+    def orient(p, q, r):
+        return (q[..., 0] - p[..., 0]) * (r[..., 1] - p[..., 1]) - (q[..., 1] - p[..., 1]) * (
+            r[..., 0] - p[..., 0]
+        )
+
+    i, j = np.triu_indices(k, 2)
+    keep = ~((i == 0) & (j == k - 1))  # first and last edges share a vertex
+    i, j = i[keep], j[keep]
+    # process in chunks to bound memory
+    for s in range(0, len(i), 2_000_000):
+        ii, jj = i[s : s + 2_000_000], j[s : s + 2_000_000]
+        p1, p2, q1, q2 = a[ii], b[ii], a[jj], b[jj]
+        d1, d2 = orient(q1, q2, p1), orient(q1, q2, p2)
+        d3, d4 = orient(p1, p2, q1), orient(p1, p2, q2)
+        proper = (d1 * d2 < 0) & (d3 * d4 < 0)
+        touch = ((d1 == 0) | (d2 == 0) | (d3 == 0) | (d4 == 0)) & _boxes_overlap(p1, p2, q1, q2)
+        if np.any(proper | touch):
+            return True
+    return False
+
+
+def _boxes_overlap(p1, p2, q1, q2) -> np.ndarray:
+    lo_p, hi_p = np.minimum(p1, p2), np.maximum(p1, p2)
+    lo_q, hi_q = np.minimum(q1, q2), np.maximum(q1, q2)
+    return np.all((lo_p <= hi_q) & (lo_q <= hi_p), axis=-1)
+
+
+def check_polygon(xy: np.ndarray, check_simple: bool = True) -> np.ndarray:
+    """Validate a boundary polygon and return it counter-clockwise, without a closing duplicate.
+
+    Parameters
+    ----------
+    xy : array (K, 2)
+        Vertices; a repeated first vertex at the end (explicitly closed polygon) is dropped.
+    check_simple : bool
+        Test that no two non-adjacent edges intersect (O(K^2)).
+
+    Raises
+    ------
+    PolygonError
+        Fewer than 3 vertices, non-finite coordinates, repeated consecutive vertices,
+        self-intersection, or zero area.
+    """
+    xy = np.asarray(xy, dtype=float)
+    if xy.ndim != 2 or xy.shape[1] != 2:
+        raise PolygonError(f"polygon must be an array of shape (K, 2), got {xy.shape}")
+    if not np.all(np.isfinite(xy)):
+        raise PolygonError("polygon has non-finite coordinates")
+    if len(xy) > 3 and np.allclose(xy[0], xy[-1]):
+        xy = xy[:-1]
+    if len(xy) < 3:
+        raise PolygonError(f"polygon needs at least 3 distinct vertices, got {len(xy)}")
+    edge = np.linalg.norm(np.roll(xy, -1, axis=0) - xy, axis=1)
+    scale = float(np.max(np.abs(xy - xy.mean(axis=0))))
+    if np.any(edge <= 1e-12 * max(scale, 1e-300)):
+        raise PolygonError("polygon has repeated consecutive vertices (zero-length edge)")
+    if check_simple and _segments_cross(xy):
+        raise PolygonError("polygon is not simple: two of its edges intersect")
+    area = polygon_area(xy)
+    if not abs(area) > 1e-12 * max(scale, 1e-300) ** 2:
+        raise PolygonError("polygon has zero area")
+    if area < 0:
+        xy = xy[::-1].copy()
+    return xy
+
+
+def circle_polygon(radius: float, n: int, center=(0.0, 0.0)) -> np.ndarray:
+    """n vertices of the circle of the given radius, counter-clockwise."""
+    s = 2 * np.pi * np.arange(n) / n
+    return np.column_stack([center[0] + radius * np.cos(s), center[1] + radius * np.sin(s)])
+
+
+def ellipse_polygon(a: float, b: float, n: int) -> np.ndarray:
+    """n vertices on the ellipse x^2/a^2 + y^2/b^2 = 1, roughly equally spaced in arc length."""
+    s = np.linspace(0, 2 * np.pi, 8 * n, endpoint=False)
+    dense = np.column_stack([a * np.cos(s), b * np.sin(s)])
+    return resample_polygon(dense, n=n)
+
+
+def boundary_spacing(xy: np.ndarray) -> np.ndarray:
+    """Edge lengths |x_{k+1} - x_k| of the closed polygon."""
+    return np.linalg.norm(np.roll(xy, -1, axis=0) - xy, axis=1)
+
+
+def resample_polygon(
+    xy: np.ndarray, spacing: float | None = None, n: int | None = None, min_points: int = 12
+) -> np.ndarray:
+    """Resample a closed curve to equal arc-length spacing with a periodic cubic spline.
+
+    The curve through the vertices is the periodic cubic spline x(s) in the chordal arc
+    length s; the new vertices are x(s_k), s_k = k S / n, S the perimeter. Resampling a
+    smooth curve this way moves it by O(h^4), so repeated remeshing does not shrink the
+    domain (a piecewise-linear resampling loses O(h^2 kappa) of area each time).
+
+    Parameters
+    ----------
+    xy : array (K, 2)
+        Counter-clockwise vertices.
+    spacing : float, optional
+        Target spacing; n = max(ceil(S / spacing), min_points).
+    n : int, optional
+        Number of vertices (overrides spacing).
+    """
+    if n is None:
+        if spacing is None or not spacing > 0:
+            raise ValueError("resample_polygon needs a positive spacing or n")
+        perimeter = float(np.sum(boundary_spacing(xy)))
+        n = max(int(np.ceil(perimeter / spacing)), min_points)
+    closed = np.vstack([xy, xy[:1]])
+    s = np.concatenate([[0.0], np.cumsum(boundary_spacing(xy))])
+    spline = CubicSpline(s, closed, bc_type="periodic")
+    # one fixed-point pass on the spline's own arc length makes the spacing uniform to O(h^2)
+    fine = np.linspace(0.0, s[-1], 16 * max(n, len(xy)) + 1)
+    pts = spline(fine)
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(pts, axis=0), axis=1))])
+    target = np.linspace(0.0, arc[-1], n, endpoint=False)
+    return spline(np.interp(target, arc, fine))
+
+
+def triangle_areas(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Signed areas |T| of the triangles (positive when counter-clockwise)."""
+    a, b, c = points[tris[:, 0]], points[tris[:, 1]], points[tris[:, 2]]
+    return 0.5 * (
+        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
+    )
+
+
+def triangle_quality(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
+    """Shape quality q = 4 sqrt(3) |T| / (sum of squared edge lengths).
+
+    q = 1 for an equilateral triangle, q -> 0 for a degenerate one, q < 0 if inverted.
+    """
+    a, b, c = points[tris[:, 0]], points[tris[:, 1]], points[tris[:, 2]]
+    s2 = np.sum((b - a) ** 2, axis=1) + np.sum((c - b) ** 2, axis=1) + np.sum((a - c) ** 2, axis=1)
+    return 4.0 * np.sqrt(3.0) * triangle_areas(points, tris) / s2
+
+
+def h_for_nodes(area: float, n_nodes: float) -> float:
+    """Edge length h of an equilateral mesh with about n_nodes nodes on a domain of that area.
+
+    Each node carries two triangles of area sqrt(3)/4 h^2, so N = 2 A / (sqrt(3) h^2).
+    """
+    return float(np.sqrt(2.0 * area / (np.sqrt(3.0) * n_nodes)))
+
+
+def triangulate(
+    boundary: np.ndarray,
+    h: float,
+    h_interior: float | None = None,
+    grading: float = 0.25,
+    min_angle: float = 28.0,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Quality triangle mesh of the polygon at target edge length h.
+
+    Parameters
+    ----------
+    boundary : array (K, 2)
+        Counter-clockwise boundary polygon, already spaced about h (see resample_polygon);
+        its vertices become mesh nodes 0..K-1 and no node is added on the boundary.
+    h : float
+        Target edge length at the boundary.
+    h_interior : float, optional
+        If larger than h, the mesh is graded: target size h(d) = min(h_interior, h + grading d),
+        d the distance to the boundary (a few refinement passes of Triangle with per-triangle
+        area limits).
+    grading : float
+        Growth rate of the target size with the distance to the boundary.
+    min_angle : float
+        Minimum angle (degrees) requested from Triangle.
+
+    Returns
+    -------
+    points : array (N, 2), triangles : array (M, 3) counter-clockwise, int64.
+    """
+    if not (np.isfinite(h) and h > 0):
+        raise ValueError(f"mesh size h must be positive and finite, got {h}")
+    k = len(boundary)
+    seg = np.column_stack([np.arange(k), (np.arange(k) + 1) % k])
+    graded = h_interior is not None and h_interior > 1.2 * h
+    a_max = np.sqrt(3.0) / 4.0 * (h_interior if graded else h) ** 2
+    out = tr.triangulate({"vertices": boundary, "segments": seg}, f"pq{min_angle:g}a{a_max:.17g}YQ")
+    if graded:
+        from scipy.spatial import cKDTree
+
+        tree = cKDTree(boundary)
+        for _ in range(4):
+            pts, tri = out["vertices"], out["triangles"]
+            d, _ = tree.query(pts[tri].mean(axis=1))
+            hloc = np.minimum(h_interior, h + grading * d)
+            amax = np.sqrt(3.0) / 4.0 * hloc**2
+            area = np.abs(triangle_areas(pts, tri))
+            if np.all(area <= 1.3 * amax):
+                break
+            out = tr.triangulate(
+                {
+                    "vertices": pts,
+                    "triangles": tri,
+                    "segments": out["segments"],
+                    "triangle_max_area": amax,
+                },
+                f"rpq{min_angle:g}aYQ",
+            )
+    points = np.asarray(out["vertices"], dtype=float)
+    tris = np.asarray(out["triangles"], dtype=np.int64)
+    if not np.allclose(points[:k], boundary):
+        raise RuntimeError("triangle reordered the boundary vertices")
+    neg = triangle_areas(points, tris) < 0
+    tris[neg] = tris[neg][:, [0, 2, 1]]
+    return points, tris
+
+
+def load_polygon_csv(path) -> np.ndarray:
+    """Read a closed boundary polygon from a CSV file with columns x,y (header line optional).
+
+    The polygon must be explicitly closed: the last row repeats the first. Returns the checked,
+    counter-clockwise vertices without the closing duplicate (see check_polygon).
+    """
+    import csv
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        raise PolygonError(f"polygon file not found: {path}")
+    rows = []
+    with path.open() as fh:
+        for row in csv.reader(fh):
+            if not row or row[0].strip().lower() in ("x", "#"):
+                continue
+            try:
+                rows.append([float(row[0]), float(row[1])])
+            except (ValueError, IndexError):
+                raise PolygonError(f"{path}: cannot read x,y from the line {row}") from None
+    xy = np.array(rows, dtype=float).reshape(-1, 2)
+    if len(xy) < 4 or not np.array_equal(xy[0], xy[-1]):
+        raise PolygonError(
+            f"polygon in {path} is not closed: the last vertex must repeat the first"
+        )
+    return check_polygon(xy)
