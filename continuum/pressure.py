@@ -1,0 +1,300 @@
+"""Pressure: Newton's method for -Laplace p = exp(-lam p) in Omega, p = 0 on the boundary.
+
+Discretisation (P1 finite elements on a triangle mesh, nodes 0..K-1 on the boundary):
+
+    F_i(p) = sum_j K_ij p_j - b_i(g(p)) = 0   for interior nodes i,   p_i = 0 on the boundary,
+
+with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the nodes and
+b_i(g) = int (sum_j g_j phi_j) phi_i the consistent load of the P1 interpolant of g
+(b = M g, M the consistent mass matrix, element-wise |T|/12 (g_i + sum_{j in T} g_j)).
+
+Newton step: J delta = -F with the symmetric positive (for lam >= 0) approximation
+J = K + lam diag(m g) of the Jacobian K + lam M diag(g) (m the lumped mass); the difference
+is O(lam h^2) relative to K, so the iteration converges at an (almost) quadratic rate. Each
+linear system is solved by conjugate gradients preconditioned with a pyamg smoothed-aggregation
+hierarchy. The hierarchy is reused across Newton iterations and time steps while the mesh
+topology is unchanged and CG converges quickly, and Newton is warm-started from the previous
+nodal pressure (nodes move with the material, so the previous p is a good guess).
+
+Assembly reuses the sparsity pattern and the element-to-CSR scatter map of a mesh topology
+(``P1Assembler``): only the geometric factors are recomputed when nodes move.
+
+Non-convergence (lam < 0 beyond the critical size, where -Laplace p = |lam|^{-1} ... has no
+solution, or non-finite values) raises ``PressureDivergence``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pyamg
+import scipy.sparse as sp
+from scipy.sparse.linalg import cg
+
+__all__ = ["PressureDivergence", "P1Assembler", "PressureSolver", "NewtonStats"]
+
+
+class PressureDivergence(RuntimeError):
+    """Newton's method for the pressure did not converge (no solution, or non-finite values)."""
+
+
+class P1Assembler:
+    """P1 stiffness, lumped mass and consistent load on a fixed triangle topology.
+
+    The CSR pattern of K and the scatter map from the 9 entries of each element matrix to
+    CSR data positions are computed once per topology; ``stiffness(points)`` then costs one
+    vectorised pass over the elements and one ``np.bincount``.
+
+    Parameters
+    ----------
+    tris : array (M, 3)
+        Counter-clockwise triangles.
+    n_nodes : int
+        Number of nodes N.
+    n_boundary : int
+        Nodes 0..n_boundary-1 carry the Dirichlet condition p = 0.
+    """
+
+    def __init__(self, tris: np.ndarray, n_nodes: int, n_boundary: int):
+        self.tris = np.asarray(tris, dtype=np.int64)
+        self.n = int(n_nodes)
+        self.nb = int(n_boundary)
+        rows = np.repeat(self.tris, 3, axis=1).ravel()
+        cols = np.tile(self.tris, (1, 3)).ravel()
+        key = rows * self.n + cols
+        uniq, self.scatter = np.unique(key, return_inverse=True)
+        r, c = np.divmod(uniq, self.n)
+        indptr = np.zeros(self.n + 1, dtype=np.int64)
+        np.add.at(indptr, r + 1, 1)
+        self.indptr = np.cumsum(indptr)
+        self.indices = c
+        self.nnz = len(uniq)
+        # Dirichlet: rows/columns of boundary nodes become identity rows
+        bnd_entry = (r < self.nb) | (c < self.nb)
+        self.zero_mask = bnd_entry & (r != c)
+        self.bnd_diag = np.flatnonzero(bnd_entry & (r == c))
+        self.diag = np.flatnonzero(r == c)
+
+    def geometry(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Element areas |T| and gradients of the barycentric coordinates, shape (M, 3, 2).
+
+        grad lambda_i = rot(x_k - x_j) / (2 |T|) for (i, j, k) cyclic.
+        """
+        x = points[self.tris]  # (M, 3, 2)
+        e0 = x[:, 2] - x[:, 1]
+        e1 = x[:, 0] - x[:, 2]
+        e2 = x[:, 1] - x[:, 0]
+        area = 0.5 * (e2[:, 0] * (-e1[:, 1]) - e2[:, 1] * (-e1[:, 0]))
+        grads = np.stack([e0, e1, e2], axis=1)[:, :, ::-1] * np.array([-1.0, 1.0])
+        grads /= (2.0 * area)[:, None, None]
+        return area, grads
+
+    def stiffness_data(self, area: np.ndarray, grads: np.ndarray) -> np.ndarray:
+        """CSR data of K_ij = sum_T |T| grad lambda_i . grad lambda_j (no boundary condition)."""
+        ke = np.einsum("mid,mjd->mij", grads, grads) * area[:, None, None]
+        return np.bincount(self.scatter, weights=ke.ravel(), minlength=self.nnz)
+
+    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
+        """CSR matrix with this pattern and the given data."""
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+    def lumped_mass(self, area: np.ndarray) -> np.ndarray:
+        """Lumped mass m_i = sum_{T containing i} |T| / 3."""
+        return np.bincount(self.tris.ravel(), weights=np.repeat(area / 3.0, 3), minlength=self.n)
+
+    def load(self, area: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Consistent load b_i = int (sum_j g_j phi_j) phi_i = sum_T |T|/12 (g_i + sum_T g)."""
+        gt = g[self.tris]
+        w = (area / 12.0)[:, None] * (gt + gt.sum(axis=1, keepdims=True))
+        return np.bincount(self.tris.ravel(), weights=w.ravel(), minlength=self.n)
+
+    def dirichlet(self, data: np.ndarray) -> np.ndarray:
+        """Copy of the CSR data with boundary rows and columns replaced by identity."""
+        d = data.copy()
+        d[self.zero_mask] = 0.0
+        d[self.bnd_diag] = 1.0
+        return d
+
+
+@dataclass
+class NewtonStats:
+    """Diagnostics of one pressure solve."""
+
+    newton_iterations: int = 0
+    krylov_iterations: int = 0
+    amg_setups: int = 0
+    residual: float = np.inf
+    time_assembly: float = 0.0
+    time_amg: float = 0.0
+    time_krylov: float = 0.0
+    history: list = field(default_factory=list)
+
+
+class PressureSolver:
+    """Newton solver for -Laplace p = exp(-lam p), p = 0 on the boundary, on a moving mesh.
+
+    Parameters
+    ----------
+    lam : float
+        Stress sensitivity lambda (finite; negative values allowed but may have no solution).
+    rtol : float
+        Newton stops when ||F(p)||_2 <= rtol ||b(g(p))||_2.
+    max_newton : int
+        Iteration limit; exceeding it raises PressureDivergence.
+    krylov_rtol : float
+        Relative tolerance of each preconditioned CG solve (the Newton step).
+    reuse_factor : int
+        Rebuild the AMG hierarchy when CG needs more than this many iterations.
+    """
+
+    def __init__(
+        self,
+        lam: float,
+        rtol: float = 1e-10,
+        max_newton: int = 30,
+        krylov_rtol: float = 1e-8,
+        reuse_factor: int = 25,
+    ):
+        if not np.isfinite(lam):
+            raise ValueError(f"lam must be finite, got {lam}")
+        self.lam = float(lam)
+        self.rtol = rtol
+        self.max_newton = max_newton
+        self.krylov_rtol = krylov_rtol
+        self.reuse_factor = reuse_factor
+        self.assembler: P1Assembler | None = None
+        self._amg = None
+        self.stats = NewtonStats()
+
+    def set_mesh(self, tris: np.ndarray, n_nodes: int, n_boundary: int) -> None:
+        """Change topology: new pattern and scatter map, and forget the AMG hierarchy."""
+        self.assembler = P1Assembler(tris, n_nodes, n_boundary)
+        self._amg = None
+
+    def _krylov(self, A: sp.csr_matrix, rhs: np.ndarray, st: NewtonStats) -> np.ndarray:
+        import time
+
+        if self._amg is None:
+            t0 = time.perf_counter()
+            self._amg = pyamg.smoothed_aggregation_solver(A, symmetry="hermitian", max_coarse=200)
+            st.amg_setups += 1
+            st.time_amg += time.perf_counter() - t0
+        for attempt in range(2):
+            t0 = time.perf_counter()
+            its = [0]
+
+            def count(_x):
+                its[0] += 1
+
+            x, info = cg(
+                A,
+                rhs,
+                rtol=self.krylov_rtol,
+                atol=0.0,
+                maxiter=200,
+                M=self._amg.aspreconditioner(cycle="V"),
+                callback=count,
+            )
+            st.time_krylov += time.perf_counter() - t0
+            st.krylov_iterations += its[0]
+            if info == 0 and its[0] <= self.reuse_factor:
+                return x
+            if info == 0 or attempt == 1:
+                # converged slowly: rebuild the hierarchy for the next solve
+                self._amg = None
+                if info == 0:
+                    return x
+                break
+            t0 = time.perf_counter()
+            self._amg = pyamg.smoothed_aggregation_solver(A, symmetry="hermitian", max_coarse=200)
+            st.amg_setups += 1
+            st.time_amg += time.perf_counter() - t0
+        raise PressureDivergence(
+            "the Newton linear system is not positive definite or CG failed to converge"
+        )
+
+    def residual(self, points: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """FE residual r = K p - b(g(p)) at every node (no boundary condition) and the load b.
+
+        At a boundary node r_i = int_boundary (dp/dn) phi_i ds is the consistent flux.
+        """
+        A = self.assembler
+        area, grads = A.geometry(points)
+        Kd = A.stiffness_data(area, grads)
+        b = A.load(area, np.exp(-self.lam * p))
+        return A.matrix(Kd) @ p - b, b
+
+    def solve(
+        self, points: np.ndarray, p0: np.ndarray | None = None, where: str = ""
+    ) -> np.ndarray:
+        """Solve for the nodal pressure on the mesh with these node positions.
+
+        Parameters
+        ----------
+        points : array (N, 2)
+            Node coordinates (topology set by ``set_mesh``).
+        p0 : array (N,), optional
+            Initial guess (warm start); boundary values are set to 0.
+        where : str
+            Context for error messages (e.g. "t=3.2, area=40.1").
+
+        Raises
+        ------
+        PressureDivergence
+            Newton did not converge within ``max_newton`` iterations, or produced non-finite
+            values, or a linear system was not positive definite.
+        """
+        import time
+
+        A = self.assembler
+        if A is None:
+            raise ValueError("PressureSolver.solve called before set_mesh")
+        st = NewtonStats()
+        t0 = time.perf_counter()
+        area, grads = A.geometry(points)
+        if np.any(area <= 0):
+            raise PressureDivergence(f"inverted mesh element ({where})")
+        Kd = A.stiffness_data(area, grads)
+        K = A.matrix(Kd)
+        m = A.lumped_mass(area)
+        st.time_assembly += time.perf_counter() - t0
+        p = np.zeros(A.n) if p0 is None else np.array(p0, dtype=float)
+        p[: A.nb] = 0.0
+        lam = self.lam
+        interior = slice(A.nb, None)
+        cause = "lam < 0 beyond the critical size (no solution)" if lam < 0 else "no convergence"
+        for it in range(self.max_newton + 1):
+            g = np.exp(-lam * p)
+            b = A.load(area, g)
+            F = K @ p - b
+            F[: A.nb] = 0.0
+            res = float(np.linalg.norm(F[interior]))
+            scale = float(np.linalg.norm(b[interior]))
+            st.history.append(res / max(scale, 1e-300))
+            if not np.isfinite(res):
+                raise PressureDivergence(f"Newton produced non-finite values at {where}: {cause}")
+            if res <= self.rtol * scale:
+                st.residual = res / max(scale, 1e-300)
+                st.newton_iterations = it
+                self.stats = st
+                return p
+            if it == self.max_newton:
+                break
+            if it >= 3 and st.history[-1] > 0.9 * st.history[-2] and st.history[-1] > 1e-3:
+                break  # stagnating far from the solution
+            t0 = time.perf_counter()
+            Jd = Kd.copy()
+            Jd[A.diag] += lam * m * g
+            J = A.matrix(A.dirichlet(Jd))
+            st.time_assembly += time.perf_counter() - t0
+            try:
+                dp = self._krylov(J, -F, st)
+            except PressureDivergence as err:
+                raise PressureDivergence(f"Newton failed at {where}: {cause} ({err})") from None
+            p += dp
+        self.stats = st
+        raise PressureDivergence(
+            f"Newton diverged at {where}: {cause} (residual {st.history[-1]:.2e} after "
+            f"{len(st.history) - 1} iterations)"
+        )
