@@ -1,0 +1,176 @@
+"""Parameter sweeps (over lam, seeds, ...) with dask.distributed, resumable.
+
+Each run is one call ``run_fn(params, folder)`` that writes its results into ``folder``. The
+sweep gives every run its own folder under ``root``, named from its parameters
+(``lam=0.01_seed=3``); a run is staged in ``<name>.partial/`` and, when ``run_fn`` returns, marked
+finished by a ``DONE`` file and renamed to ``<name>/``. A folder holding ``DONE`` is skipped, so a
+stopped sweep (killed job, lost node, walltime) resumes where it stopped; a left-over
+``.partial`` folder is removed and its run redone.
+
+By default the runs go to a :class:`dask.distributed.LocalCluster` of ``n_workers`` processes
+with one thread each (the engines are single-threaded and Numba/BLAS threads would compete).
+Given ``scheduler="tcp://host:8786"`` they go to an existing scheduler instead, so the same sweep
+runs on a cluster. On SLURM, start the workers with dask-jobqueue and pass the scheduler's
+address (or run the sweep in the same script)::
+
+    from dask_jobqueue import SLURMCluster
+    cluster = SLURMCluster(cores=1, processes=1, memory="4GB", walltime="12:00:00",
+                           job_extra_directives=["--cpus-per-task=1"],
+                           worker_extra_args=["--nthreads", "1"])
+    cluster.scale(jobs=16)            # 16 single-core workers as 16 SLURM jobs
+    folders = sweep(run_fn, params, root, scheduler=cluster.scheduler_address)
+
+(``pip install dask-jobqueue``; ``cluster.adapt(minimum_jobs=0, maximum_jobs=32)`` scales with
+the queue.) The workers must see the same file system as ``root`` and have this package
+installed. Failed runs are reported together at the end (:class:`SweepError`); the others
+still finish and count as done.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
+from typing import Any
+
+__all__ = ["SweepError", "run_name", "is_done", "run_one", "sweep", "DONE"]
+
+DONE = "DONE"
+
+
+class SweepError(RuntimeError):
+    """Some runs of a sweep failed; ``failures`` maps folder name to the error text."""
+
+    def __init__(self, failures: Mapping[str, str]):
+        self.failures = dict(failures)
+        names = ", ".join(sorted(self.failures))
+        super().__init__(f"{len(self.failures)} run(s) failed: {names}")
+
+
+def _fmt(value: Any) -> str:
+    if isinstance(value, bool) or value is None:
+        return str(value)
+    if isinstance(value, float):
+        if math.isfinite(value) and value == int(value) and abs(value) < 1e6:
+            return str(int(value))
+        return f"{value:g}"
+    return str(value)
+
+
+def run_name(params: Mapping[str, Any]) -> str:
+    """Folder name of a run: ``key=value`` pairs sorted by key, joined by ``_``.
+
+    Floats are written with ``%g`` (1e-2 -> ``0.01``, 1e-4 -> ``0.0001``, 150.0 -> ``150``).
+    Characters other than letters, digits and ``.-+=`` are replaced by ``-``.
+    """
+    if not params:
+        raise ValueError("params must not be empty")
+    parts = []
+    for key in sorted(params):
+        text = f"{key}={_fmt(params[key])}"
+        parts.append("".join(ch if ch.isalnum() or ch in ".-+=" else "-" for ch in text))
+    return "_".join(parts)
+
+
+def is_done(folder: Path) -> bool:
+    """True when ``folder`` holds a finished run (its ``DONE`` marker)."""
+    return (Path(folder) / DONE).is_file()
+
+
+def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path) -> Path:
+    """Run one point of a sweep into ``folder`` (staged in ``folder.partial``); skip if done.
+
+    ``params.json`` is written next to the results; ``DONE`` marks success. Returns ``folder``.
+    """
+    folder = Path(folder)
+    if is_done(folder):
+        return folder
+    stage = folder.with_name(folder.name + ".partial")
+    if stage.exists():
+        shutil.rmtree(stage)
+    stage.mkdir(parents=True)
+    (stage / "params.json").write_text(json.dumps(params, indent=2, default=str))
+    run_fn(dict(params), stage)
+    (stage / DONE).write_text("")
+    if folder.exists():  # a stale, unfinished folder of the same name
+        shutil.rmtree(folder)
+    stage.rename(folder)
+    return folder
+
+
+def _client(scheduler: str | None, n_workers: int):
+    from dask.distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        return Client(scheduler), None
+    cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                           dashboard_address=None)
+    return Client(cluster), cluster
+
+
+def sweep(
+    run_fn: Callable[[dict, Path], Any],
+    params: Sequence[Mapping[str, Any]],
+    root: str | Path,
+    scheduler: str | None = None,
+    n_workers: int = 2,
+    progress: bool | None = None,
+) -> list[Path]:
+    """Run ``run_fn(params_i, folder_i)`` for every parameter set, in parallel, resumably.
+
+    Parameters
+    ----------
+    run_fn : picklable callable writing one run's results into the given folder.
+    params : parameter sets (mappings of JSON-able values); their names (:func:`run_name`) must
+        be distinct.
+    root : folder holding one sub-folder per run.
+    scheduler : address of an existing dask scheduler, or None for a LocalCluster.
+    n_workers : worker processes of the LocalCluster (one thread each).
+    progress : tqdm progress bar; None shows it only on a terminal.
+
+    Returns
+    -------
+    The run folders, in the order of ``params``. Runs already done are not submitted.
+
+    Raises
+    ------
+    SweepError
+        After all runs ended, if any failed (their ``.partial`` folders are kept for inspection).
+    """
+    from dask.distributed import as_completed
+    from tqdm.auto import tqdm
+
+    if n_workers < 1:
+        raise ValueError(f"n_workers must be >= 1, got {n_workers}")
+    root = Path(root)
+    names = [run_name(p) for p in params]
+    if len(set(names)) != len(names):
+        raise ValueError("parameter sets must have distinct names")
+    folders = [root / n for n in names]
+    todo = [(dict(p), f) for p, f in zip(params, folders, strict=True) if not is_done(f)]
+    if not todo:
+        return folders
+    root.mkdir(parents=True, exist_ok=True)
+    client, cluster = _client(scheduler, n_workers)
+    failures: dict[str, str] = {}
+    try:
+        futures = {
+            client.submit(run_one, run_fn, p, f, key=f"run-{f.name}", pure=False): f
+            for p, f in todo
+        }
+        bar = tqdm(total=len(folders), initial=len(folders) - len(todo), desc="sweep",
+                   disable=None if progress is None else not progress)
+        for fut in as_completed(futures):
+            if fut.status == "error":
+                failures[futures[fut].name] = repr(fut.exception())
+            bar.update(1)
+        bar.close()
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    if failures:
+        raise SweepError(failures)
+    return folders

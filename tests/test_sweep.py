@@ -1,0 +1,75 @@
+"""cases.sweep on a small LocalCluster: one folder per run, failures reported, resume skips."""
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+pytest.importorskip("dask.distributed")
+
+from cases.sweep import DONE, SweepError, run_name, run_one, sweep  # noqa: E402
+
+
+def square_run(params: dict, folder: Path) -> None:
+    """Trivial run: writes lam^2 and the worker's pid; fails on request."""
+    if params.get("fail"):
+        raise RuntimeError("asked to fail")
+    (folder / "result.json").write_text(json.dumps({"sq": params["lam"] ** 2, "pid": os.getpid()}))
+
+
+def fixed_run(params: dict, folder: Path) -> None:
+    """The same run with the failure fixed."""
+    (folder / "result.json").write_text(json.dumps({"sq": params["lam"] ** 2, "pid": os.getpid()}))
+
+
+def test_run_name():
+    assert run_name({"seed": 3, "lam": 1e-2}) == "lam=0.01_seed=3"
+    assert run_name({"lam": 1e-4, "radius": 150.0}) == "lam=0.0001_radius=150"
+    assert run_name({"shape": "polygon:a b/c"}) == "shape=polygon-a-b-c"
+    with pytest.raises(ValueError):
+        run_name({})
+
+
+def test_run_one_stages_and_skips(tmp_path):
+    folder = tmp_path / "lam=1"
+    (tmp_path / "lam=1.partial").mkdir()  # left over from a killed run
+    (tmp_path / "lam=1.partial" / "junk").write_text("x")
+    assert run_one(fixed_run, {"lam": 1.0}, folder) == folder
+    assert (folder / DONE).is_file() and not (folder / "junk").exists()
+    assert not (tmp_path / "lam=1.partial").exists()
+    assert json.loads((folder / "params.json").read_text()) == {"lam": 1.0}
+    stamp = (folder / "result.json").stat().st_mtime_ns
+    run_one(square_run, {"lam": 1.0, "fail": True}, folder)  # done: not run again
+    assert (folder / "result.json").stat().st_mtime_ns == stamp
+
+
+def test_sweep_local_cluster_then_resume_on_existing_scheduler(tmp_path):
+    from dask.distributed import LocalCluster
+
+    params = [{"lam": lam} for lam in (0.0, 1e-3, 1e-2)] + [{"lam": 2.0, "fail": True}]
+    # 1) default LocalCluster of 2 processes: three runs succeed, one fails
+    with pytest.raises(SweepError) as info:
+        sweep(square_run, params, tmp_path, n_workers=2, progress=False)
+    assert list(info.value.failures) == ["fail=True_lam=2"]
+    assert "asked to fail" in info.value.failures["fail=True_lam=2"]
+    done = sorted(p.name for p in tmp_path.iterdir() if (p / DONE).exists())
+    assert done == ["lam=0", "lam=0.001", "lam=0.01"]
+    assert (tmp_path / "fail=True_lam=2.partial").is_dir()  # kept for inspection
+    pids = {json.loads((tmp_path / n / "result.json").read_text())["pid"] for n in done}
+    assert os.getpid() not in pids  # ran in worker processes
+    stamps = {n: (tmp_path / n / "result.json").stat().st_mtime_ns for n in done}
+
+    # 2) resume through an existing scheduler: only the failed run is redone
+    with LocalCluster(n_workers=1, threads_per_worker=1, processes=True,
+                      dashboard_address=None) as cluster:
+        folders = sweep(fixed_run, params, tmp_path, scheduler=cluster.scheduler_address,
+                        progress=False)
+    assert [f.name for f in folders] == ["lam=0", "lam=0.001", "lam=0.01", "fail=True_lam=2"]
+    assert all((f / DONE).is_file() for f in folders)
+    assert {n: (tmp_path / n / "result.json").stat().st_mtime_ns for n in done} == stamps
+    assert json.loads((folders[3] / "result.json").read_text())["sq"] == 4.0
+    assert not (tmp_path / "fail=True_lam=2.partial").exists()
+
+    # 3) everything done: returns at once without starting a cluster
+    assert sweep(square_run, params, tmp_path, scheduler="tcp://nowhere:1") == folders
