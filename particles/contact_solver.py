@@ -1,0 +1,254 @@
+"""Per-step contact problem: Barzilai-Borwein projected gradient descent (BBPGD), in Numba.
+
+One time step of model.md is the convex problem over the contact forces gamma >= 0
+
+    minimise  E(gamma) = gamma . Phi + (dt/2) gamma . (D^T M D) gamma + sum_n l_n H(sigma_n),
+    sigma = G gamma,   H'(sigma) = -(exp(dt g(sigma)) - 1) / dt ... (times dt, see below)
+
+whose gradient is the linearised gap at t + dt,
+
+    grad_k = Phi_k + dt (D^T M D gamma)_k - sum_n G_nk l_n (exp(dt exp(-lam sigma_n)) - 1).
+
+M = diag(1/l_n, 1/l_n, 12/l_n^3) is the mobility (xi = 1), D the contact Jacobian, G the
+growth-load matrix (geometry.py).  The growth term is the one of model.md with its rate
+dt l_n exp(-lam sigma_n) replaced by the exact exponential length increment
+l_n (exp(dt exp(-lam sigma_n)) - 1) that the step then applies (simulation.py), so the solve
+predicts exactly the growth that happens; the two agree to O(dt^2).  The term is convex for any
+lam >= 0 (its gradient is monotone in gamma), and lam = 0 is its linear limit.  Growth is thus
+coupled to the loads inside the solve, not lagged.
+
+Iteration (SimToolbox BCQPSolver::solveBBPGD): gamma <- max(0, gamma - alpha grad), alpha
+alternating the two Barzilai-Borwein steps, first step 1 / max|projected gradient|.  Stop when
+the projected residual
+
+    res = max_k |min(a_kk gamma_k, grad_k)|,   a_kk = dt (D^T M D)_kk,
+
+is <= tol.  Both arguments of the min are gaps (a_kk gamma_k is the gap opened by gamma_k alone),
+so tol is a length: every linearised gap is >= -tol and every loaded contact closes to within tol.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .geometry import Contacts
+
+
+class ContactSolveError(RuntimeError):
+    """The contact solver did not converge.
+
+    Attributes
+    ----------
+    n_particles : int
+    n_contacts : int
+    residuals : numpy.ndarray
+        Projected residual at every iteration.
+    """
+
+    def __init__(self, message: str, n_particles: int, n_contacts: int, residuals: np.ndarray):
+        super().__init__(message)
+        self.n_particles = int(n_particles)
+        self.n_contacts = int(n_contacts)
+        self.residuals = np.asarray(residuals)
+
+
+@njit(cache=True)
+def _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+              vx, vy, om, sig, out):
+    """out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
+    n = mt.shape[0]
+    for p in range(n):
+        vx[p] = 0.0
+        vy[p] = 0.0
+        om[p] = 0.0
+        sig[p] = 0.0
+    for k in range(gam.shape[0]):
+        g = gam[k]
+        if g == 0.0:
+            continue
+        i = ci[k]
+        j = cj[k]
+        vx[j] += g * nx[k]
+        vy[j] += g * ny[k]
+        om[j] += g * tj[k]
+        vx[i] -= g * nx[k]
+        vy[i] -= g * ny[k]
+        om[i] -= g * ti[k]
+        sig[i] += gi[k] * g
+        sig[j] += gj[k] * g
+    for p in range(n):
+        vx[p] *= mt[p]
+        vy[p] *= mt[p]
+        om[p] *= mr[p]
+        if growth:
+            sig[p] = length[p] * np.expm1(dt * np.exp(-lam * sig[p]))
+        else:
+            sig[p] = 0.0
+    for k in range(gam.shape[0]):
+        i = ci[k]
+        j = cj[k]
+        rel = (nx[k] * (vx[j] - vx[i]) + ny[k] * (vy[j] - vy[i]) + om[j] * tj[k] - om[i] * ti[k])
+        out[k] = phi[k] + dt * rel - (gi[k] * sig[i] + gj[k] * sig[j])
+
+
+@njit(cache=True)
+def _residual(gam, grad, akk):
+    r = 0.0
+    for k in range(gam.shape[0]):
+        a = akk[k] * gam[k]
+        v = grad[k] if grad[k] < a else a
+        v = abs(v)
+        if v > r:
+            r = v
+    return r
+
+
+@njit(cache=True)
+def _bbpgd(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
+           tol, maxiter, hist):
+    n = mt.shape[0]
+    m = gam.shape[0]
+    vx = np.empty(n)
+    vy = np.empty(n)
+    om = np.empty(n)
+    sig = np.empty(n)
+    g0 = np.empty(m)
+    g1 = np.empty(m)
+    x1 = np.empty(m)
+    for k in range(m):
+        if gam[k] < 0.0:
+            gam[k] = 0.0
+    _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+              vx, vy, om, sig, g0)
+    res = _residual(gam, g0, akk)
+    hist[0] = res
+    if res <= tol:
+        return 0
+    # first step (Dai & Fletcher 2005): 1 / max |projected gradient|
+    pmax = 0.0
+    for k in range(m):
+        v = gam[k] - max(0.0, gam[k] - g0[k])
+        if abs(v) > pmax:
+            pmax = abs(v)
+    alpha = 1.0 / pmax
+    it = 0
+    while it < maxiter:
+        it += 1
+        for k in range(m):
+            v = gam[k] - alpha * g0[k]
+            x1[k] = v if v > 0.0 else 0.0
+        _gradient(x1, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+                  vx, vy, om, sig, g1)
+        res = _residual(x1, g1, akk)
+        hist[it] = res
+        ss = 0.0
+        sy = 0.0
+        yy = 0.0
+        for k in range(m):
+            s = x1[k] - gam[k]
+            y = g1[k] - g0[k]
+            ss += s * s
+            sy += s * y
+            yy += y * y
+            gam[k] = x1[k]
+            g0[k] = g1[k]
+        if res <= tol:
+            return it
+        if it % 2 == 0:
+            a, bb = ss, sy
+        else:
+            a, bb = sy, yy
+        if abs(bb) < 1e-300:
+            bb = 1e-300
+        alpha = a / bb
+        if not (alpha > 0.0):
+            # stagnation (s = 0 or non-convex curvature estimate): restart from a safe step
+            alpha = 1.0 / max(1e-300, np.max(akk))
+    return -1
+
+
+def solve_contacts(
+    contacts: Contacts,
+    length: np.ndarray,
+    dt: float,
+    lam: float,
+    gamma0: np.ndarray | None = None,
+    tol: float = 1e-4,
+    maxiter: int = 100_000,
+    growth: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Minimise E(gamma) over gamma >= 0 by BBPGD (module docstring).
+
+    Parameters
+    ----------
+    contacts : Contacts
+        Geometry of the current configuration (gaps Phi, normals, arms, G).
+    length : array (N,)
+        Lengths l_n at the start of the step (mobility and growth rate).
+    dt, lam : float
+        Time step and stress sensitivity lambda >= 0.
+    gamma0 : array (K,), optional
+        Warm start (projected onto gamma >= 0).
+    tol : float
+        Stop when the projected residual (a gap, see module docstring) is <= tol.
+    growth : bool
+        False drops the growth term (pure overlap-removal problem for re-solve passes).
+
+    Returns
+    -------
+    gamma : array (K,)
+    residuals : array
+        Residual at each iteration (first entry: initial guess); len - 1 iterations.
+
+    Raises
+    ------
+    ContactSolveError
+        When maxiter iterations do not reach tol.
+    """
+    if dt <= 0 or not np.isfinite(dt):
+        raise ValueError(f"dt must be positive and finite, got {dt}")
+    if lam < 0 or not np.isfinite(lam):
+        raise ValueError(f"lam must be >= 0 and finite in the particle engine, got {lam}")
+    length = np.ascontiguousarray(length, dtype=np.float64)
+    n = length.shape[0]
+    m = len(contacts)
+    if m == 0:
+        return np.zeros(0), np.zeros(1)
+    gam = np.zeros(m) if gamma0 is None else np.array(gamma0, dtype=np.float64)
+    if gam.shape != (m,):
+        raise ValueError(f"gamma0 must have shape ({m},), got {gam.shape}")
+    c = contacts
+    mt = 1.0 / length
+    mr = 12.0 / length**3
+    ti = c.rix * c.ny - c.riy * c.nx
+    tj = c.rjx * c.ny - c.rjy * c.nx
+    akk = dt * (mt[c.i] + mt[c.j] + mr[c.i] * ti**2 + mr[c.j] * tj**2)
+    hist = np.full(maxiter + 1, np.nan)
+    it = _bbpgd(gam, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
+                float(dt), float(lam), bool(growth), akk, float(tol), int(maxiter), hist)
+    if it < 0:
+        raise ContactSolveError(
+            f"BBPGD did not reach residual {tol:g} in {maxiter} iterations "
+            f"(N={n}, contacts={m}, last residual {hist[-1]:.3g})",
+            n, m, hist,
+        )
+    return gam, hist[: it + 1].copy()
+
+
+def linearised_gap(
+    contacts: Contacts, length: np.ndarray, dt: float, lam: float, gamma: np.ndarray,
+    growth: bool = True,
+) -> np.ndarray:
+    """The gradient of E at gamma: the linearised gap phi_k(t + dt) (module docstring)."""
+    length = np.ascontiguousarray(length, dtype=np.float64)
+    n = length.shape[0]
+    c = contacts
+    m = len(c)
+    out = np.empty(m)
+    ti = c.rix * c.ny - c.riy * c.nx
+    tj = c.rjx * c.ny - c.rjy * c.nx
+    _gradient(np.ascontiguousarray(gamma, dtype=np.float64), c.i, c.j, c.nx, c.ny, ti, tj,
+              c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt), float(lam),
+              bool(growth), np.empty(n), np.empty(n), np.empty(n), np.empty(n), out)
+    return out

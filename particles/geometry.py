@@ -1,0 +1,315 @@
+"""Contact geometry of sphero-cylinders: closest points, gaps, normals, arms, growth loads.
+
+Particle n has centre x_n, axis p_n = (cos theta_n, sin theta_n), tip-to-tip length l_n and
+inner segment of length L_n = l_n - b.  For a candidate pair (i, j), i < j, the four
+endpoint-to-segment distances are computed (in 2D the segment distance is always attained at
+an endpoint of one of the two segments, unless they cross).  Up to two of them are kept as
+contacts: the closest, and the next closest whose contact points differ from it by more than
+b/4 on either rod (so near-parallel rods get one contact at each end, and the end-to-end
+contact found from both sides is kept once).  Each contact k carries
+
+- gap phi_k = |c_j - c_i| - b, c the contact points on the two segments;
+- normal n_k = (c_j - c_i) / |c_j - c_i| (from i to j; force gamma_k pushes j along +n_k);
+- arms r_i = c_i - x_i, r_j = c_j - x_j (torque arms);
+- growth loads G_ik = -d phi_k / d l_i = (s_i / L_i) p_i . n_k and
+  G_jk = -d phi_k / d l_j = -(s_j / L_j) p_j . n_k, where s is the arc position of the contact
+  point from the centre (the point moves by s/L per unit growth).  At a true closest point this is
+  model.md's G = |s| |p . n| / L: (1/2)|p . n| at a segment end, 0 at an interior point;
+- code in 0..3 naming the endpoint that generated it (i+, i-, j+, j-): with the particle ids it
+  is the contact identity used to warm-start the solver.
+
+Crossing segments (distance 0, which the overlap tolerance rules out in a run) are reported
+with gap -b.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+B = 0.5
+"""Particle diameter b."""
+
+
+@njit(cache=True)
+def point_segment(px, py, cx, cy, ux, uy, half):
+    """Closest point of the segment c + t u, |t| <= half, to the point (px, py).
+
+    Returns (qx, qy, t) with t the arc position of the closest point from the centre c.
+    """
+    t = (px - cx) * ux + (py - cy) * uy
+    if t > half:
+        t = half
+    elif t < -half:
+        t = -half
+    return cx + t * ux, cy + t * uy, t
+
+
+@njit(cache=True)
+def _orient(ax, ay, bx, by, cx, cy):
+    return (bx - ax) * (cy - ay) - (by - ay) * (cx - ax)
+
+
+@njit(cache=True)
+def segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+    """True when the open segments [a, b] and [c, d] properly intersect."""
+    o1 = _orient(ax, ay, bx, by, cx, cy)
+    o2 = _orient(ax, ay, bx, by, dx, dy)
+    o3 = _orient(cx, cy, dx, dy, ax, ay)
+    o4 = _orient(cx, cy, dx, dy, bx, by)
+    return (o1 * o2 < 0.0) and (o3 * o4 < 0.0)
+
+
+@njit(cache=True)
+def segment_distance(x, y, theta, length, i, j, b):
+    """Exact distance between the inner segments of particles i and j."""
+    Li = length[i] - b
+    Lj = length[j] - b
+    ui = np.cos(theta[i])
+    vi = np.sin(theta[i])
+    uj = np.cos(theta[j])
+    vj = np.sin(theta[j])
+    ax = x[i] + 0.5 * Li * ui
+    ay = y[i] + 0.5 * Li * vi
+    bx = x[i] - 0.5 * Li * ui
+    by = y[i] - 0.5 * Li * vi
+    cx = x[j] + 0.5 * Lj * uj
+    cy = y[j] + 0.5 * Lj * vj
+    dx = x[j] - 0.5 * Lj * uj
+    dy = y[j] - 0.5 * Lj * vj
+    if segments_cross(ax, ay, bx, by, cx, cy, dx, dy):
+        return 0.0
+    best = 1e300
+    for e in range(4):
+        if e == 0:
+            px, py = ax, ay
+        elif e == 1:
+            px, py = bx, by
+        elif e == 2:
+            px, py = cx, cy
+        else:
+            px, py = dx, dy
+        if e < 2:
+            qx, qy, _ = point_segment(px, py, x[j], y[j], uj, vj, 0.5 * Lj)
+        else:
+            qx, qy, _ = point_segment(px, py, x[i], y[i], ui, vi, 0.5 * Li)
+        d = np.hypot(px - qx, py - qy)
+        if d < best:
+            best = d
+    return best
+
+
+@njit(cache=True)
+def _pair_candidates(x, y, theta, length, i, j, b, out):
+    """Fill out[4, 11] with the four endpoint-to-segment candidates of the pair (i, j).
+
+    Columns: gap, nx, ny, cix, ciy, cjx, cjy, s_i, s_j, code, d.
+    """
+    Li = length[i] - b
+    Lj = length[j] - b
+    ui = np.cos(theta[i])
+    vi = np.sin(theta[i])
+    uj = np.cos(theta[j])
+    vj = np.sin(theta[j])
+    for e in range(4):
+        if e < 2:
+            sgn = 1.0 if e == 0 else -1.0
+            si = sgn * 0.5 * Li
+            cix = x[i] + si * ui
+            ciy = y[i] + si * vi
+            cjx, cjy, sj = point_segment(cix, ciy, x[j], y[j], uj, vj, 0.5 * Lj)
+        else:
+            sgn = 1.0 if e == 2 else -1.0
+            sj = sgn * 0.5 * Lj
+            cjx = x[j] + sj * uj
+            cjy = y[j] + sj * vj
+            cix, ciy, si = point_segment(cjx, cjy, x[i], y[i], ui, vi, 0.5 * Li)
+        dx = cjx - cix
+        dy = cjy - ciy
+        d = np.hypot(dx, dy)
+        if d > 0.0:
+            nx = dx / d
+            ny = dy / d
+        else:
+            # degenerate: an endpoint on the other segment; push along that segment's normal
+            if e < 2:
+                nx, ny = -vj, uj
+            else:
+                nx, ny = vi, -ui
+        out[e, 0] = d - b
+        out[e, 1] = nx
+        out[e, 2] = ny
+        out[e, 3] = cix
+        out[e, 4] = ciy
+        out[e, 5] = cjx
+        out[e, 6] = cjy
+        out[e, 7] = si
+        out[e, 8] = sj
+        out[e, 9] = e
+        out[e, 10] = d
+    # crossing segments: distance 0, overlap b
+    if segments_cross(
+        x[i] + 0.5 * Li * ui, y[i] + 0.5 * Li * vi, x[i] - 0.5 * Li * ui, y[i] - 0.5 * Li * vi,
+        x[j] + 0.5 * Lj * uj, y[j] + 0.5 * Lj * vj, x[j] - 0.5 * Lj * uj, y[j] - 0.5 * Lj * vj,
+    ):
+        for e in range(4):
+            out[e, 0] = -b
+
+
+@njit(cache=True)
+def _contacts_kernel(x, y, theta, length, pi, pj, b, margin, count_only, res, ires):
+    cand = np.empty((4, 11))
+    m = 0
+    dup = 0.25 * b
+    for q in range(pi.shape[0]):
+        i = pi[q]
+        j = pj[q]
+        _pair_candidates(x, y, theta, length, i, j, b, cand)
+        # order the four candidates by gap (insertion sort on 4 items)
+        idx = np.arange(4)
+        for a in range(1, 4):
+            k = a
+            while k > 0 and cand[idx[k], 0] < cand[idx[k - 1], 0]:
+                t = idx[k]
+                idx[k] = idx[k - 1]
+                idx[k - 1] = t
+                k -= 1
+        first = idx[0]
+        if cand[first, 0] > margin:
+            continue
+        chosen0 = first
+        chosen1 = -1
+        for a in range(1, 4):
+            e = idx[a]
+            if cand[e, 0] > margin:
+                break
+            dci = np.hypot(cand[e, 3] - cand[first, 3], cand[e, 4] - cand[first, 4])
+            dcj = np.hypot(cand[e, 5] - cand[first, 5], cand[e, 6] - cand[first, 6])
+            if dci > dup or dcj > dup:
+                chosen1 = e
+                break
+        for w in range(2):
+            e = chosen0 if w == 0 else chosen1
+            if e < 0:
+                continue
+            if not count_only:
+                Li = length[i] - b
+                Lj = length[j] - b
+                nx = cand[e, 1]
+                ny = cand[e, 2]
+                pin = np.cos(theta[i]) * nx + np.sin(theta[i]) * ny
+                pjn = np.cos(theta[j]) * nx + np.sin(theta[j]) * ny
+                ires[m, 0] = i
+                ires[m, 1] = j
+                ires[m, 2] = e
+                res[m, 0] = cand[e, 0]
+                res[m, 1] = nx
+                res[m, 2] = ny
+                res[m, 3] = cand[e, 3] - x[i]
+                res[m, 4] = cand[e, 4] - y[i]
+                res[m, 5] = cand[e, 5] - x[j]
+                res[m, 6] = cand[e, 6] - y[j]
+                res[m, 7] = cand[e, 7] / Li * pin
+                res[m, 8] = -cand[e, 8] / Lj * pjn
+            m += 1
+    return m
+
+
+class Contacts:
+    """Contacts of a configuration as flat arrays (one entry per contact k).
+
+    Attributes
+    ----------
+    i, j : int64 arrays
+        Particle indices, i < j; gamma_k pushes j along +n_k and i along -n_k.
+    code : int64 array
+        Generating endpoint (0: i+, 1: i-, 2: j+, 3: j-).
+    gap : array
+        phi_k = segment distance - b (negative: overlap).
+    nx, ny : arrays
+        Unit normal n_k from i to j.
+    rix, riy, rjx, rjy : arrays
+        Arms from the centres to the contact points.
+    gi, gj : arrays
+        Growth loads G_ik = -d phi_k / d l_i and G_jk = -d phi_k / d l_j.
+    """
+
+    __slots__ = ("i", "j", "code", "gap", "nx", "ny", "rix", "riy", "rjx", "rjy", "gi", "gj")
+
+    def __init__(self, ires: np.ndarray, res: np.ndarray):
+        self.i = np.ascontiguousarray(ires[:, 0])
+        self.j = np.ascontiguousarray(ires[:, 1])
+        self.code = np.ascontiguousarray(ires[:, 2])
+        (self.gap, self.nx, self.ny, self.rix, self.riy, self.rjx, self.rjy, self.gi,
+         self.gj) = (np.ascontiguousarray(res[:, c]) for c in range(9))
+
+    def __len__(self) -> int:
+        return int(self.i.shape[0])
+
+    def keys(self, ids: np.ndarray) -> np.ndarray:
+        """Contact identities: (id_i, id_j, code) packed into one int64 (ids < 2**29)."""
+        return (ids[self.i] * (1 << 31) + ids[self.j] * 4 + self.code).astype(np.int64)
+
+
+def find_contacts(
+    x: np.ndarray,
+    y: np.ndarray,
+    theta: np.ndarray,
+    length: np.ndarray,
+    pairs: tuple[np.ndarray, np.ndarray],
+    margin: float,
+    b: float = B,
+) -> Contacts:
+    """Contacts with gap phi_k <= margin among candidate pairs (see module docstring)."""
+    pi, pj = pairs
+    pi = np.ascontiguousarray(pi, dtype=np.int64)
+    pj = np.ascontiguousarray(pj, dtype=np.int64)
+    if pi.size and np.any(np.asarray(length)[np.concatenate([pi, pj])] <= b):
+        raise ValueError("every particle length must exceed the diameter b")
+    res = np.empty((2 * pi.size, 9))
+    ires = np.empty((2 * pi.size, 3), dtype=np.int64)
+    m = _contacts_kernel(x, y, theta, length, pi, pj, b, margin, False, res, ires)
+    return Contacts(ires[:m], res[:m])
+
+
+def contact_points(c: Contacts, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Contact points (cix, ciy, cjx, cjy) on the two segments."""
+    return x[c.i] + c.rix, y[c.i] + c.riy, x[c.j] + c.rjx, y[c.j] + c.rjy
+
+
+def generalised_forces(c: Contacts, gamma: np.ndarray, n: int) -> tuple[np.ndarray, ...]:
+    """Total contact force and torque on each particle: F = D gamma.
+
+    F_j += gamma_k n_k, T_j += gamma_k (r_j x n_k); F_i -= gamma_k n_k, T_i -= gamma_k (r_i x n_k).
+    """
+    fx = np.bincount(c.j, gamma * c.nx, n) - np.bincount(c.i, gamma * c.nx, n)
+    fy = np.bincount(c.j, gamma * c.ny, n) - np.bincount(c.i, gamma * c.ny, n)
+    tj = c.rjx * c.ny - c.rjy * c.nx
+    ti = c.rix * c.ny - c.riy * c.nx
+    tz = np.bincount(c.j, gamma * tj, n) - np.bincount(c.i, gamma * ti, n)
+    return fx, fy, tz
+
+
+def loads(c: Contacts, gamma: np.ndarray, n: int) -> np.ndarray:
+    """Axial loads sigma = G gamma: sigma_n = sum over n's contacts of G_nk gamma_k."""
+    return np.bincount(c.i, c.gi * gamma, n) + np.bincount(c.j, c.gj * gamma, n)
+
+
+def max_overlap(
+    x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray, b: float = B
+) -> float:
+    """Largest overlap b - (segment distance) over all pairs (0 when none overlap)."""
+    from .neighbours import candidate_pairs
+
+    pi, pj = candidate_pairs(x, y, length, 0.0)
+    return float(_max_overlap_kernel(x, y, theta, length, pi, pj, b))
+
+
+@njit(cache=True)
+def _max_overlap_kernel(x, y, theta, length, pi, pj, b):
+    worst = 0.0
+    for q in range(pi.shape[0]):
+        d = segment_distance(x, y, theta, length, pi[q], pj[q], b)
+        if b - d > worst:
+            worst = b - d
+    return worst

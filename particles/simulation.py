@@ -1,0 +1,398 @@
+"""Time stepping of the particle colony: configuration, one step, runs with checkpoints.
+
+One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
+
+1. candidate pairs by cell lists, contacts with gap phi_k <= ``contact_margin`` (geometry.py);
+2. the convex problem E(gamma) solved by the selected solver (contact_solver.py), warm-started
+   from the previous step's forces matched by contact identity (particle ids + endpoint code);
+3. update x += dt F / l, theta += dt 12 T / l^3 (F, T = D gamma, l at the start of the step),
+   l <- l exp(dt exp(-lam sigma)), sigma = G gamma;
+4. re-detect contacts on the new configuration; while the real overlap max(b - d) exceeds
+   ``tol``, solve the overlap-removal problem (the same E without growth, Phi = the new gaps,
+   mobility at the new lengths) and move by dt M D gamma'; those forces act over the same step and
+   are added to the loads sigma.  At most ``max_passes`` passes, else OverlapError;
+5. divide particles with l >= 2 (growth.py).
+
+The history row of a step records the real overlap after step 4, the solver iterations of
+steps 2 and 4 together, and the loads sigma.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import sys
+import time as _time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+from tqdm import tqdm
+
+from . import output
+from .contact_solver import solve_contacts
+from .geometry import Contacts, find_contacts, generalised_forces, loads
+from .growth import divide, grow
+from .neighbours import candidate_pairs
+from .state import B, ParticleState, colony_radius, hull_radius
+
+SOLVERS = {"bbpgd": solve_contacts}
+"""Contact solvers by name: callables (contacts, length, dt, lam, gamma0, tol, maxiter, growth)
+-> (gamma, residual history)."""
+
+
+class OverlapError(RuntimeError):
+    """The re-solve passes could not bring the real overlap within tolerance."""
+
+
+class ParticleLimitError(RuntimeError):
+    """The colony exceeded ``max_particles``."""
+
+
+@dataclass
+class ParticleConfig:
+    """Configuration of a particle run (all quantities in model units, b = 1/2).
+
+    Parameters
+    ----------
+    lam : float
+        Stress sensitivity lambda >= 0 of the growth law dl/dt = l exp(-lam sigma).
+    radius, time : float or None
+        Stop when the colony radius reaches ``radius`` or when t reaches ``time`` (exactly one).
+    dt : float
+        Time step (fixed; the last step of a ``time`` run is shortened to land on it).
+    tol : float
+        Largest admitted real overlap b - d after each step (default b/500).
+    seed : int
+        Seed of the division-angle perturbations.
+    division_noise : float
+        Amplitude eps (radians): daughters' angles are theta + eps * U(-1, 1).
+    init : str or None
+        CSV file with columns x,y,theta,length; None: one particle of length 1 at the origin.
+    solver : str
+        Contact solver name, a key of SOLVERS.
+    output_every : int
+        Trajectory frame every this many steps (and the final state).
+    checkpoint_seconds : float
+        Wall time between checkpoints when writing to a folder.
+    max_particles : int
+        Guard: a run whose colony exceeds this raises ParticleLimitError.
+    solver_tol : float or None
+        Residual tolerance of each solve (a gap, see contact_solver); default tol / 2.
+    contact_margin : float
+        Pairs with gap <= margin enter the solve.
+    max_passes : int
+        Re-detection and re-solve passes allowed per step.
+    max_iterations : int
+        Iteration cap of one solve (ContactSolveError beyond).
+    """
+
+    lam: float
+    radius: float | None = None
+    time: float | None = None
+    dt: float = 0.005
+    tol: float = B / 500
+    seed: int = 0
+    division_noise: float = 0.02
+    init: str | None = None
+    solver: str = "bbpgd"
+    output_every: int = 10
+    checkpoint_seconds: float = 300.0
+    max_particles: int = 500_000
+    solver_tol: float | None = None
+    contact_margin: float = 0.1
+    max_passes: int = 20
+    max_iterations: int = 200_000
+
+    def validate(self) -> None:
+        """Raise ValueError with a one-line message on an inconsistent configuration."""
+        def finite(v):
+            return isinstance(v, (int, float)) and math.isfinite(v)
+
+        if not finite(self.lam) or self.lam < 0:
+            raise ValueError(f"lam must be a finite number >= 0 for particles, got {self.lam}")
+        if (self.radius is None) == (self.time is None):
+            raise ValueError("give exactly one of radius and time")
+        if self.radius is not None and (not finite(self.radius) or self.radius <= 0):
+            raise ValueError(f"radius must be positive, got {self.radius}")
+        if self.time is not None and (not finite(self.time) or self.time <= 0):
+            raise ValueError(f"time must be positive, got {self.time}")
+        if not finite(self.dt) or not 0 < self.dt <= 0.1:
+            raise ValueError(f"dt must be in (0, 0.1], got {self.dt}")
+        if not finite(self.tol) or not 0 < self.tol < B:
+            raise ValueError(f"tol must be in (0, b = {B}), got {self.tol}")
+        if self.solver_tol is not None and (not finite(self.solver_tol) or self.solver_tol <= 0):
+            raise ValueError(f"solver_tol must be positive, got {self.solver_tol}")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed}")
+        if not finite(self.division_noise) or not 0 <= self.division_noise <= 0.5:
+            raise ValueError(f"division_noise must be in [0, 0.5] rad, got {self.division_noise}")
+        if self.solver not in SOLVERS:
+            raise ValueError(f"unknown solver {self.solver!r}; choose from {sorted(SOLVERS)}")
+        if not isinstance(self.output_every, int) or self.output_every < 1:
+            raise ValueError(f"output_every must be an integer >= 1, got {self.output_every}")
+        if not finite(self.checkpoint_seconds) or self.checkpoint_seconds < 0:
+            raise ValueError(f"checkpoint_seconds must be >= 0, got {self.checkpoint_seconds}")
+        if not isinstance(self.max_particles, int) or self.max_particles < 1:
+            raise ValueError(f"max_particles must be a positive integer, got {self.max_particles}")
+        if not finite(self.contact_margin) or self.contact_margin < 0:
+            raise ValueError(f"contact_margin must be >= 0, got {self.contact_margin}")
+        if not isinstance(self.max_passes, int) or self.max_passes < 0:
+            raise ValueError(f"max_passes must be an integer >= 0, got {self.max_passes}")
+        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
+            raise ValueError(f"max_iterations must be a positive integer, got {self.max_iterations}")
+        if self.init is not None and not Path(self.init).is_file():
+            raise ValueError(f"init file not found: {self.init}")
+
+    @property
+    def effective_solver_tol(self) -> float:
+        return self.tol / 2 if self.solver_tol is None else self.solver_tol
+
+
+@dataclass
+class Colony:
+    """Result of a run: current particles, time and per-step history.
+
+    Attributes
+    ----------
+    x, y, theta, length, stress, ids : arrays (N,)
+    t : float
+    history : list of dict
+        One row per step, keys output.HISTORY_COLUMNS.
+    finished : bool
+        False when the run stopped early (``stop_after``) and can be resumed.
+    """
+
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    length: np.ndarray
+    stress: np.ndarray
+    ids: np.ndarray
+    t: float
+    history: list = field(default_factory=list)
+    finished: bool = True
+
+    @property
+    def state(self) -> ParticleState:
+        return ParticleState(self.x, self.y, self.theta, self.length, self.stress, self.ids,
+                             int(self.ids.max()) + 1)
+
+    @property
+    def n(self) -> int:
+        return int(self.x.shape[0])
+
+    def radius(self) -> float:
+        """Radius of the smallest disc about the centroid holding every particle."""
+        return colony_radius(self.state)
+
+    def hull_radius(self) -> float:
+        """sqrt(convex hull area / pi)."""
+        return hull_radius(self.state)
+
+
+def _warm_start(keys: np.ndarray, prev_keys: np.ndarray, prev_gamma: np.ndarray) -> np.ndarray:
+    """Previous forces of the contacts whose identity persists, 0 for new contacts."""
+    g0 = np.zeros(keys.shape[0])
+    if prev_keys.size == 0 or keys.size == 0:
+        return g0
+    order = np.argsort(prev_keys)
+    sk = prev_keys[order]
+    pos = np.clip(np.searchsorted(sk, keys), 0, sk.size - 1)
+    hit = sk[pos] == keys
+    g0[hit] = prev_gamma[order[pos[hit]]]
+    return g0
+
+
+def detect(state: ParticleState, margin: float) -> Contacts:
+    """Contacts of the current configuration with gap <= margin."""
+    pairs = candidate_pairs(state.x, state.y, state.length, margin)
+    return find_contacts(state.x, state.y, state.theta, state.length, pairs, margin)
+
+
+def _move(state: ParticleState, c: Contacts, gamma: np.ndarray, dt: float,
+          length: np.ndarray) -> None:
+    fx, fy, tz = generalised_forces(c, gamma, state.n)
+    state.x += dt * fx / length
+    state.y += dt * fy / length
+    state.theta += dt * 12.0 * tz / length**3
+
+
+def step(state: ParticleState, config: ParticleConfig, dt: float,
+         warm: tuple[np.ndarray, np.ndarray]) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
+    """Advance the state by one step in place (module docstring, items 1-4; no division).
+
+    Returns the step's diagnostics and the (keys, gamma) of its solve for the next warm start.
+    """
+    solver = SOLVERS[config.solver]
+    stol = config.effective_solver_tol
+    margin = config.contact_margin
+    n = state.n
+    c = detect(state, margin)
+    keys = c.keys(state.ids)
+    gamma0 = _warm_start(keys, *warm)
+    gamma, hist = solver(c, state.length, dt, config.lam, gamma0, stol, config.max_iterations,
+                         True)
+    iterations = len(hist) - 1
+    sigma = loads(c, gamma, n)
+    l0 = state.length
+    _move(state, c, gamma, dt, l0)
+    state.length = grow(l0, sigma, config.lam, dt)
+    passes = 0
+    while True:
+        c2 = detect(state, margin)
+        overlap = max(0.0, -float(c2.gap.min())) if len(c2) else 0.0
+        if overlap <= config.tol:
+            break
+        if passes >= config.max_passes:
+            raise OverlapError(
+                f"overlap {overlap:.3g} > tol {config.tol:g} after {passes} re-solve passes "
+                f"(N={n}, t-step dt={dt:g}); decrease dt")
+        g2, h2 = solver(c2, state.length, dt, config.lam, None, stol, config.max_iterations,
+                        False)
+        iterations += len(h2) - 1
+        _move(state, c2, g2, dt, state.length)
+        sigma = sigma + loads(c2, g2, n)
+        passes += 1
+    state.stress = sigma
+    info = {"iterations": iterations, "passes": passes, "n_contacts": len(c),
+            "residual": float(hist[-1]), "max_overlap": overlap}
+    return info, (keys, gamma)
+
+
+def initial_state(config: ParticleConfig) -> ParticleState:
+    """One particle of length 1 at the origin, or the particles of ``config.init``."""
+    if config.init is None:
+        return ParticleState.from_arrays([0.0], [0.0], [0.0], [1.0])
+    return ParticleState.from_arrays(*output.read_init(config.init))
+
+
+def _done(config: ParticleConfig, state: ParticleState, t: float) -> bool:
+    if config.time is not None:
+        return t >= config.time - 1e-12
+    return colony_radius(state) >= config.radius
+
+
+def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames) -> None:
+    meta = {"config": asdict(config), "t": t, "step": nstep, "next_id": state.next_id,
+            "rng": rng.bit_generator.state, "history": history, "frames": frames}
+    tmp = path.with_name(path.name + ".tmp.npz")
+    np.savez(tmp, meta=np.array(json.dumps(meta)), warm_keys=warm[0], warm_gamma=warm[1],
+             **state.arrays())
+    os.replace(tmp, path)
+
+
+def _load_checkpoint(path: Path, config):
+    with np.load(path) as z:
+        meta = json.loads(str(z["meta"]))
+        if meta["config"] != json.loads(json.dumps(asdict(config))):
+            raise ValueError(f"checkpoint {path} belongs to a different configuration")
+        st = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
+                           int(meta["next_id"]))
+        warm = (z["warm_keys"], z["warm_gamma"])
+    rng = np.random.default_rng(config.seed)
+    rng.bit_generator.state = meta["rng"]
+    return st, meta["t"], meta["step"], rng, warm, meta["history"], meta["frames"]
+
+
+def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
+        stop_after: int | None = None) -> Colony:
+    """Grow a colony until ``config.radius`` or ``config.time``.
+
+    Parameters
+    ----------
+    config : ParticleConfig
+    out : Path, optional
+        Existing folder for config.json, history.csv, particles.csv, trajectory.gsd and
+        checkpoint.npz.  If it holds a checkpoint of the same configuration the run resumes from
+        it, with the same result as an uninterrupted run.
+    progress : bool
+        tqdm progress bar (only when stderr is a terminal).
+    stop_after : int, optional
+        Stop after this many steps of this call, writing a checkpoint (as if interrupted);
+        the returned Colony has ``finished = False``.
+
+    Raises
+    ------
+    ValueError
+        Bad configuration or mismatched checkpoint.
+    OverlapError, ParticleLimitError, ContactSolveError
+        A step failed (see their docstrings).
+    """
+    config.validate()
+    if out is not None:
+        out = Path(out)
+        if not out.is_dir():
+            raise ValueError(f"output folder does not exist: {out}")
+    ckpt = None if out is None else out / "checkpoint.npz"
+    traj = None if out is None else out / "trajectory.gsd"
+    if ckpt is not None and ckpt.exists():
+        state, t, nstep, rng, warm, history, frames = _load_checkpoint(ckpt, config)
+        output.truncate_trajectory(traj, frames[0])
+    else:
+        state = initial_state(config)
+        t, nstep, history = 0.0, 0, []
+        rng = np.random.default_rng(config.seed)
+        warm = (np.zeros(0, dtype=np.int64), np.zeros(0))
+        frames = [0, -1]  # [frames written, step of the last frame]
+        if out is not None:
+            output.write_config(out, config)
+            if traj.exists():
+                traj.unlink()
+            output.append_frame(traj, state, 0)
+            frames = [1, 0]
+    total = config.time if config.time is not None else config.radius
+    bar = tqdm(total=total, disable=not (progress and sys.stderr.isatty()), unit="",
+               desc=f"particles lam={config.lam:g}", leave=False)
+    last_ckpt = _time.monotonic()
+    steps_here = 0
+    finished = True
+    try:
+        while not _done(config, state, t):
+            dt = config.dt
+            if config.time is not None and config.time - t < dt * (1 + 1e-9):
+                dt = config.time - t
+            info, warm = step(state, config, dt, warm)
+            ndiv = divide(state, rng, config.division_noise)
+            t += dt
+            nstep += 1
+            steps_here += 1
+            r = colony_radius(state)
+            row = {"step": nstep, "t": t, "dt": dt, "radius": r,
+                   "hull_radius": hull_radius(state), "n_particles": state.n,
+                   "max_stress": float(state.stress.max()),
+                   "mean_stress": float(state.stress.mean()),
+                   "max_overlap": info["max_overlap"], "iterations": int(info["iterations"]),
+                   "passes": int(info["passes"]), "n_contacts": int(info["n_contacts"]),
+                   "residual": info["residual"], "total_length": float(state.length.sum()),
+                   "divisions": int(ndiv)}
+            history.append(row)
+            bar.n = min(total, t if config.time is not None else r)
+            bar.refresh()
+            if state.n > config.max_particles:
+                raise ParticleLimitError(
+                    f"colony has {state.n} particles > max_particles {config.max_particles}")
+            if out is not None:
+                if nstep % config.output_every == 0:
+                    output.append_frame(traj, state, nstep)
+                    frames = [frames[0] + 1, nstep]
+                now = _time.monotonic()
+                if now - last_ckpt >= config.checkpoint_seconds:
+                    _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames)
+                    output.write_history(out, history)
+                    last_ckpt = now
+            if stop_after is not None and steps_here >= stop_after and not _done(config, state, t):
+                finished = False
+                break
+    finally:
+        bar.close()
+    if out is not None:
+        if finished and frames[1] != nstep:
+            output.append_frame(traj, state, nstep)
+            frames = [frames[0] + 1, nstep]
+        _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames)
+        output.write_history(out, history)
+        output.write_particles(out, state)
+    return Colony(state.x, state.y, state.theta, state.length, state.stress, state.ids, t,
+                  history, finished)
