@@ -29,14 +29,12 @@ import sys
 import tomllib
 from pathlib import Path
 
-import numpy as np
+from cases.analysis import field_profile, particle_profile, write_csv
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
 CONTINUUM_EDGE_WIDTH = 0.05
 #: Particle profiles: the outermost annulus about one particle diameter wide.
 PARTICLE_EDGE_WIDTH = 0.5
-#: Number of area-uniform sample points per annulus for continuum profiles.
-SAMPLES_PER_ANNULUS = 64
 
 CASES = ("fig2", "fig3", "fig4", "crosscheck")
 
@@ -67,7 +65,7 @@ def _coerce(value: str, like):
 
 
 def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
-    """Engine defaults <- TOML file <- ``--set KEY=VALUE`` <- explicit flags; then ``validate()``."""
+    """Engine defaults <- TOML file <- ``--set KEY=VALUE`` <- flags; then ``validate()``."""
     names = {f.name: f for f in dataclasses.fields(cls)}
     values: dict = {}
     if toml_file:
@@ -119,68 +117,6 @@ def publish(partial: Path, out: Path) -> None:
     partial.rename(out)
 
 
-def write_csv(path: Path, columns: dict) -> None:
-    """Write equal-length 1D columns as a CSV with a header row."""
-    names = list(columns)
-    data = np.column_stack([np.asarray(columns[k], dtype=float) for k in names])
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt="%.10g")
-
-
-# --------------------------------------------------------------------------- profiles
-
-
-def area_uniform_points(center, radius: float, n: int) -> np.ndarray:
-    """Vogel spiral: ``n`` points uniform in area in the disc |x - center| < radius.
-
-    Point k sits at r_k = radius sqrt((k + 1/2)/n), angle k * pi (3 - sqrt 5), so that every
-    equal-area annulus of the disc holds the same number of points (up to one).
-    """
-    k = np.arange(n) + 0.5
-    r = radius * np.sqrt(k / n)
-    a = np.arange(n) * math.pi * (3.0 - math.sqrt(5.0))
-    return np.column_stack([center[0] + r * np.cos(a), center[1] + r * np.sin(a)])
-
-
-def continuum_profile(state, edge_width: float = CONTINUUM_EDGE_WIDTH) -> dict:
-    """Equal-area radial profile of ``mean_length`` and ``pressure`` about the centroid.
-
-    The P1 fields are sampled at area-uniform points of the disc reaching the farthest boundary
-    point; samples outside the domain are dropped, so the profile is the average over each
-    annulus' intersection with the colony.
-    """
-    from cases.analysis import radial_profile
-
-    boundary = np.asarray(state.boundary)
-    center = _polygon_centroid(boundary)
-    radius = float(np.max(np.hypot(*(boundary - center).T)))
-    n_annuli = max(1, math.ceil(1.0 / (1.0 - (1.0 - edge_width / radius) ** 2)))
-    xy = area_uniform_points(center, radius, n_annuli * SAMPLES_PER_ANNULUS)
-    fields = state.sample(xy)
-    inside = np.isfinite(fields["p"])
-    values = {"mean_length": fields["mean_length"][inside], "pressure": fields["p"][inside]}
-    return radial_profile(xy[inside], values, center=center, radius=radius, n_annuli=n_annuli)
-
-
-def particle_profile(colony, edge_width: float = PARTICLE_EDGE_WIDTH) -> dict:
-    """Equal-area radial profile of particle ``length`` and ``stress`` about the centroid."""
-    from cases.analysis import radial_profile
-
-    xy = np.column_stack([colony.x, colony.y])
-    center = xy.mean(axis=0)
-    radius = float(colony.radius())
-    values = {"mean_length": np.asarray(colony.length), "stress": np.asarray(colony.stress)}
-    return radial_profile(xy, values, center=center, radius=radius, edge_width=edge_width)
-
-
-def _polygon_centroid(poly: np.ndarray) -> np.ndarray:
-    """Area centroid of a simple polygon (shoelace formula)."""
-    x, y = poly[:, 0], poly[:, 1]
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    cross = x * yn - xn * y
-    area = cross.sum() / 2.0
-    return np.array([((x + xn) * cross).sum(), ((y + yn) * cross).sum()]) / (6.0 * area)
-
-
 # --------------------------------------------------------------------------- runs
 
 
@@ -190,7 +126,10 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
 
     partial = stage(out, overwrite)
     state = run(config, out=partial, progress=progress)
-    write_csv(partial / "profile.csv", continuum_profile(state))
+    profile = field_profile(state.points, state.triangles,
+                            {"mean_length": state.fields["mean_length"],
+                             "pressure": state.fields["p"]}, edge_width=CONTINUUM_EDGE_WIDTH)
+    write_csv(partial / "profile.csv", profile)
     _draw_continuum(state, partial / "mean_length")
     publish(partial, out)
     return state
@@ -202,7 +141,9 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
 
     partial = stage(out, overwrite)
     colony = run(config, out=partial, progress=progress)
-    write_csv(partial / "profile.csv", particle_profile(colony))
+    profile = particle_profile(colony.x, colony.y, colony.length, colony.stress,
+                               edge_width=PARTICLE_EDGE_WIDTH, radius=colony.radius())
+    write_csv(partial / "profile.csv", profile)
     _draw_particles(colony, partial / "colony")
     publish(partial, out)
     return colony

@@ -1,11 +1,9 @@
 """The ``colony`` command: configuration layering, staging, bad input, end-to-end runs."""
 
 import dataclasses
-import math
 import subprocess
 import sys
 
-import numpy as np
 import pytest
 
 from cases import cli
@@ -38,20 +36,6 @@ def test_config_layers(tmp_path):
 def test_config_errors(toml, sets, match):
     with pytest.raises(ValueError, match=match):
         cli.build_config(_Config, toml, sets, {})
-
-
-def test_vogel_points_fill_equal_area_annuli():
-    n_annuli, per = 40, 64
-    xy = cli.area_uniform_points((1.0, -2.0), 3.0, n_annuli * per)
-    r = np.hypot(xy[:, 0] - 1.0, xy[:, 1] + 2.0)
-    edges = 3.0 * np.sqrt(np.arange(n_annuli + 1) / n_annuli)
-    counts = np.histogram(r, edges)[0]
-    assert counts.min() >= per - 1 and counts.max() <= per + 1
-
-
-def test_polygon_centroid_of_square():
-    sq = np.array([[0, 0], [2, 0], [2, 2], [0, 2]], float) + [3, 1]
-    assert np.allclose(cli._polygon_centroid(sq), [4, 2])
 
 
 def test_stage_publish(tmp_path):
