@@ -60,6 +60,8 @@ __all__ = [
     "growth_phase",
     "mean_length_profile",
     "ring_radii",
+    "ring_radii_series",
+    "mean_length_from_phase",
 ]
 
 B = 0.5
@@ -280,9 +282,12 @@ class Characteristics:
         return mean_length_from_phase(self.G)
 
 
-def mean_length_from_phase(G: ArrayLike) -> NDArray:
-    """Mean length of an initial delta(l - 1) after growth phase G: lbar = 2^frac(G / ln 2)."""
-    q = np.asarray(G, dtype=float) / LN2
+def mean_length_from_phase(G: ArrayLike, phase0: float = 0.0) -> NDArray:
+    """Mean length of an initial delta(l - 2^phase0) after growth phase G.
+
+    lbar = 2^frac(G / ln 2 + phase0); phase0 = 0 is Psi0 = delta(l - 1).
+    """
+    q = np.asarray(G, dtype=float) / LN2 + float(phase0)
     return 2.0 ** (q - np.floor(q))
 
 
@@ -395,13 +400,16 @@ def mean_length_profile(
     *,
     R0: float = R0,
     rtol: float = 1e-10,
+    phase0: float = 0.0,
 ) -> NDArray:
-    """Mean length lbar(r, t) = 2^frac(G(r, t) / ln 2) of an initial delta(l - 1) at radii r_eval.
+    """Mean length lbar(r, t) = 2^frac(G(r, t) / ln 2 + phase0) at radii r_eval.
 
-    G (smooth in r) is computed exactly along each point's characteristic; lbar (discontinuous at
-    the rings) is formed only afterwards.
+    phase0 = 0: initial delta(l - 1); phase0 = log2 l_init for delta(l - l_init) (e.g. the centre
+    ``width`` of :meth:`continuum.sizes.SizeDistribution.bump`). G (smooth in r) is computed
+    exactly along each point's characteristic; lbar (discontinuous at the rings) only afterwards.
     """
-    return mean_length_from_phase(growth_phase(lam, r_eval, t, radius, R0=R0, rtol=rtol))
+    G = growth_phase(lam, r_eval, t, radius, R0=R0, rtol=rtol)
+    return mean_length_from_phase(G, phase0)
 
 
 def ring_radii(
@@ -413,8 +421,12 @@ def ring_radii(
     R0: float = R0,
     rtol: float = 1e-10,
     with_index: bool = False,
+    phase0: float = 0.0,
 ) -> NDArray | tuple[NDArray, NDArray]:
     """Radii of the rings at time t (or disc radius ``radius``): where G(r, t) = k ln 2, k integer.
+
+    More generally where G / ln 2 + phase0 = k (initial delta(l - 2^phase0), see
+    :func:`mean_length_profile`).
 
     There lbar = 2^frac(G/ln 2) jumps between 2 and 1. G is tabulated backward along ``n_grid``
     characteristics equally spaced in final radius, the crossings of a cubic spline of G(r) give
@@ -429,10 +441,11 @@ def ring_radii(
     if np.ptp(ch.G) < 1e-12 * max(1.0, np.max(np.abs(ch.G))):
         return empty if with_index else empty[0]
     spline = CubicSpline(ch.r, ch.G)
-    ks = np.arange(math.ceil(ch.G.min() / LN2), math.floor(ch.G.max() / LN2) + 1)
+    off = float(phase0) * LN2
+    ks = np.arange(math.ceil((ch.G.min() + off) / LN2), math.floor((ch.G.max() + off) / LN2) + 1)
     roots, kk = [], []
     for k in ks:
-        rts = spline.solve(k * LN2, extrapolate=False)
+        rts = spline.solve(k * LN2 - off, extrapolate=False)
         rts = rts[(rts > 0) & (rts < R_end)]
         roots.extend(rts)
         kk.extend([k] * rts.size)
@@ -442,9 +455,14 @@ def ring_radii(
         return empty if with_index else empty[0]
     dG = spline(r, 1)
     for _ in range(20):
-        res = growth_phase(lam, r, t_end, R0=R0, rtol=rtol) - k * LN2
+        res = growth_phase(lam, r, t_end, R0=R0, rtol=rtol) + off - k * LN2
         if np.all(np.abs(res) <= 1e-11):
             break
         r = np.clip(r - res / dG, 0.0, R_end)
     order = np.argsort(r)
     return (r[order], k[order]) if with_index else r[order]
+
+
+def ring_radii_series(lam: float, times: ArrayLike, *, R0: float = R0, **kwargs) -> list[NDArray]:
+    """Ring radii (:func:`ring_radii`) at each of ``times``: one array per time."""
+    return [ring_radii(lam, float(t), R0=R0, **kwargs) for t in np.asarray(times, dtype=float)]

@@ -183,3 +183,21 @@ def test_ring_radii_at_radius_150_are_converged_and_on_the_phase_levels():
     lo = rd.mean_length_profile(lam, rings - eps, radius=R)
     hi = rd.mean_length_profile(lam, rings + eps, radius=R)
     assert np.all(lo > 1.99) and np.all(hi < 1.01)
+
+
+def test_ring_radii_with_phase_offset_and_time_series():
+    """Initial delta(l - 2^phase0): rings where G/ln 2 + phase0 is an integer; series = calls."""
+    lam, phase0 = 1e-2, 0.3
+    rings, k = rd.ring_radii(lam, radius=60.0, with_index=True, phase0=phase0)
+    assert rings.size >= 2
+    G = rd.growth_phase(lam, rings, radius=60.0)
+    np.testing.assert_allclose(G / math.log(2) + phase0, k, atol=1e-10)
+    eps = 1e-6
+    lo = rd.mean_length_profile(lam, rings - eps, radius=60.0, phase0=phase0)
+    hi = rd.mean_length_profile(lam, rings + eps, radius=60.0, phase0=phase0)
+    assert np.all(lo > 1.99) and np.all(hi < 1.01)
+    times = rd.time_to_radius(np.array([20.0, 40.0, 60.0]), lam)
+    series = rd.ring_radii_series(lam, times)
+    for t, rr in zip(times, series):
+        np.testing.assert_allclose(rr, rd.ring_radii(lam, t=t), rtol=1e-12)
+    assert [s.size for s in series] == sorted(s.size for s in series)  # rings accumulate
