@@ -17,7 +17,9 @@ continuum solver (samples = mesh nodes, weighted by their lumped areas) are redu
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Mapping
+from pathlib import Path
 
 import numpy as np
 from scipy.signal import find_peaks
@@ -37,6 +39,19 @@ __all__ = [
     "radial_pressure",
     "radial_max_pressure",
     "radial_speed",
+    "read_csv",
+    "write_csv",
+    "continuum_frames",
+    "read_continuum_frame",
+    "particle_frames",
+    "field_profile",
+    "particle_profile",
+    "profile_wavelength",
+    "thin_rows",
+    "colony_radius",
+    "wavelength_series",
+    "final_continuum_profile",
+    "final_particle_profile",
 ]
 
 
@@ -428,3 +443,282 @@ def radial_max_pressure(lam: float, R: float) -> float:
 def radial_speed(lam: float, R: float) -> float:
     """Boundary speed dR/dt = u(R) = 4 c R; tends to sqrt(2/lam) as lam^(1/2) R -> infinity."""
     return 4.0 * radial_c(lam, R) * R
+
+
+# ----------------------------------------------------------------------------------------------
+# run folders (docs/DESIGN.md, "Output contract") and small CSVs
+# ----------------------------------------------------------------------------------------------
+
+
+def read_csv(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Read a CSV with a header row into float columns {name: array}."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such CSV file: {path}")
+    with open(path) as f:
+        header = f.readline().strip()
+    names = [h.strip() for h in header.split(",")]
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    if data.size == 0:
+        return {n: np.empty(0) for n in names}
+    if data.shape[1] != len(names):
+        raise ValueError(f"{path}: {len(names)} header names but {data.shape[1]} columns")
+    return {n: data[:, i] for i, n in enumerate(names)}
+
+
+def write_csv(path: str | os.PathLike, columns: Mapping[str, np.ndarray], fmt: str = "%.8g"):
+    """Write equal-length 1D columns as a CSV with a header row (parent folder created).
+
+    A path ending in ``.gz`` is gzip-compressed (numpy.savetxt).
+    """
+    path = Path(path)
+    names = list(columns)
+    cols = [np.asarray(columns[n], dtype=float).ravel() for n in names]
+    if len({c.size for c in cols}) > 1:
+        raise ValueError(f"{path.name}: columns differ in length")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    data = np.column_stack(cols) if cols else np.empty((0, 0))
+    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
+    return path
+
+
+def continuum_frames(folder: str | os.PathLike) -> list[tuple[float, Path]]:
+    """(t, vtu path) of every output step of a continuum run, from its ``fields.pvd`` index."""
+    import xml.etree.ElementTree as ET
+
+    folder = Path(folder)
+    pvd = folder / "fields.pvd"
+    if not pvd.is_file():
+        raise FileNotFoundError(f"no fields.pvd in {folder}")
+    frames = [(float(ds.get("timestep")), folder / ds.get("file"))
+              for ds in ET.parse(pvd).getroot().iter("DataSet")]
+    return sorted(frames, key=lambda f: f[0])
+
+
+def read_continuum_frame(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(points (n, 2), triangles (m, 3), point data {name: array}) of one VTU output step."""
+    import meshio
+
+    mesh = meshio.read(path)
+    tri = [c.data for c in mesh.cells if c.type == "triangle"]
+    if not tri:
+        raise ValueError(f"{path}: no triangles")
+    data = {k: np.asarray(v) for k, v in mesh.point_data.items()}
+    return np.asarray(mesh.points[:, :2], dtype=float), np.concatenate(tri), data
+
+
+def particle_frames(folder: str | os.PathLike):
+    """Iterate (t, {x, y, theta, length, stress}) over the frames of a particle run's trajectory.
+
+    Positions and angles come from the HOOMD schema (theta = 2 atan2(q_z, q_w)); length and stress
+    from ``log/particles/length`` and ``log/particles/stress``; t from history.csv's row of the
+    frame's step (the step's index times the first dt when history has no ``step`` column).
+    """
+    import gsd.hoomd
+
+    folder = Path(folder)
+    hist = read_csv(folder / "history.csv")
+    if "step" in hist:
+        t_of_step = dict(zip(hist["step"].astype(int).tolist(), hist["t"].tolist(), strict=True))
+    else:
+        t_of_step = {}
+    with gsd.hoomd.open(str(folder / "trajectory.gsd"), mode="r") as traj:
+        for frame in traj:
+            step = int(frame.configuration.step)
+            t = t_of_step.get(step, 0.0 if step == 0 else float("nan"))
+            pos = np.asarray(frame.particles.position, dtype=float)
+            q = np.asarray(frame.particles.orientation, dtype=float)
+            yield t, {
+                "x": pos[:, 0],
+                "y": pos[:, 1],
+                "theta": 2.0 * np.arctan2(q[:, 3], q[:, 0]),
+                "length": np.asarray(frame.log["particles/length"], dtype=float),
+                "stress": np.asarray(frame.log["particles/stress"], dtype=float),
+            }
+
+
+def _vogel_points(center: np.ndarray, radius: float, n: int) -> np.ndarray:
+    """n points uniform in area in the disc: r_k = R sqrt((k + 1/2)/n), angle k pi (3 - sqrt 5)."""
+    k = np.arange(n)
+    r = radius * np.sqrt((k + 0.5) / n)
+    a = k * math.pi * (3.0 - math.sqrt(5.0))
+    return np.column_stack([center[0] + r * np.cos(a), center[1] + r * np.sin(a)])
+
+
+def field_profile(
+    points: np.ndarray,
+    triangles: np.ndarray,
+    values: Mapping[str, np.ndarray],
+    edge_width: float = 0.05,
+    samples_per_annulus: int = 64,
+) -> dict[str, np.ndarray]:
+    """Equal-area radial profile of P1 fields on a triangle mesh (continuum output).
+
+    The centre is the domain's area centroid; the disc about it reaching the farthest node is cut
+    into equal-area annuli (outermost at most `edge_width` wide) and sampled at
+    `samples_per_annulus` area-uniform points per annulus (Vogel spiral); the fields are
+    interpolated linearly in the mesh's triangles and samples outside the domain are dropped, so
+    each annulus averages over its intersection with the colony.
+    """
+    from matplotlib.tri import LinearTriInterpolator, Triangulation
+
+    points = np.asarray(points, dtype=float)
+    triangles = np.asarray(triangles, dtype=np.int64)
+    a, b, c = (points[triangles[:, i]] for i in range(3))
+    area = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                  - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    center = (np.abs(area)[:, None] * (a + b + c) / 3.0).sum(0) / np.abs(area).sum()
+    radius = float(np.max(np.hypot(*(points - center).T)))
+    n_annuli = annuli_for_edge_width(radius, edge_width)
+    xy = _vogel_points(center, radius, n_annuli * samples_per_annulus)
+    tri = Triangulation(points[:, 0], points[:, 1], triangles)
+    sampled = {}
+    inside = np.ones(len(xy), dtype=bool)
+    for name, v in values.items():
+        s = LinearTriInterpolator(tri, np.asarray(v, dtype=float))(xy[:, 0], xy[:, 1])
+        s = np.ma.filled(s.astype(float), np.nan)
+        inside &= np.isfinite(s)
+        sampled[name] = s
+    sampled = {k: v[inside] for k, v in sampled.items()}
+    return radial_profile(xy[inside], sampled, center=center, radius=radius, n_annuli=n_annuli)
+
+
+def particle_profile(
+    x: np.ndarray, y: np.ndarray, length: np.ndarray, stress: np.ndarray,
+    edge_width: float = 0.5, radius: float | None = None,
+) -> dict[str, np.ndarray]:
+    """Equal-area radial profile of particle length and stress about the particles' centroid.
+
+    The outer radius is the colony radius R = max_n (|x_n - centroid| + l_n/2) (or `radius`);
+    particles are binned by their centres. Columns r, mean_length(_std), stress(_std), count.
+    """
+    xy = np.column_stack([np.asarray(x, float), np.asarray(y, float)])
+    length = np.asarray(length, float)
+    center = xy.mean(0)
+    if radius is None:
+        radius = float(np.max(np.hypot(*(xy - center).T) + 0.5 * length))
+    return radial_profile(xy, {"mean_length": length, "stress": np.asarray(stress, float)},
+                          center=center, radius=radius, edge_width=edge_width)
+
+
+def profile_wavelength(profile: Mapping[str, np.ndarray], name: str = "mean_length",
+                       noisy: bool = True, min_count: int = 10, **kwargs) -> float:
+    """Ring wavelength of a profile dict (:func:`ring_wavelength`).
+
+    `noisy` (particle data): annuli with fewer than `min_count` particles are dropped (their
+    standard deviation is no estimate of the noise) and the annulus means' standard errors
+    std/sqrt(count) set the noise threshold; False (continuum): no noise threshold beyond
+    `min_prominence`.
+    """
+    r, f = np.asarray(profile["r"], float), np.asarray(profile[name], float)
+    if not noisy:
+        return ring_wavelength(r, f, **kwargs)
+    count = np.asarray(profile["count"], float)
+    keep = count >= min_count
+    se = np.asarray(profile[f"{name}_std"], float)[keep] / np.sqrt(count[keep])
+    return ring_wavelength(r[keep], f[keep], stderr=se, **kwargs)
+
+
+# ----------------------------------------------------------------------------------------------
+# reductions of whole runs (used by the figure cases)
+# ----------------------------------------------------------------------------------------------
+
+
+def thin_rows(columns: Mapping[str, np.ndarray], max_rows: int = 400) -> dict[str, np.ndarray]:
+    """Every k-th row (k the smallest giving <= max_rows) plus the last: small CSVs for figures."""
+    n = len(next(iter(columns.values())))
+    if n <= max_rows:
+        return {k: np.asarray(v) for k, v in columns.items()}
+    k = math.ceil(n / (max_rows - 1))
+    idx = np.unique(np.append(np.arange(0, n, k), n - 1))
+    return {name: np.asarray(v)[idx] for name, v in columns.items()}
+
+
+def colony_radius(x: np.ndarray, y: np.ndarray, length: np.ndarray) -> float:
+    """Radius of the smallest disc about the centroid holding every particle: max |x_n - c| + l_n/2.
+
+    (The tip of a rod of length l is l/2 from its centre; the rod's half-width b/2 <= l/2 is
+    inside that.)
+    """
+    x, y, length = (np.asarray(a, dtype=float) for a in (x, y, length))
+    return float(np.max(np.hypot(x - x.mean(), y - y.mean()) + 0.5 * length))
+
+
+def wavelength_series(folder: str | os.PathLike, engine: str,
+                      edge_width: float | None = None, **kwargs) -> dict[str, np.ndarray]:
+    """Ring wavelength of the radial mean-length profile at every output frame of a run.
+
+    Continuum: every VTU frame, :func:`field_profile` (edge width 0.05), no noise threshold.
+    Particles: every trajectory frame, :func:`particle_profile` (edge width 0.5), noise threshold
+    from the annulus standard errors. Returns columns t, radius, wavelength (nan: < 2 peaks).
+    """
+    ts, Rs, ws = [], [], []
+    if engine == "continuum":
+        ew = 0.05 if edge_width is None else edge_width
+        for t, path in continuum_frames(folder):
+            pts, tri, data = read_continuum_frame(path)
+            prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=ew)
+            ts.append(t)
+            Rs.append(math.sqrt(_mesh_area(pts, tri) / math.pi))
+            ws.append(profile_wavelength(prof, noisy=False, **kwargs))
+    elif engine == "particles":
+        ew = 0.5 if edge_width is None else edge_width
+        for t, fr in particle_frames(folder):
+            ts.append(t)
+            Rs.append(colony_radius(fr["x"], fr["y"], fr["length"]))
+            if fr["x"].size < 3:
+                ws.append(float("nan"))
+                continue
+            prof = particle_profile(fr["x"], fr["y"], fr["length"], fr["stress"], edge_width=ew)
+            ws.append(profile_wavelength(prof, noisy=True, **kwargs))
+    else:
+        raise ValueError(f"engine must be 'continuum' or 'particles', got {engine!r}")
+    return {"t": np.array(ts), "radius": np.array(Rs), "wavelength": np.array(ws)}
+
+
+def _mesh_area(points: np.ndarray, triangles: np.ndarray) -> float:
+    a, b, c = (points[triangles[:, i]] for i in range(3))
+    return float(np.abs(0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                               - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))).sum())
+
+
+def final_continuum_profile(folder: str | os.PathLike, edge_width: float = 0.05
+                            ) -> dict[str, np.ndarray]:
+    """Radial profile (mean_length, pressure) of the last VTU frame of a continuum run."""
+    t, path = continuum_frames(folder)[-1]
+    pts, tri, data = read_continuum_frame(path)
+    return field_profile(pts, tri, {"mean_length": data["mean_length"], "pressure": data["p"]},
+                         edge_width=edge_width)
+
+
+def final_particle_profile(folder: str | os.PathLike, growth_window: float = 1.0,
+                           edge_width: float = 0.5) -> dict[str, np.ndarray]:
+    """Radial profile (mean_length, stress) of a particle run, pooled over its last frames.
+
+    To reduce noise (paper, Fig 3A) the particles of every frame whose colony radius is within
+    `growth_window` of the final radius R_f (the colony grew by less than that) are pooled, each
+    frame about its own centroid, and binned in equal-area annuli of the final disc; with
+    `growth_window` = 0 only the final frame is used. The pooled frames are correlated, so
+    `count` overstates the number of independent samples.
+    """
+    if growth_window < 0:
+        raise ValueError(f"growth_window must be >= 0, got {growth_window}")
+    radii = [colony_radius(fr["x"], fr["y"], fr["length"]) for _, fr in particle_frames(folder)]
+    if not radii:
+        raise ValueError(f"no frames in {folder}")
+    R_f = radii[-1]
+    keep = {i for i, R in enumerate(radii) if R >= R_f - growth_window} | {len(radii) - 1}
+    r, length, stress = [], [], []
+    for i, (_, fr) in enumerate(particle_frames(folder)):
+        if i in keep:
+            r.append(np.hypot(fr["x"] - fr["x"].mean(), fr["y"] - fr["y"].mean()))
+            length.append(fr["length"])
+            stress.append(fr["stress"])
+    r, length, stress = (np.concatenate(a) for a in (r, length, stress))
+    out: dict[str, np.ndarray] = {}
+    for name, v in (("mean_length", length), ("stress", stress)):
+        r_mid, mean, std, count = equal_area_annuli(r, v, radius=max(R_f, r.max()),
+                                                    edge_width=edge_width)
+        out["r"], out[name], out[f"{name}_std"], out["count"] = r_mid, mean, std, count
+    out["count"] = out.pop("count")
+    return out

@@ -35,7 +35,8 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["SweepError", "run_name", "is_done", "run_one", "sweep", "DONE"]
+__all__ = ["SweepError", "run_name", "is_done", "run_one", "sweep", "DONE", "run_engine",
+           "engine_runs", "SCALES", "scale_config"]
 
 DONE = "DONE"
 
@@ -174,3 +175,80 @@ def sweep(
     if failures:
         raise SweepError(failures)
     return folders
+
+
+ENGINES = ("continuum", "particles")
+
+
+def run_engine(params: dict, folder: Path) -> None:
+    """Sweep ``run_fn`` for either engine: ``params = {"engine": ..., "lam": ..., **config}``.
+
+    The remaining keys are the fields of ``ContinuumConfig`` / ``ParticleConfig``
+    (docs/DESIGN.md); the engine writes its output contract into ``folder``.
+    """
+    params = dict(params)
+    engine = params.pop("engine", None)
+    if engine == "continuum":
+        from continuum.simulation import ContinuumConfig as Config
+        from continuum.simulation import run
+    elif engine == "particles":
+        from particles.simulation import ParticleConfig as Config
+        from particles.simulation import run
+    else:
+        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+    config = Config(**params)
+    if hasattr(config, "validate"):
+        config.validate()
+    run(config, out=Path(folder), progress=False)
+
+
+#: Run sizes of the figure cases. Every case draws its runs from the same table, so cases given
+#: the same ``runs`` folder share (and skip) identical runs. "lams": the three panels of Fig 2 and
+#: the curves of Fig 3A-B, 4A-B (plus lam = 0 in Fig 3A-B); "scaling_lams": Fig 3C-D, Fig 4C.
+#: Smoke: radius 15, larger lam so that rings form in a small colony (wavelength ~ lam^-1/2).
+SCALES: dict[str, dict[str, Any]] = {
+    "smoke": {
+        "radius": 15.0,
+        "lams": (0.03, 0.1, 0.3),
+        "scaling_lams": (0.03, 0.1, 0.3),
+        "continuum": {"output_every": 0.5},
+        "particles": {"output_every": 20},
+    },
+    "paper": {
+        "radius": 150.0,
+        "lams": (1e-4, 1e-3, 1e-2),
+        "scaling_lams": (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2),
+        "continuum": {"output_every": 0.25},
+        "particles": {"output_every": 100},
+    },
+}
+
+
+def scale_config(scale: str) -> dict[str, Any]:
+    """The run sizes of ``scale`` ("smoke" or "paper"); ValueError otherwise."""
+    if scale not in SCALES:
+        raise ValueError(f"scale must be one of {tuple(SCALES)}, got {scale!r}")
+    return SCALES[scale]
+
+
+def engine_runs(
+    runs: Sequence[tuple[str, float]],
+    scale: str,
+    root: str | Path,
+    scheduler: str | None = None,
+    n_workers: int = 2,
+) -> dict[tuple[str, float], Path]:
+    """Run every (engine, lam) of ``runs`` at ``scale`` (radius and engine settings of SCALES).
+
+    One sweep for all of them; finished runs under ``root`` are reused (see :func:`sweep`).
+    Returns {(engine, lam): run folder}.
+    """
+    cfg = scale_config(scale)
+    params = []
+    for engine, lam in runs:
+        if engine not in ENGINES:
+            raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+        params.append({"engine": engine, "lam": float(lam), "radius": cfg["radius"],
+                       **cfg[engine]})
+    folders = sweep(run_engine, params, root, scheduler=scheduler, n_workers=n_workers)
+    return {(e, float(lam)): f for (e, lam), f in zip(runs, folders, strict=True)}
