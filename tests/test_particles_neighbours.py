@@ -1,0 +1,42 @@
+"""Cell lists equal brute force on random dense packings."""
+
+import numpy as np
+import pytest
+
+from particles.neighbours import brute_force_pairs, candidate_pairs
+
+
+@pytest.mark.parametrize("seed,n,side,margin", [(0, 500, 10.0, 0.0), (1, 2000, 20.0, 0.1),
+                                                (2, 3000, 15.0, 0.3), (3, 50, 2.0, 0.05)])
+def test_cell_lists_equal_brute_force(seed, n, side, margin):
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-side / 2, side / 2, n)
+    y = rng.uniform(0, side, n)
+    length = rng.uniform(1.0, 2.0, n)
+    ci, cj = candidate_pairs(x, y, length, margin)
+    bi, bj = brute_force_pairs(x, y, length, margin)
+    assert ci.size > n  # dense: several neighbours per particle
+    np.testing.assert_array_equal(ci, bi)
+    np.testing.assert_array_equal(cj, bj)
+
+
+def test_cell_lists_line_and_single():
+    x = np.arange(40) * 1.5
+    y = np.zeros(40)
+    length = np.full(40, 1.5)
+    ci, cj = candidate_pairs(x, y, length, 0.0)
+    bi, bj = brute_force_pairs(x, y, length, 0.0)
+    np.testing.assert_array_equal(ci, bi)
+    np.testing.assert_array_equal(cj, bj)
+    assert ci.size == 39
+    e = candidate_pairs(np.zeros(1), np.zeros(1), np.ones(1), 0.1)
+    assert e[0].size == 0
+
+
+def test_cell_lists_bad_input():
+    with pytest.raises(ValueError):
+        candidate_pairs(np.zeros(3), np.zeros(2), np.ones(3), 0.1)
+    with pytest.raises(ValueError):
+        candidate_pairs(np.zeros(3), np.zeros(3), np.ones(3), -0.1)
+    with pytest.raises(ValueError):
+        candidate_pairs(np.array([0.0, np.nan]), np.zeros(2), np.ones(2), 0.1)
