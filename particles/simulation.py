@@ -223,7 +223,9 @@ def step(state: ParticleState, config: ParticleConfig, dt: float,
          warm: tuple[np.ndarray, np.ndarray]) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
     """Advance the state by one step in place (module docstring, items 1-4; no division).
 
-    Returns the step's diagnostics and the (keys, gamma) of its solve for the next warm start.
+    Returns the step's diagnostics (iterations, passes, n_contacts, residual, max_overlap, and
+    the contacts and forces of the main solve) and the (keys, gamma) of the solve for the next
+    warm start.
     """
     solver = SOLVERS[config.solver]
     stol = config.effective_solver_tol
@@ -257,7 +259,7 @@ def step(state: ParticleState, config: ParticleConfig, dt: float,
         passes += 1
     state.stress = sigma
     info = {"iterations": iterations, "passes": passes, "n_contacts": len(c),
-            "residual": float(hist[-1]), "max_overlap": overlap}
+            "residual": float(hist[-1]), "max_overlap": overlap, "contacts": c, "gamma": gamma}
     return info, (keys, gamma)
 
 

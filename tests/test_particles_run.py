@@ -1,0 +1,126 @@
+"""Whole runs: invariants, determinism, outputs, checkpoint-resume equality."""
+
+import json
+
+import gsd.hoomd
+import numpy as np
+import pytest
+
+from particles.geometry import generalised_forces, max_overlap
+from particles.growth import divide
+from particles.simulation import ParticleConfig, initial_state, run, step
+from particles.state import colony_radius
+
+
+def test_lam0_total_length_is_exp_t():
+    c = run(ParticleConfig(lam=0.0, time=3.0, dt=0.01))
+    assert c.t == pytest.approx(3.0, abs=1e-12)
+    assert abs(c.length.sum() / np.exp(3.0) - 1) < 1e-3
+    t = np.array([r["t"] for r in c.history])
+    total = np.array([r["total_length"] for r in c.history])
+    np.testing.assert_allclose(total, np.exp(t), rtol=1e-12)  # exact exponential update
+    assert c.n == 16  # synchronous divisions at t = k ln 2
+
+
+@pytest.mark.parametrize("lam,nmax", [(0.0, 130), (1e-2, 300)])
+def test_every_step_overlap_and_balance(lam, nmax):
+    cfg = ParticleConfig(lam=lam, time=100.0, dt=0.01)
+    state = initial_state(cfg)
+    rng = np.random.default_rng(0)
+    warm = (np.zeros(0, dtype=np.int64), np.zeros(0))
+    steps = 0
+    while state.n < nmax:
+        x0, y0 = state.x.copy(), state.y.copy()
+        info, warm = step(state, cfg, cfg.dt, warm)
+        c, g = info["contacts"], info["gamma"]
+        fx, fy, tz = generalised_forces(c, g, state.n)
+        scale = max(1.0, np.abs(g).sum())
+        assert abs(fx.sum()) < 1e-13 * scale and abs(fy.sum()) < 1e-13 * scale
+        rmax = np.max(np.hypot(x0, y0)) + 2
+        assert abs(np.sum(x0 * fy - y0 * fx + tz)) < 1e-13 * scale * rmax
+        assert info["max_overlap"] <= cfg.tol
+        assert max_overlap(state.x, state.y, state.theta, state.length) <= cfg.tol
+        divide(state, rng, cfg.division_noise)
+        steps += 1
+    assert steps > 100
+
+
+def test_determinism_and_seed():
+    a = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.01, seed=3))
+    b = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.01, seed=3))
+    d = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.01, seed=4))
+    for k in ("x", "y", "theta", "length", "stress"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+    assert a.n > 25 and not np.array_equal(a.theta[: min(a.n, d.n)], d.theta[: min(a.n, d.n)])
+
+
+def test_radius_stop():
+    c = run(ParticleConfig(lam=1e-2, radius=3.0, dt=0.01))
+    assert c.radius() >= 3.0 > c.history[-2]["radius"]
+    assert c.history[-1]["radius"] == c.radius()
+    assert c.hull_radius() <= c.radius()
+
+
+def test_outputs_and_checkpoint_resume(tmp_path):
+    cfg = ParticleConfig(lam=1e-2, time=3.5, dt=0.01, output_every=7, seed=2)
+    full = tmp_path / "full"
+    part = tmp_path / "part"
+    full.mkdir()
+    part.mkdir()
+    a = run(cfg, full)
+    b1 = run(cfg, part, stop_after=123)
+    assert not b1.finished and len(b1.history) == 123
+    b = run(cfg, part)
+    assert b.finished
+    for name in ("history.csv", "particles.csv", "config.json"):
+        assert (full / name).read_bytes() == (part / name).read_bytes(), name
+    for k in ("x", "y", "theta", "length", "stress"):
+        np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+    with gsd.hoomd.open(str(full / "trajectory.gsd")) as ta, \
+            gsd.hoomd.open(str(part / "trajectory.gsd")) as tb:
+        nh = len(a.history)
+        assert len(ta) == len(tb) == 1 + nh // 7 + (nh % 7 != 0)
+        fa, fb = ta[-1], tb[-1]
+        np.testing.assert_array_equal(fa.particles.position, fb.particles.position)
+        np.testing.assert_allclose(fa.log["particles/length"], a.length.astype(np.float32))
+        np.testing.assert_allclose(fa.log["particles/stress"], a.stress.astype(np.float32))
+        q = fa.particles.orientation
+        np.testing.assert_allclose(2 * np.arctan2(q[:, 3], q[:, 0]),
+                                   np.angle(np.exp(1j * a.theta)), atol=1e-5)
+        assert fa.particles.N == a.n and fa.configuration.step == len(a.history)
+    hist = np.genfromtxt(full / "history.csv", delimiter=",", names=True)
+    assert hist.size == len(a.history)
+    assert np.all(hist["max_overlap"] <= cfg.tol)
+    assert json.loads((full / "config.json").read_text())["lam"] == 1e-2
+    parts = np.genfromtxt(full / "particles.csv", delimiter=",", names=True)
+    np.testing.assert_array_equal(parts["length"], a.length)
+    # a different configuration refuses the checkpoint
+    with pytest.raises(ValueError, match="different configuration"):
+        run(ParticleConfig(lam=1e-3, time=3.5, dt=0.01, output_every=7, seed=2), part)
+
+
+def test_init_file(tmp_path):
+    f = tmp_path / "init.csv"
+    f.write_text("x,y,theta,length\n0,0,0,1.5\n1.5,0,0,1.5\n")
+    c = run(ParticleConfig(lam=0.0, time=0.1, dt=0.01, init=str(f)))
+    assert c.n == 2 and c.x[1] - c.x[0] > 1.5
+    bad = tmp_path / "bad.csv"
+    bad.write_text("x,y,length\n0,0,1\n")
+    with pytest.raises(ValueError, match="x,y,theta,length"):
+        run(ParticleConfig(lam=0.0, time=0.1, init=str(bad)))
+
+
+@pytest.mark.parametrize("kw", [
+    dict(lam=-1.0, time=1.0), dict(lam=0.0), dict(lam=0.0, time=1.0, radius=2.0),
+    dict(lam=0.0, time=-1.0), dict(lam=0.0, time=1.0, dt=0.0), dict(lam=0.0, time=1.0, tol=1.0),
+    dict(lam=0.0, time=1.0, solver="nope"), dict(lam=0.0, time=1.0, init="/nonexistent.csv"),
+    dict(lam=float("nan"), time=1.0), dict(lam=0.0, time=1.0, output_every=0),
+])
+def test_validate(kw):
+    with pytest.raises(ValueError):
+        ParticleConfig(**kw).validate()
+
+
+def test_radius_of_single_particle():
+    st = initial_state(ParticleConfig(lam=0.0, time=1.0))
+    assert colony_radius(st) == pytest.approx(0.5)
