@@ -1,0 +1,175 @@
+"""Fig 3 of the paper: mechanics of growth, particles against continuum.
+
+(A) radially averaged particle stress <sigma_n> (solid; pooled over the last frames, during which
+    the colony grows by less than one particle length) and continuum pressure p (dashed), for
+    lam = 0 and the three lam of Fig 2;
+(B) colony radius R(t) of both models (particles solid, continuum dashed);
+(C) maximum stress vs lam: particles (max of the averaged stress profile), continuum (max p),
+    and the analytic p(0) = (2/lam) ln(1/(8c)) of a disc of the final radius, with fitted
+    power-law exponents;
+(D) final growth rate dR/dt (linear fit of the last 20 % of the run) vs lam with the asymptote
+    sqrt(2/lam) and the exact disc speed 4 c R at the final radius.
+
+Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3} and 0; about a minute on 2 cores) or
+"paper" (radius 150, lam in {0, 1e-4, 1e-3, 1e-2} and the seven scaling values of
+cases.sweep.SCALES; hours per particle run). ``compute`` runs (or reuses) the engine runs and
+writes the small CSVs behind every curve to ``out/data``; ``plot`` draws the figure from those
+CSVs only (``colony case fig3 --from-data`` redraws from cases/data/fig3).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from cases import analysis as A
+from cases.sweep import engine_runs, scale_config
+
+__all__ = ["compute", "reduce", "plot", "runs_needed"]
+
+LATE_FRACTION = 0.2
+
+
+def runs_needed(scale: str) -> tuple[list[float], list[tuple[str, float]]]:
+    """(lam values of the figure, (engine, lam) runs) at ``scale``."""
+    cfg = scale_config(scale)
+    lams = sorted({0.0, *cfg["lams"], *cfg["scaling_lams"]})
+    return lams, [(e, lam) for lam in lams for e in ("continuum", "particles")]
+
+
+def compute(scale: str = "smoke", out: str | Path = "runs/case-fig3-smoke",
+            scheduler: str | None = None, n_workers: int = 2,
+            runs: str | Path | None = None) -> Path:
+    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data."""
+    out = Path(out)
+    lams, needed = runs_needed(scale)
+    folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
+                          scheduler=scheduler, n_workers=n_workers)
+    cfg = scale_config(scale)
+    profile_lams = sorted({0.0, *cfg["lams"]})
+    return reduce(folders, out / "data", profile_lams)
+
+
+def reduce(folders: dict[tuple[str, float], Path], data: Path,
+           profile_lams: list[float]) -> Path:
+    """Reduce run folders {(engine, lam): folder} to the CSVs of the figure in ``data``."""
+    data = Path(data)
+    lams = sorted({lam for _, lam in folders})
+    rows = {k: [] for k in ("lam", "radius_continuum", "radius_particles", "max_stress_particles",
+                            "max_pressure_continuum", "p0_exact", "slope_particles",
+                            "slope_continuum", "slope_exact", "slope_asymptotic")}
+    for lam in lams:
+        hc = A.read_csv(folders["continuum", lam] / "history.csv")
+        hp = A.read_csv(folders["particles", lam] / "history.csv")
+        A.write_csv(data / f"radius_continuum_lam={lam:g}.csv",
+                    A.thin_rows({"t": hc["t"], "radius": hc["radius"],
+                                 "max_pressure": hc["max_pressure"]}))
+        A.write_csv(data / f"radius_particles_lam={lam:g}.csv",
+                    A.thin_rows({"t": hp["t"], "radius": hp["radius"],
+                                 "max_stress": hp["max_stress"]}))
+        pp = A.final_particle_profile(folders["particles", lam], growth_window=1.0)
+        if lam in profile_lams:
+            pc = A.final_continuum_profile(folders["continuum", lam])
+            A.write_csv(data / f"profile_continuum_lam={lam:g}.csv", pc)
+            A.write_csv(data / f"profile_particles_lam={lam:g}.csv", pp)
+        R_c = float(hc["radius"][-1])
+        rows["lam"].append(lam)
+        rows["radius_continuum"].append(R_c)
+        rows["radius_particles"].append(float(hp["radius"][-1]))
+        rows["max_stress_particles"].append(A.max_value(pp["stress"]))
+        rows["max_pressure_continuum"].append(float(hc["max_pressure"][-1]))
+        rows["p0_exact"].append(A.radial_max_pressure(lam, R_c))
+        rows["slope_particles"].append(A.late_slope(hp["t"], hp["radius"], LATE_FRACTION))
+        rows["slope_continuum"].append(A.late_slope(hc["t"], hc["radius"], LATE_FRACTION))
+        rows["slope_exact"].append(A.radial_speed(lam, R_c))
+        rows["slope_asymptotic"].append(math.sqrt(2.0 / lam) if lam > 0 else math.nan)
+    A.write_csv(data / "summary.csv", rows)
+    return data
+
+
+def _lam_files(data: Path, prefix: str) -> dict[float, Path]:
+    out = {}
+    for p in data.glob(f"{prefix}_lam=*.csv"):
+        out[float(p.stem.split("lam=")[1])] = p
+    return dict(sorted(out.items()))
+
+
+def plot(data: str | Path, out: str | Path) -> list[Path]:
+    """Draw Fig 3 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
+
+    from cases.draw import save_figure
+
+    data, out = Path(data), Path(out)
+    summary = A.read_csv(data / "summary.csv")
+    fig, ax = plt.subplots(2, 2, figsize=(10, 8))
+    prof_lams = sorted(_lam_files(data, "profile_particles"))
+    colors = {lam: plt.cm.plasma(i / max(1, len(prof_lams))) for i, lam in enumerate(prof_lams)}
+
+    a = ax[0, 0]
+    for lam in prof_lams:
+        pp = A.read_csv(data / f"profile_particles_lam={lam:g}.csv")
+        pc = A.read_csv(data / f"profile_continuum_lam={lam:g}.csv")
+        a.plot(pp["r"], pp["stress"], "-", color=colors[lam], label=rf"$\lambda$ = {lam:g}")
+        a.plot(pc["r"], pc["pressure"], "--", color=colors[lam])
+    a.set(xlabel="r", ylabel=r"$\langle\sigma_n\rangle$ (solid), $p$ (dashed)", title="(A)")
+    a.legend(fontsize=8)
+
+    a = ax[0, 1]
+    for lam, path in _lam_files(data, "radius_particles").items():
+        c = colors.get(lam)
+        if c is None:
+            continue
+        hp = A.read_csv(path)
+        hc = A.read_csv(data / f"radius_continuum_lam={lam:g}.csv")
+        a.plot(hp["t"], hp["radius"], "-", color=c, label=rf"$\lambda$ = {lam:g}")
+        a.plot(hc["t"], hc["radius"], "--", color=c)
+    a.set(xlabel="t", ylabel="R(t)", yscale="log", title="(B) particles solid, continuum dashed")
+    a.legend(fontsize=8)
+
+    pos = summary["lam"] > 0
+    lam = summary["lam"][pos]
+    a = ax[1, 0]
+    for key, style, label in (("max_stress_particles", "o", "particles"),
+                              ("max_pressure_continuum", "s", "continuum"),
+                              ("p0_exact", "k--", r"analytic $p(0)$")):
+        y = summary[key][pos]
+        try:
+            expo, _ = A.power_law_fit(lam, y)
+            label = f"{label} (slope {expo:.2f})"
+        except ValueError:
+            pass
+        a.plot(lam, y, style, mfc="none", label=label)
+    a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel="max stress", title="(C)")
+    a.legend(fontsize=8)
+
+    a = ax[1, 1]
+    a.plot(lam, summary["slope_particles"][pos], "o", mfc="none", label="particles")
+    a.plot(lam, summary["slope_continuum"][pos], "s", mfc="none", label="continuum")
+    a.plot(lam, summary["slope_exact"][pos], "k:", label=r"disc $4cR$ at final $R$")
+    lg = np.logspace(np.log10(lam.min()), np.log10(lam.max()), 50)
+    a.plot(lg, np.sqrt(2 / lg), "k--", label=r"$(2/\lambda)^{1/2}$")
+    a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel=r"$dR/dt$ at $t_f$",
+          title="(D)")
+    a.legend(fontsize=8)
+    for a in fig.axes:
+        if a.get_xscale() == "log":
+            a.xaxis.set_minor_formatter(NullFormatter())
+    fig.tight_layout()
+    return save_figure(fig, out / "fig3")
+
+
+if __name__ == "__main__":
+    import argparse
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--scale", default="smoke", choices=("smoke", "paper"))
+    p.add_argument("--out", default=None)
+    p.add_argument("--from-data", action="store_true")
+    args = p.parse_args()
+    out = Path(args.out or f"runs/case-fig3-{args.scale}")
+    data = Path(__file__).parent / "data" / "fig3" if args.from_data else compute(args.scale, out)
+    print(plot(data, out))
