@@ -1,0 +1,154 @@
+"""Fig 4 of the paper: dynamics of size inhomogeneity (the rings).
+
+(A) radially averaged particle length <l_n> in equal-area annuli at the final time, with a
+    one-standard-deviation band, for the three lam of Fig 2;
+(B) ring wavelength (distance between the last two peaks of the radial mean-length profile,
+    cases.analysis.ring_wavelength) against time: continuum (lines) and particles (open circles);
+(C) final wavelength against lam for both models and the converged 1D radial reference
+    (continuum.radial, same peak detector), with the lam^(-1/2) law and fitted exponents.
+
+Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3}; about a minute on 2 cores, runs shared with
+the other cases through a common ``runs`` folder) or "paper" (radius 150, lam in
+{1e-4, 1e-3, 1e-2} and the scaling values of cases.sweep.SCALES; hours). ``compute`` writes the
+CSVs behind every curve to ``out/data``; ``plot`` draws from those CSVs only.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from cases import analysis as A
+from cases.sweep import engine_runs, scale_config
+
+__all__ = ["compute", "reduce", "plot", "runs_needed", "exact_wavelength"]
+
+
+def runs_needed(scale: str) -> tuple[list[float], list[tuple[str, float]]]:
+    """(lam values, (engine, lam) runs) at ``scale``."""
+    cfg = scale_config(scale)
+    lams = sorted({*cfg["lams"], *cfg["scaling_lams"]})
+    return lams, [(e, lam) for lam in lams for e in ("continuum", "particles")]
+
+
+def exact_wavelength(lam: float, radius: float, n: int = 8001) -> float:
+    """Wavelength of the 1D radial reference lbar(r) at colony radius R (same peak detector)."""
+    from continuum import radial
+
+    r = np.linspace(0.0, radius, n)
+    return A.ring_wavelength(r, radial.mean_length_profile(lam, r, radius=radius))
+
+
+def compute(scale: str = "smoke", out: str | Path = "runs/case-fig4-smoke",
+            scheduler: str | None = None, n_workers: int = 2,
+            runs: str | Path | None = None) -> Path:
+    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data."""
+    out = Path(out)
+    _, needed = runs_needed(scale)
+    folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
+                          scheduler=scheduler, n_workers=n_workers)
+    return reduce(folders, out / "data", list(scale_config(scale)["lams"]))
+
+
+def reduce(folders: dict[tuple[str, float], Path], data: Path,
+           profile_lams: list[float]) -> Path:
+    """Reduce run folders {(engine, lam): folder} to the CSVs of the figure in ``data``."""
+    data = Path(data)
+    lams = sorted({lam for _, lam in folders})
+    rows = {k: [] for k in ("lam", "radius_continuum", "radius_particles",
+                            "wavelength_continuum", "wavelength_particles", "wavelength_exact")}
+    for lam in lams:
+        wc = A.wavelength_series(folders["continuum", lam], "continuum")
+        wp = A.wavelength_series(folders["particles", lam], "particles")
+        if lam in profile_lams:
+            A.write_csv(data / f"wavelength_continuum_lam={lam:g}.csv", wc)
+            A.write_csv(data / f"wavelength_particles_lam={lam:g}.csv", A.thin_rows(wp))
+            pp = A.final_particle_profile(folders["particles", lam], growth_window=0.0)
+            A.write_csv(data / f"profile_particles_lam={lam:g}.csv", pp)
+        rows["lam"].append(lam)
+        rows["radius_continuum"].append(float(wc["radius"][-1]))
+        rows["radius_particles"].append(float(wp["radius"][-1]))
+        rows["wavelength_continuum"].append(float(wc["wavelength"][-1]))
+        rows["wavelength_particles"].append(float(wp["wavelength"][-1]))
+        rows["wavelength_exact"].append(exact_wavelength(lam, float(wc["radius"][-1])))
+    A.write_csv(data / "summary.csv", rows)
+    return data
+
+
+def _lams(data: Path, prefix: str) -> list[float]:
+    return sorted(float(p.stem.split("lam=")[1]) for p in data.glob(f"{prefix}_lam=*.csv"))
+
+
+def plot(data: str | Path, out: str | Path) -> list[Path]:
+    """Draw Fig 4 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import NullFormatter
+
+    from cases.draw import save_figure
+
+    data, out = Path(data), Path(out)
+    fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
+    lams = _lams(data, "profile_particles")
+    colors = {lam: plt.cm.viridis(i / max(1, len(lams))) for i, lam in enumerate(lams)}
+
+    a = ax[0]
+    for lam in lams:
+        p = A.read_csv(data / f"profile_particles_lam={lam:g}.csv")
+        ok = p["count"] > 0
+        r, m, s = p["r"][ok], p["mean_length"][ok], p["mean_length_std"][ok]
+        a.plot(r, m, color=colors[lam], label=rf"$\lambda$ = {lam:g}")
+        a.fill_between(r, m - s, m + s, color=colors[lam], alpha=0.2, lw=0)
+    a.set(xlabel="r", ylabel=r"$\langle \ell_n \rangle$", title="(A) particles, final time")
+    a.legend(fontsize=8)
+
+    a = ax[1]
+    for lam in _lams(data, "wavelength_continuum"):
+        c = colors.get(lam, "k")
+        wc = A.read_csv(data / f"wavelength_continuum_lam={lam:g}.csv")
+        a.plot(wc["t"], wc["wavelength"], "-", color=c, label=rf"$\lambda$ = {lam:g}")
+        wp_path = data / f"wavelength_particles_lam={lam:g}.csv"
+        if wp_path.exists():
+            wp = A.read_csv(wp_path)
+            a.plot(wp["t"], wp["wavelength"], "o", color=c, mfc="none", ms=3)
+    a.set(xlabel="t", ylabel="wavelength", yscale="log",
+          title="(B) continuum lines, particles circles")
+    a.legend(fontsize=8)
+
+    a = ax[2]
+    s = A.read_csv(data / "summary.csv")
+    for key, style, label in (("wavelength_particles", "o", "particles"),
+                              ("wavelength_continuum", "s", "continuum"),
+                              ("wavelength_exact", "k.", "radial reference")):
+        try:
+            expo, _ = A.power_law_fit(s["lam"], s[key])
+            label = f"{label} (slope {expo:.2f})"
+        except ValueError:
+            pass
+        a.plot(s["lam"], s[key], style, mfc="none", label=label)
+    ok = np.isfinite(s["wavelength_exact"]) & (s["wavelength_exact"] > 0)
+    if ok.any():
+        C = np.exp(np.mean(np.log(s["wavelength_exact"][ok] * np.sqrt(s["lam"][ok]))))
+        lg = np.logspace(np.log10(s["lam"].min()), np.log10(s["lam"].max()), 50)
+        a.plot(lg, C / np.sqrt(lg), "k--", lw=0.8, label=r"$\propto\lambda^{-1/2}$")
+    a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel="final wavelength",
+          title="(C)")
+    a.legend(fontsize=8)
+    for a in fig.axes:
+        if a.get_xscale() == "log":
+            a.xaxis.set_minor_formatter(NullFormatter())
+    fig.tight_layout()
+    return save_figure(fig, out / "fig4")
+
+
+if __name__ == "__main__":
+    import argparse
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    p.add_argument("--scale", default="smoke", choices=("smoke", "paper"))
+    p.add_argument("--out", default=None)
+    p.add_argument("--from-data", action="store_true")
+    args = p.parse_args()
+    out = Path(args.out or f"runs/case-fig4-{args.scale}")
+    data = Path(__file__).parent / "data" / "fig4" if args.from_data else compute(args.scale, out)
+    print(plot(data, out))
