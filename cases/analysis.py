@@ -16,6 +16,7 @@ continuum solver (samples = mesh nodes, weighted by their lumped areas) are redu
 
 from __future__ import annotations
 
+import gzip
 import math
 import os
 from collections.abc import Mapping
@@ -451,11 +452,12 @@ def radial_speed(lam: float, R: float) -> float:
 
 
 def read_csv(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Read a CSV with a header row into float columns {name: array}."""
+    """Read a CSV (or gzipped ``.csv.gz``) with a header row into float columns {name: array}."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such CSV file: {path}")
-    with open(path) as f:
+    opener = gzip.open if path.suffix == ".gz" else open
+    with opener(path, "rt") as f:
         header = f.readline().strip()
     names = [h.strip() for h in header.split(",")]
     data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)

@@ -77,11 +77,13 @@ def draw_particles(
     b: float = 0.5,
     clim: tuple[float, float] = LENGTH_LIMITS,
     n_cap: int = 6,
+    rasterized: bool | None = None,
 ) -> PolyCollection:
     """Draw particles as sphero-cylinders of diameter b coloured by `color_by` (default: length).
 
     Colour limits `clim` = [1, 2] (birth and division length) as in the paper's Fig 2.
-    The axes get equal aspect and limits that hold every particle.
+    The axes get equal aspect and limits that hold every particle. `rasterized` (default: when
+    there are more than 2000 particles) keeps vector outputs (PDF) small.
 
     Returns
     -------
@@ -95,6 +97,7 @@ def draw_particles(
     coll = PolyCollection(verts, array=c, cmap=cmap, edgecolors="none", linewidths=0,
                           antialiaseds=False)
     coll.set_clim(*clim)
+    coll.set_rasterized(verts.shape[0] > 2000 if rasterized is None else rasterized)
     ax.add_collection(coll)
     if verts.shape[0]:
         lo, hi = verts.reshape(-1, 2).min(0), verts.reshape(-1, 2).max(0)
@@ -112,6 +115,7 @@ def draw_field(
     ax: Axes | None = None,
     cmap: str = DEFAULT_CMAP,
     clim: tuple[float, float] = LENGTH_LIMITS,
+    rasterized: bool = True,
 ):
     """Draw a nodal (P1) field on a triangle mesh, Gouraud-shaded (e.g. the mean length lbar).
 
@@ -138,7 +142,7 @@ def draw_field(
     if triangles.size and (triangles.min() < 0 or triangles.max() >= points.shape[0]):
         raise ValueError("triangles index points out of range")
     coll = ax.tripcolor(points[:, 0], points[:, 1], triangles, values, shading="gouraud",
-                        cmap=cmap, vmin=clim[0], vmax=clim[1])
+                        cmap=cmap, vmin=clim[0], vmax=clim[1], rasterized=rasterized)
     ax.set_aspect("equal")
     return coll
 
