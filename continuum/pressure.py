@@ -143,7 +143,9 @@ class PressureSolver:
     max_newton : int
         Iteration limit; exceeding it raises PressureDivergence.
     krylov_rtol : float
-        Relative tolerance of each preconditioned CG solve (the Newton step).
+        Smallest relative tolerance of a CG solve. Inexact Newton: the step J delta = -F is
+        solved to the relative tolerance max(krylov_rtol, min(0.1, 0.3 rtol ||b|| / ||F||)),
+        just enough for the next residual to meet ``rtol``.
     reuse_factor : int
         Rebuild the AMG hierarchy when CG needs more than this many iterations.
     """
@@ -151,9 +153,9 @@ class PressureSolver:
     def __init__(
         self,
         lam: float,
-        rtol: float = 1e-10,
+        rtol: float = 1e-8,
         max_newton: int = 30,
-        krylov_rtol: float = 1e-8,
+        krylov_rtol: float = 1e-10,
         reuse_factor: int = 25,
     ):
         if not np.isfinite(lam):
@@ -172,7 +174,7 @@ class PressureSolver:
         self.assembler = P1Assembler(tris, n_nodes, n_boundary)
         self._amg = None
 
-    def _krylov(self, A: sp.csr_matrix, rhs: np.ndarray, st: NewtonStats) -> np.ndarray:
+    def _krylov(self, A: sp.csr_matrix, rhs: np.ndarray, st: NewtonStats, tol: float) -> np.ndarray:
         import time
 
         if self._amg is None:
@@ -289,7 +291,8 @@ class PressureSolver:
             J = A.matrix(A.dirichlet(Jd))
             st.time_assembly += time.perf_counter() - t0
             try:
-                dp = self._krylov(J, -F, st)
+                tol = max(self.krylov_rtol, min(0.1, 0.3 * self.rtol * scale / res))
+                dp = self._krylov(J, -F, st, tol)
             except PressureDivergence as err:
                 raise PressureDivergence(f"Newton failed at {where}: {cause} ({err})") from None
             p += dp

@@ -1,0 +1,197 @@
+"""Velocity u = -grad p at the mesh nodes.
+
+Interior nodes: gradient recovery by area-weighted averaging of the (constant) P1 element
+gradients over the patch of elements around each node,
+
+    (grad f)_n = sum_{T containing n} |T| (grad f_h)|_T / sum_{T containing n} |T|,
+
+a linear operator ``GradientRecovery`` (two sparse N x N matrices) reused for the
+gradient-corrected transfer of material fields at remeshing. Its observed order on the
+exact disc solution is measured in tests/test_velocity.py (about 2 at interior nodes of
+these Delaunay meshes, 1 at nodes next to the boundary).
+
+Boundary nodes: since p = 0 on the boundary, grad p is normal there and u = -(dp/dn) n.
+The normal derivative comes from the consistent residual flux: at a boundary node i the FE
+residual r_i = sum_j K_ij p_j - b_i equals int_boundary (dp/dn) phi_i ds, so
+
+    u_i = -(r_i / L_i) n_i,    L_i = (|e_{i-1}| + |e_i|) / 2,
+
+L_i the lumped boundary length and n_i the unit normal of the two adjacent edges
+(length-weighted). This flux converges at second order in h (tests), unlike the averaged
+gradient at the boundary.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from continuum.pressure import P1Assembler
+
+__all__ = [
+    "GradientRecovery",
+    "recovered_gradient",
+    "spr_weights",
+    "boundary_normals",
+    "boundary_velocity",
+    "nodal_velocity",
+]
+
+
+def _inv3_row0(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First row of the inverse of a batch of symmetric 3x3 matrices (cofactors) and det."""
+    a, b, c = A[:, 0, 0], A[:, 0, 1], A[:, 0, 2]
+    d, e, f = A[:, 1, 1], A[:, 1, 2], A[:, 2, 2]
+    c0 = d * f - e * e
+    c1 = c * e - b * f
+    c2 = b * e - c * d
+    det = a * c0 + b * c1 + c * c2
+    return np.stack([c0, c1, c2], axis=1), det
+
+
+def spr_weights(tris: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """Weights w_(n,T) of superconvergent patch recovery (Zienkiewicz-Zhu) at every node.
+
+    At node n the linear polynomial a + b.(x - x_n) fitted by least squares to the element
+    gradients at the centroids c_T of the patch {T containing n} has the value
+    a = sum_T w_(n,T) (grad f_h)|_T with w_(n,T) = [A_n^{-1}]_0 . [1, c_T - x_n],
+    A_n = sum_T [1, c_T - x_n]^T [1, c_T - x_n]. Returned in the order of ``tris.ravel()``
+    (entry 3 T + k pairs node tris[T, k] with element T). Patches with a singular fit (fewer
+    than 3 non-collinear centroids) fall back to the area-weighted average.
+    """
+    n = len(points)
+    idx = tris.ravel()
+    cen = points[tris].mean(axis=1)
+    d = np.repeat(cen, 3, axis=0) - points[idx]
+    P = (np.ones(len(idx)), d[:, 0], d[:, 1])
+    A = np.empty((n, 3, 3))
+    for a in range(3):
+        for b in range(a, 3):
+            A[:, a, b] = A[:, b, a] = np.bincount(idx, weights=P[a] * P[b], minlength=n)
+    row, det = _inv3_row0(A)
+    h2 = A[:, 1, 1] + A[:, 2, 2]
+    ok = np.abs(det) > 1e-6 * A[:, 0, 0] * (h2 / np.maximum(A[:, 0, 0], 1)) ** 2
+    row[ok] /= det[ok, None]
+    w = row[idx, 0] + row[idx, 1] * P[1] + row[idx, 2] * P[2]
+    bad = ~ok[idx]
+    if np.any(bad):
+        x = points[tris]
+        area = 0.5 * np.abs(
+            (x[:, 1, 0] - x[:, 0, 0]) * (x[:, 2, 1] - x[:, 0, 1])
+            - (x[:, 1, 1] - x[:, 0, 1]) * (x[:, 2, 0] - x[:, 0, 0])
+        )
+        ar = np.repeat(area, 3)
+        patch = np.bincount(idx, weights=ar, minlength=n)
+        w[bad] = ar[bad] / patch[idx[bad]]
+    return w
+
+
+def recovered_gradient(
+    tris: np.ndarray,
+    area: np.ndarray,
+    grads: np.ndarray,
+    f: np.ndarray,
+    points: np.ndarray | None = None,
+) -> np.ndarray:
+    """Recovered nodal gradient of the P1 field f, (N, 2).
+
+    With ``points``: superconvergent patch recovery (``spr_weights``); without: the
+    area-weighted patch average sum |T| grad f_h|_T / sum |T|.
+
+    Parameters
+    ----------
+    tris : (M, 3) triangles; area : (M,) areas |T|; grads : (M, 3, 2) grad lambda_i;
+    f : (N,) nodal values; points : (N, 2) node positions (for SPR).
+    """
+    n = int(f.shape[0])
+    gT = np.einsum("mi,mid->md", f[tris], grads)
+    idx = tris.ravel()
+    if points is not None:
+        w = spr_weights(tris, points)
+        gx = np.bincount(idx, weights=w * np.repeat(gT[:, 0], 3), minlength=n)
+        gy = np.bincount(idx, weights=w * np.repeat(gT[:, 1], 3), minlength=n)
+        return np.column_stack([gx, gy])
+    gT = gT * area[:, None]
+    patch = np.bincount(idx, weights=np.repeat(area, 3), minlength=n)
+    gx = np.bincount(idx, weights=np.repeat(gT[:, 0], 3), minlength=n)
+    gy = np.bincount(idx, weights=np.repeat(gT[:, 1], 3), minlength=n)
+    return np.column_stack([gx, gy]) / patch[:, None]
+
+
+class GradientRecovery:
+    """Sparse operators Dx, Dy with (Dx f, Dy f) the recovered nodal gradient of f.
+
+    Parameters
+    ----------
+    assembler : P1Assembler
+        Topology (pattern and scatter map are reused).
+    points : array (N, 2)
+        Node positions.
+    """
+
+    def __init__(self, assembler: P1Assembler, points: np.ndarray):
+        A = assembler
+        area, grads = A.geometry(points)
+        patch = np.bincount(A.tris.ravel(), weights=np.repeat(area, 3), minlength=A.n)
+        mats = []
+        for d in range(2):
+            # entry (n, j) for n, j in T: |T| grad lambda_j / patch_n
+            w = area[:, None, None] * np.broadcast_to(grads[:, None, :, d], (len(area), 3, 3))
+            data = np.bincount(A.scatter, weights=w.ravel(), minlength=A.nnz)
+            M = A.matrix(data)
+            mats.append(sp.diags(1.0 / patch) @ M)
+        self.Dx, self.Dy = (m.tocsr() for m in mats)
+
+    def __call__(self, f: np.ndarray) -> np.ndarray:
+        """Recovered nodal gradient of the P1 field f, shape (N, 2) (or (N, 2, k) for f (N, k))."""
+        return np.stack([self.Dx @ f, self.Dy @ f], axis=1)
+
+
+def boundary_normals(boundary: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit outward node normals n_i and lumped lengths L_i of a counter-clockwise polygon.
+
+    n_i is the normalised sum of the outward edge normals times edge lengths of the edges
+    (i-1, i) and (i, i+1); L_i is half the sum of their lengths.
+    """
+    e = np.roll(boundary, -1, axis=0) - boundary  # edge i: x_i -> x_{i+1}
+    out = np.column_stack([e[:, 1], -e[:, 0]])  # |e| times outward normal (CCW)
+    nsum = out + np.roll(out, 1, axis=0)
+    n = nsum / np.linalg.norm(nsum, axis=1, keepdims=True)
+    lens = np.linalg.norm(e, axis=1)
+    L = 0.5 * (lens + np.roll(lens, 1))
+    return n, L
+
+
+def boundary_velocity(
+    residual: np.ndarray, boundary: np.ndarray, filter: bool = True
+) -> np.ndarray:
+    """Boundary velocity u_i = -(r_i / L_i) n_i from the consistent residual flux r_i.
+
+    With ``filter`` the nodal fluxes are first smoothed by r_i <- (r_{i-1} + 2 r_i + r_{i+1})/4,
+    which keeps their sum (the area growth rate) exactly, changes a smooth flux by O(h^2), and
+    damps the node-to-node noise that the irregular first element layer puts on the flux
+    (measured: 2-3x smaller RMS error).
+    """
+    n, L = boundary_normals(boundary)
+    k = len(boundary)
+    r = residual[:k]
+    if filter:
+        r = 0.25 * (np.roll(r, 1) + 2.0 * r + np.roll(r, -1))
+    return -(r / L)[:, None] * n
+
+
+def nodal_velocity(
+    assembler: P1Assembler, points: np.ndarray, p: np.ndarray, residual: np.ndarray
+) -> np.ndarray:
+    """u = -grad p at every node: recovered inside, residual flux on the boundary, (N, 2).
+
+    Parameters
+    ----------
+    assembler : topology; points : (N, 2) nodes; p : (N,) pressure;
+    residual : (N,) FE residual K p - b (its boundary entries are the consistent flux).
+    """
+    n_boundary = assembler.nb
+    area, grads = assembler.geometry(points)
+    u = -recovered_gradient(assembler.tris, area, grads, p, points)
+    u[:n_boundary] = boundary_velocity(residual, points[:n_boundary])
+    return u
