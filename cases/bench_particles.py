@@ -1,0 +1,138 @@
+"""Benchmark of the particle engine: cost per step against colony size.
+
+Grows one colony at lam = 1e-2 from one cell and saves its state (npz, not committed) when it
+first reaches each target size N (default 1e3, 3e3, 1e4; larger sizes continue from the largest
+saved state instead of regrowing).  From each saved state it then times ``--steps`` steps of
+``particles.simulation.step`` and reports medians of seconds per step, solver iterations per step
+(re-solve passes included), contacts, the split of the time between neighbour search, geometry,
+solver and update, and the exponents fitted to them (np.polyfit of log y against log N).
+
+    python -m cases.bench_particles [--sizes 1000 3000 10000] [--solver bbpgd] [--steps 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from pathlib import Path
+
+import numpy as np
+
+from particles.growth import divide
+from particles.simulation import SOLVERS, ParticleConfig, step
+from particles.state import ParticleState, colony_radius
+
+DEFAULT_FOLDER = Path("runs/bench_particles")
+
+
+def _save(path: Path, state: ParticleState, t: float, warm, rng) -> None:
+    np.savez(path, warm_keys=warm[0], warm_gamma=warm[1], t=t, next_id=state.next_id,
+             rng=json.dumps(rng.bit_generator.state), **state.arrays())
+
+
+def load_state(path: Path):
+    """(state, t, warm, rng) saved by :func:`grow_states`."""
+    with np.load(path) as z:
+        st = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
+                           int(z["next_id"]))
+        warm = (z["warm_keys"], z["warm_gamma"])
+        rng = np.random.default_rng()
+        rng.bit_generator.state = json.loads(str(z["rng"]))
+        return st, float(z["t"]), warm, rng
+
+
+def grow_states(config: ParticleConfig, sizes: list[int], folder: Path) -> list[Path]:
+    """Saved states of one colony at the first step where N >= each size (reusing saved ones)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    tag = f"lam{config.lam:g}_dt{config.dt:g}_seed{config.seed}"
+    paths = [folder / f"state_{tag}_N{n}.npz" for n in sizes]
+    have = [p.exists() for p in paths]
+    if all(have):
+        return paths
+    start = max((k for k in range(len(sizes)) if have[k]), default=-1)
+    if start >= 0:
+        state, t, warm, rng = load_state(paths[start])
+    else:
+        state = ParticleState.from_arrays([0.0], [0.0], [0.0], [1.0])
+        t, warm = 0.0, (np.zeros(0, dtype=np.int64), np.zeros(0))
+        rng = np.random.default_rng(config.seed)
+    t0 = time.perf_counter()
+    for k in range(start + 1, len(sizes)):
+        while state.n < sizes[k]:
+            _, warm = step(state, config, config.dt, warm)
+            divide(state, rng, config.division_noise)
+            t += config.dt
+        _save(paths[k], state, t, warm, rng)
+        print(f"grown N={state.n} t={t:.2f} R={colony_radius(state):.1f} "
+              f"({time.perf_counter() - t0:.0f} s so far)", flush=True)
+    return paths
+
+
+def measure(path: Path, config: ParticleConfig, steps: int) -> dict:
+    """Median cost per step over ``steps`` steps from a saved state."""
+    state, t, warm, rng = load_state(path)
+    n0 = state.n
+    rows = []
+    for _ in range(steps):
+        timers: dict = {}
+        t0 = time.perf_counter()
+        info, warm = step(state, config, config.dt, warm, timers)
+        wall = time.perf_counter() - t0
+        divide(state, rng, config.division_noise)
+        rows.append({"seconds": wall, "iterations": info["iterations"],
+                     "contacts": info["n_contacts"], "passes": info["passes"], **timers})
+    med = {k: float(np.median([r.get(k, 0.0) for r in rows]))
+           for k in ("seconds", "iterations", "contacts", "passes", "neighbours", "geometry",
+                     "solver", "update")}
+    tot = sum(med[k] for k in ("neighbours", "geometry", "solver", "update"))
+    for k in ("neighbours", "geometry", "solver", "update"):
+        med[k + "_frac"] = med[k] / tot if tot > 0 else 0.0
+    med["N"] = n0
+    med["ns_per_contact_iteration"] = 1e9 * med["solver"] / max(1.0, med["contacts"]
+                                                                 * max(1.0, med["iterations"]))
+    return med
+
+
+def fit_exponent(ns, ys) -> float:
+    """Slope of log y against log N."""
+    return float(np.polyfit(np.log(ns), np.log(ys), 1)[0])
+
+
+def main(argv: list[str] | None = None) -> list[dict]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 3000, 10000])
+    ap.add_argument("--lam", type=float, default=1e-2)
+    ap.add_argument("--dt", type=float, default=None)
+    ap.add_argument("--solver", default="bbpgd", choices=sorted(SOLVERS))
+    ap.add_argument("--steps", type=int, default=10)
+    ap.add_argument("--folder", type=Path, default=DEFAULT_FOLDER)
+    a = ap.parse_args(argv)
+    cfg = ParticleConfig(lam=a.lam, time=1e9, solver=a.solver)
+    if a.dt is not None:
+        cfg.dt = a.dt
+    cfg.validate()
+    paths = grow_states(cfg, sorted(a.sizes), a.folder)
+    res = [measure(p, cfg, a.steps) for p in paths]
+    print(f"\nsolver={a.solver} lam={a.lam:g} dt={cfg.dt:g} tol={cfg.tol:g} "
+          f"(medians over {a.steps} steps)")
+    print("| N | contacts | iterations/step | s/step | ns/(contact*it) | neighbours | geometry "
+          "| solver | update |")
+    print("|---|---|---|---|---|---|---|---|---|")
+    for r in res:
+        print(f"| {r['N']} | {r['contacts']:.0f} | {r['iterations']:.0f} | {r['seconds']:.4f} "
+              f"| {r['ns_per_contact_iteration']:.1f} | {100 * r['neighbours_frac']:.1f}% "
+              f"| {100 * r['geometry_frac']:.1f}% | {100 * r['solver_frac']:.1f}% "
+              f"| {100 * r['update_frac']:.1f}% |")
+    if len(res) >= 2:
+        ns = [r["N"] for r in res]
+        print("fitted exponents vs N: " + ", ".join(
+            f"{k} {fit_exponent(ns, [max(r[k], 1e-12) for r in res]):.2f}"
+            for k in ("contacts", "iterations", "seconds", "neighbours", "geometry")))
+    out = a.folder / f"bench_{a.solver}_lam{a.lam:g}.json"
+    out.write_text(json.dumps(res, indent=1))
+    return res
+
+
+if __name__ == "__main__":
+    main()
