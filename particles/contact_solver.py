@@ -3,7 +3,7 @@
 One time step of model.md is the convex problem over the contact forces gamma >= 0
 
     minimise  E(gamma) = gamma . Phi + (dt/2) gamma . (D^T M D) gamma + sum_n l_n H(sigma_n),
-    sigma = G gamma,   H'(sigma) = -(exp(dt g(sigma)) - 1) / dt ... (times dt, see below)
+    sigma = G gamma,   H'(s) = -(exp(dt exp(-lam s)) - 1),
 
 whose gradient is the linearised gap at t + dt,
 
