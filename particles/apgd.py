@@ -33,8 +33,9 @@ the best iterate.
 
 Accelerated methods need O(sqrt(kappa)) iterations where steepest descent needs O(kappa); with
 kappa of the scaled contact operator growing like N (a discrete pressure Poisson problem at
-large N), APGD iterations grow like N^(1/2) at best.  The residual is evaluated exactly at every
-iterate x_{k+1} (one extra gradient per iteration: two gradient evaluations per iteration).
+large N), APGD iterations grow like N^(1/2) at best.  One gradient evaluation per iteration,
+as BBPGD: the residual is tested at the extrapolated point y_k, whose gradient the step needs
+anyway, and y_k is accepted only when it is feasible (y_k >= 0).
 """
 
 from __future__ import annotations
@@ -141,8 +142,10 @@ def lipschitz_kernel(ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, akk, iter
     """Power iteration for the largest eigenvalue of P^(1/2) H P^(1/2), P = diag(1/a_kk)."""
     m = ci.shape[0]
     n = mt.shape[0]
-    np.random.seed(seed)
-    v = np.random.random(m) + 0.5
+    v = np.empty(m)
+    for k in range(m):
+        # deterministic start with components along every eigenvector (almost surely)
+        v[k] = 1.0 + 0.5 * np.sin(1.0 + k * 0.7548776662 + seed)
     w = np.empty(m)
     u = np.empty(m)
     vx = np.empty(n)
@@ -168,11 +171,13 @@ def lipschitz_kernel(ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, akk, iter
 @njit(cache=True)
 def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
                 akk, step, tol, maxiter, hist):
-    """APGD iterations in place on gam (module docstring).
+    """APGD iterations in place on gam (module docstring); one gradient per iteration.
 
-    Returns the number of iterations (>= 0) when res <= tol, -1 after maxiter iterations.
-    hist[k] is the residual after iteration k (hist[0]: initial guess).  On return, gam holds
-    the last iterate (success) or the best one seen (failure).
+    Iteration k evaluates q(y_k) once; it serves the residual test of y_k (accepted when
+    y_k >= 0 and res(y_k) <= tol, so the returned forces are feasible and their residual is
+    exact), the projected step and the restart test.  Returns the number of iterations when
+    res <= tol, -1 after maxiter iterations.  hist[k] is res(y_k) (hist[0]: initial guess).
+    On return gam holds the accepted iterate (success) or the best one seen (failure).
     """
     n = mt.shape[0]
     m = gam.shape[0]
@@ -181,66 +186,62 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
     om = np.empty(n)
     sig = np.empty(n)
     x0 = np.empty(m)
+    x1 = np.empty(m)
     y = np.empty(m)
     qy = np.empty(m)
-    qx = np.empty(m)
     best = np.empty(m)
     for k in range(m):
         if gam[k] < 0.0:
             gam[k] = 0.0
-    gap_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-               vx, vy, om, sig, qx)
-    res = residual_kernel(gam, qx, akk)
-    hist[0] = res
-    if res <= tol:
-        return 0
-    best_res = res
-    best[:] = gam
     x0[:] = gam
     y[:] = gam
-    qy[:] = qx
+    best[:] = gam
+    best_res = np.inf
     theta = 1.0
     t = step
-    for it in range(1, maxiter + 1):
+    for it in range(0, maxiter + 1):
+        gap_kernel(y, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+                   vx, vy, om, sig, qy)
+        res = residual_kernel(y, qy, akk)
+        hist[it] = res
+        feasible = True
+        for k in range(m):
+            if y[k] < 0.0:
+                feasible = False
+                break
+        if feasible:
+            if res <= tol:
+                gam[:] = y
+                return it
+            if res < best_res:
+                best_res = res
+                best[:] = y
+            elif res > 1e3 * best_res:
+                # the Lipschitz estimate was too small: halve the step, restart from the best
+                t *= 0.5
+                x0[:] = best
+                y[:] = best
+                theta = 1.0
+                continue
+        if it == maxiter:
+            break
         # projected step from y in the Jacobi metric; restart test q(y).(x1 - x0) > 0
         dot = 0.0
         for k in range(m):
             v = y[k] - t * qy[k] / akk[k]
             v = v if v > 0.0 else 0.0
             dot += qy[k] * (v - x0[k])
-            gam[k] = v
-        gap_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-                   vx, vy, om, sig, qx)
-        res = residual_kernel(gam, qx, akk)
-        hist[it] = res
-        if res <= tol:
-            return it
-        if res < best_res:
-            best_res = res
-            best[:] = gam
-        elif res > 1e3 * best_res:
-            # the Lipschitz estimate was too small: halve the step, restart from the best
-            t *= 0.5
-            gam[:] = best
-            x0[:] = best
-            y[:] = best
-            theta = 1.0
-            gap_kernel(y, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
-                       growth, vx, vy, om, sig, qy)
-            continue
+            x1[k] = v
         if dot > 0.0:
             theta = 1.0
-            y[:] = gam
-            qy[:] = qx
+            y[:] = x1
         else:
             th1 = 0.5 * theta * (np.sqrt(theta * theta + 4.0) - theta)
             beta = theta * (1.0 - theta) / (theta * theta + th1)
             theta = th1
             for k in range(m):
-                y[k] = gam[k] + beta * (gam[k] - x0[k])
-            gap_kernel(y, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
-                       growth, vx, vy, om, sig, qy)
-        x0[:] = gam
+                y[k] = x1[k] + beta * (x1[k] - x0[k])
+        x0[:] = x1
     gam[:] = best
     return -1
 
@@ -300,7 +301,7 @@ def solve_contacts_apgd(
     tol : float
         Stop when res = max_k |min(a_kk gamma_k, q_k)| <= tol (a gap).
     maxiter : int
-        Iteration cap (each iteration: two gradient evaluations).
+        Iteration cap (each iteration: one gradient evaluation).
     growth : bool
         False drops the growth term (overlap-removal re-solves).
     lipschitz_margin : float

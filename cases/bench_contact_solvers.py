@@ -1,0 +1,237 @@
+"""Benchmark of the per-step contact solvers on the same saved states (issue 4).
+
+For each state the growth step of model.md is solved at the same tolerance by every solver:
+
+- cold: from gamma0 = 0 on the state's contacts (gap <= margin);
+- warm: after one step of the engine's update with the reference solution (move by
+  dt M D gamma, grow l <- l exp(dt exp(-lam sigma))), contacts re-detected and the new solve
+  warm-started from the previous forces matched by contact identity (particle ids + endpoint
+  code), as the engine does.
+
+States (``--sizes``, target particle numbers):
+
+- ``synthetic`` (default): a dense disc of rods made by :func:`ring_packing`: concentric rings
+  of tangential rods (random tip-to-tip lengths in [1, 1.9), seeded), end-to-end gaps and
+  ring-to-ring clearances of 1e-3 b-units jittered by +-50%, so no two rods overlap and the
+  colony is jammed under one growth step: growth along each ring pushes on the next ring out,
+  a 2D-coupled, pressure-like load path;
+- ``--grown FILE.npz`` (repeatable): saved engine states (arrays x, y, theta, length),
+  e.g. from ``particles.simulation.run(ParticleConfig(lam=1e-2, radius=R))``.
+
+Prints a table of medians over ``--repeat`` runs (iterations, gradient evaluations, seconds,
+final residual, max |sigma - sigma_ref|) and the fitted exponents of iterations and seconds in
+N, and writes the rows to ``--out`` (CSV).  Record ``uptime`` beside the timings: the machine
+may be shared.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import os
+import time
+from pathlib import Path
+
+import numpy as np
+
+from particles.apgd import solve_contacts_apgd
+from particles.contact_solver import linearised_gap, solve_contacts
+from particles.geometry import B, find_contacts, generalised_forces, loads
+from particles.neighbours import candidate_pairs
+
+SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1)}
+"""name -> (solver, gradient evaluations per iteration)."""
+
+
+def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 1.0,
+                 lmax: float = 1.9, r0: float = 3.0) -> tuple[np.ndarray, ...]:
+    """Dense non-overlapping disc of rods on concentric rings (module docstring).
+
+    Ring m has radius r_m (rod centre lines are chords of it); rods of segment length
+    L = l - b subtend 2 asin(L / (2 r)); consecutive rods are separated along the ring so
+    that their facing endpoints are b + g apart (g = gap * U(0.5, 1.5)); the leftover angle
+    of each ring is spread over its end gaps.  The next ring lies at
+    r_{m+1} = r_m + b + g + Lmax^2 / (8 r_m) (chord sagitta), so rods of adjacent rings
+    never overlap.  Rings are added until n_target rods are placed.
+
+    Returns
+    -------
+    x, y, theta, length : arrays
+    """
+    rng = np.random.default_rng(seed)
+    xs, ys, ts, ls = [], [], [], []
+    r = r0
+    count = 0
+    while count < n_target:
+        lengths, angles = [], []
+        used = 0.0
+        while True:
+            ln = rng.uniform(lmin, lmax)
+            seg = 2.0 * np.arcsin(min(1.0, (ln - B) / (2.0 * r)))
+            sep = 2.0 * np.arcsin(min(1.0, (B + gap * rng.uniform(0.5, 1.5)) / (2.0 * r)))
+            if used + seg + sep > 2.0 * np.pi:
+                break
+            lengths.append(ln)
+            angles.append((seg, sep))
+            used += seg + sep
+        if len(lengths) < 3:
+            r += B + gap + (lmax - B) ** 2 / (8.0 * r)
+            continue
+        extra = (2.0 * np.pi - used) / len(lengths)
+        phi = rng.uniform(0.0, 2.0 * np.pi)
+        for ln, (seg, sep) in zip(lengths, angles):
+            mid = phi + 0.5 * seg
+            rc = r * np.cos(0.5 * seg)
+            xs.append(rc * np.cos(mid))
+            ys.append(rc * np.sin(mid))
+            ts.append(mid + 0.5 * np.pi)
+            ls.append(ln)
+            phi += seg + sep + extra
+        count += len(lengths)
+        r += B + gap * rng.uniform(0.5, 1.5) + (lmax - B) ** 2 / (8.0 * r)
+    return np.array(xs), np.array(ys), np.array(ts), np.array(ls)
+
+
+def contacts_of(x, y, theta, length, margin):
+    """Contacts with gap <= margin (cell lists + geometry, as the engine)."""
+    pairs = candidate_pairs(x, y, length, margin)
+    return find_contacts(x, y, theta, length, pairs, margin)
+
+
+def residual(c, length, dt, lam, gamma) -> float:
+    """Projected residual max_k |min(a_kk gamma_k, q_k)| (contact_solver's definition)."""
+    ti = c.rix * c.ny - c.riy * c.nx
+    tj = c.rjx * c.ny - c.rjy * c.nx
+    akk = dt * (1 / length[c.i] + 1 / length[c.j] + 12 / length[c.i] ** 3 * ti**2
+                + 12 / length[c.j] ** 3 * tj**2)
+    q = linearised_gap(c, length, dt, lam, gamma)
+    return float(np.max(np.abs(np.minimum(akk * gamma, q))))
+
+
+def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):
+    """One engine update with forces gamma, then the next step's contacts and warm start."""
+    n = x.shape[0]
+    ids = np.arange(n, dtype=np.int64)
+    fx, fy, tz = generalised_forces(c, gamma, n)
+    sigma = loads(c, gamma, n)
+    x2 = x + dt * fx / length
+    y2 = y + dt * fy / length
+    th2 = theta + dt * 12.0 * tz / length**3
+    l2 = length * np.exp(dt * np.exp(-lam * sigma))
+    c2 = contacts_of(x2, y2, th2, l2, margin)
+    k1 = c.keys(ids)
+    k2 = c2.keys(ids)
+    order = np.argsort(k1)
+    pos = np.clip(np.searchsorted(k1[order], k2), 0, len(k1) - 1)
+    hit = k1[order][pos] == k2
+    g0 = np.zeros(len(c2))
+    g0[hit] = gamma[order[pos[hit]]]
+    return (x2, y2, th2, l2), c2, g0
+
+
+def measure(name, c, length, dt, lam, gamma0, tol, repeat):
+    """Median seconds and the (deterministic) iteration count of one solver."""
+    solver, per_it = SOLVERS[name]
+    secs = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        gamma, hist = solver(c, length, dt, lam, gamma0, tol, 1_000_000, True)
+        secs.append(time.perf_counter() - t0)
+    return gamma, len(hist) - 1, per_it * (len(hist) - 1), float(np.median(secs))
+
+
+def states(args):
+    for n in args.sizes:
+        t0 = time.perf_counter()
+        st = ring_packing(n, seed=args.seed)
+        yield f"rings{n}", st, time.perf_counter() - t0
+    for f in args.grown or []:
+        z = np.load(f)
+        yield Path(f).stem, (z["x"], z["y"], z["theta"], z["length"]), 0.0
+
+
+def main(argv=None) -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000],
+                   help="target particle numbers of synthetic ring packings")
+    p.add_argument("--grown", action="append", help="saved grown state (npz), repeatable")
+    p.add_argument("--tol", type=float, nargs="+", default=[1e-3, 1e-4])
+    p.add_argument("--lam", type=float, default=1e-2)
+    p.add_argument("--dt", type=float, default=0.005)
+    p.add_argument("--margin", type=float, default=0.1)
+    p.add_argument("--solvers", nargs="+", default=list(SOLVERS), choices=list(SOLVERS))
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--out", type=Path, default=None)
+    args = p.parse_args(argv)
+    # compile every kernel once on a tiny state so no timing includes Numba compilation
+    small = ring_packing(50, seed=1)
+    cs = contacts_of(*small, args.margin)
+    for name in args.solvers:
+        SOLVERS[name][0](cs, small[3], args.dt, args.lam, None, 1e-3)
+    print(f"# load: {os.getloadavg()}")
+    rows = []
+    hdr = (f"{'state':>14} {'N':>7} {'K':>7} {'start':>5} {'tol':>7} {'solver':>6} {'iters':>7} "
+           f"{'grads':>7} {'sec':>8} {'res':>9} {'dsig/sig':>9}")
+    print(hdr)
+    for label, st, tmake in states(args):
+        x, y, theta, length = st
+        n = x.shape[0]
+        c = contacts_of(x, y, theta, length, args.margin)
+        for tol in args.tol:
+            # reference for the warm start and the load comparison: BBPGD at tol / 100
+            gref, _ = solve_contacts(c, length, args.dt, args.lam, None, tol / 100, 10_000_000)
+            (x2, y2, th2, l2), c2, g0 = warm_problem(x, y, theta, length, c, gref, args.dt,
+                                                     args.lam, args.margin)
+            gref2, _ = solve_contacts(c2, l2, args.dt, args.lam, g0, tol / 100, 10_000_000)
+            for start, cc, ll, gg, ref in (("cold", c, length, None, gref),
+                                           ("warm", c2, l2, g0, gref2)):
+                sref = loads(cc, ref, n)
+                for name in args.solvers:
+                    gamma, its, grads, sec = measure(name, cc, ll, args.dt, args.lam, gg, tol,
+                                                     args.repeat)
+                    res = residual(cc, ll, args.dt, args.lam, gamma)
+                    dsig = float(np.abs(loads(cc, gamma, n) - sref).max() / sref.max())
+                    row = dict(state=label, N=n, K=len(cc), start=start, tol=tol, solver=name,
+                               iterations=its, gradients=grads, seconds=sec, residual=res,
+                               rel_load_error=dsig, load=os.getloadavg()[0])
+                    rows.append(row)
+                    print(f"{label:>14} {n:>7} {len(cc):>7} {start:>5} {tol:>7.0e} {name:>6} "
+                          f"{its:>7} {grads:>7} {sec:>8.3f} {res:>9.2e} {dsig:>9.2e}", flush=True)
+    _summary(rows, args.solvers)
+    if args.out is not None:
+        with open(args.out, "w", newline="") as fh:
+            w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+            w.writeheader()
+            w.writerows(rows)
+
+
+def _summary(rows, solvers) -> None:
+    """Ratios to BBPGD and fitted exponents d log(iterations) / d log N per series."""
+    print("# ratios (solver / bbpgd): gradient evaluations, seconds")
+    keyf = lambda r: (r["state"], r["start"], r["tol"])  # noqa: E731
+    by = {}
+    for r in rows:
+        by.setdefault(keyf(r), {})[r["solver"]] = r
+    for k, d in by.items():
+        if "bbpgd" in d:
+            for s in solvers:
+                if s != "bbpgd" and s in d:
+                    rg = d[s]["gradients"] / max(1, d["bbpgd"]["gradients"])
+                    rs = d[s]["seconds"] / d["bbpgd"]["seconds"]
+                    print(f"#   {k}: {s} grads x{rg:.2f} seconds x{rs:.2f}")
+    print("# exponents in N (synthetic states): iterations ~ N^a, seconds ~ N^b")
+    for s in solvers:
+        for start in ("cold", "warm"):
+            for tol in sorted({r["tol"] for r in rows}):
+                sel = [r for r in rows if r["solver"] == s and r["start"] == start
+                       and r["tol"] == tol and r["state"].startswith("rings")]
+                if len(sel) >= 2:
+                    ln = np.log([r["N"] for r in sel])
+                    a = np.polyfit(ln, np.log([max(1, r["iterations"]) for r in sel]), 1)[0]
+                    b = np.polyfit(ln, np.log([r["seconds"] for r in sel]), 1)[0]
+                    print(f"#   {s:>6} {start} tol={tol:g}: a={a:.2f} b={b:.2f}")
+
+
+if __name__ == "__main__":
+    main()
