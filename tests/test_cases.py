@@ -10,8 +10,8 @@
    on 2 cores). Asserted: the physics the smoke colonies must already show (continuum max
    pressure = analytic p(0) at the final radius, late speeds below the disc speed 4cR and
    ordered in lam, max stress decreasing with lam) and the stored numbers of SMOKE below
-   (measured with the engines of 2026-11-21 by this test's `compute` calls; loose tolerances
-   because the engines' resolution defaults may still change: rerun and update them then).
+   (measured with the engines of 2026-11-21 23:36 UTC by `fig3.compute("smoke", ...)`; the
+   engines' defaults may still change: rerun and update them then).
 """
 
 from __future__ import annotations
@@ -212,16 +212,16 @@ def test_crosscheck_reduce_and_table(fake_runs, tmp_path):
 # ------------------------------------------------------------------ smoke scale, real engines
 
 #: Stored smoke numbers (see module docstring): case -> column -> values in lam order.
+#: Continuum: deterministic, 3 %. Particles: 25 %, because the chaotic particle dynamics moves
+#: with any change of the engine's defaults (dt 0.005 -> 0.01 moved them by up to 17 %).
 SMOKE = {
     "fig3": {"lam": [0.0, 0.03, 0.1, 0.3],
-             "max_pressure_continuum": [56.272868, 29.051368, 16.226776, 8.2555391],
-             "slope_continuum": [5.31135, 4.2032561, 3.1246559, 2.1163835],
-             "max_stress_particles": [42.813282, 26.739048, 15.108881, 7.3993944],
-             "slope_particles": [4.2257419, 3.5622304, 2.7147557, 2.0403891]},
-    "fig4": {"lam": [0.03, 0.1, 0.3],
-             "wavelength_continuum": [9.2557438, 2.4690849, 1.8486855]},
+             "max_pressure_continuum": [56.25051, 29.047736, 16.227092, 8.2567921],
+             "slope_continuum": [5.3805097, 4.2159162, 3.1190749, 2.1178726],
+             "max_stress_particles": [49.896952, 26.814807, 13.69706, 7.8802539],
+             "slope_particles": [4.6801642, 3.5490631, 3.0684346, 1.8837051]},
 }
-RTOL = {"continuum": 0.03, "particles": 0.15}
+RTOL = {"continuum": 0.03, "particles": 0.25}
 
 
 def _engines_available() -> bool:
@@ -255,9 +255,18 @@ def test_smoke_case(case, smoke_runs, tmp_path):
         assert np.all(s["slope_continuum"] < s["slope_exact"])
         assert np.all(np.diff(s["slope_continuum"]) < 0)
         assert np.all(np.diff(s["max_stress_particles"]) < 0)
+        # discrete and continuum stresses differ (anisotropy) but not by more than 40 %
+        assert np.all(np.abs(s["max_stress_particles"] / s["p0_exact"] - 1) < 0.4)
+    if name == "fig4":
+        s = A.read_csv(data / "summary.csv")
+        # at lam = 0.1 the rings (spacing ~2.4) are resolved: 2D solver within 10 % of the 1D
+        # reference (same peak detector)
+        i = list(s["lam"]).index(0.1)
+        assert s["wavelength_continuum"][i] == pytest.approx(s["wavelength_exact"][i], rel=0.1)
     if name == "crosscheck":
         t = A.read_csv(data / "table.csv")
         assert np.all(t["max_rel_diff_R_hull_late"] < 0.15)
+        np.testing.assert_allclose(t["slope_particles"], t["slope_continuum"], rtol=0.25)
     for col, expected in SMOKE.get(name, {}).items():
         s = A.read_csv(data / "summary.csv")
         rtol = RTOL["particles" if col.endswith("particles") else "continuum"]
