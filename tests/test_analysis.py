@@ -217,3 +217,15 @@ def test_radial_solution_formulas():
     assert A.radial_max_pressure(0.0, 4.0) == 4.0
     # small lam tends to the lam = 0 solution
     assert A.radial_max_pressure(1e-9, 4.0) == pytest.approx(4.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("lam, R", [(1e-2, 150.0), (0.1, 30.0)])
+def test_wavelength_of_exact_radial_profile_matches_ring_spacing(lam, R):
+    """The 1D radial reference lbar(r) (a sawtooth dropping from 2 to 1 at each ring): the
+    distance between its last two peaks is the spacing of its last two rings within 3 %
+    (smoothing over b = 0.5 moves each peak inwards by a fraction of b)."""
+    radial = pytest.importorskip("continuum.radial")
+    r = np.linspace(0, R, 6001)
+    w = A.ring_wavelength(r, radial.mean_length_profile(lam, r, radius=R))
+    rings = radial.ring_radii(lam, radius=R)
+    assert w == pytest.approx(rings[-1] - rings[-2], rel=0.03)
