@@ -27,9 +27,11 @@ keeps the projection onto gamma >= 0 exact.
 Step t = 1/L with L an upper bound of the largest eigenvalue of the scaled Hessian
 P^(1/2) (dt D^T M D + G^T C G) P^(1/2), C = diag(c_max), c_max,n = l_n lam dt exp(dt) the
 largest curvature of the growth term over sigma >= 0 (so L holds for every gamma >= 0): L is
-estimated by power iteration and enlarged by ``lipschitz_margin``; should the residual still
-grow by 1e3 over its best value (an underestimated L), t is halved and the run restarted from
-the best iterate.
+estimated by power iteration and enlarged by ``lipschitz_margin``.  Safeguards against an
+underestimate: every iteration compares the curvature of E between the last two points,
+(q(y_k) - q(y_{k-1})) . (y_k - y_{k-1}) / |y_k - y_{k-1}|^2_{P^-1}, a lower bound of L, with 1/t;
+if it exceeds 1/t the step is shortened to 1 / (1.1 curvature) and the momentum dropped; a
+residual 1e3 times its best value halves t and returns to the best iterate.
 
 Accelerated methods need O(sqrt(kappa)) iterations where steepest descent needs O(kappa); with
 kappa of the scaled contact operator growing like N (a discrete pressure Poisson problem at
@@ -189,6 +191,8 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
     x1 = np.empty(m)
     y = np.empty(m)
     qy = np.empty(m)
+    yp = np.empty(m)
+    qp = np.empty(m)
     best = np.empty(m)
     for k in range(m):
         if gam[k] < 0.0:
@@ -216,23 +220,38 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
             if res < best_res:
                 best_res = res
                 best[:] = y
-            elif res > 1e3 * best_res:
-                # the Lipschitz estimate was too small: halve the step, restart from the best
-                t *= 0.5
-                x0[:] = best
-                y[:] = best
-                theta = 1.0
-                continue
         if it == maxiter:
             break
-        # projected step from y in the Jacobi metric; restart test q(y).(x1 - x0) > 0
+        # curvature of E between successive points, in the Jacobi metric: a lower bound of L;
+        # a value above 1/t proves the step too long: shorten it and drop the momentum
+        restart = False
+        if it > 0:
+            num = 0.0
+            den = 0.0
+            for k in range(m):
+                d = y[k] - yp[k]
+                num += (qy[k] - qp[k]) * d
+                den += akk[k] * d * d
+            if num * t > den * (1.0 + 1e-9) and den > 0.0:
+                t = den / (1.1 * num)
+                restart = True
+        if res > 1e3 * best_res:
+            # runaway although the curvature test passed: halve the step, back to the best
+            t *= 0.5
+            x0[:] = best
+            y[:] = best
+            theta = 1.0
+            continue
+        yp[:] = y
+        qp[:] = qy
+        # projected step from y in the Jacobi metric; gradient restart q(y).(x1 - x0) > 0
         dot = 0.0
         for k in range(m):
             v = y[k] - t * qy[k] / akk[k]
             v = v if v > 0.0 else 0.0
             dot += qy[k] * (v - x0[k])
             x1[k] = v
-        if dot > 0.0:
+        if dot > 0.0 or restart:
             theta = 1.0
             y[:] = x1
         else:
