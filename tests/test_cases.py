@@ -272,3 +272,14 @@ def test_smoke_case(case, smoke_runs, tmp_path):
         rtol = RTOL["particles" if col.endswith("particles") else "continuum"]
         np.testing.assert_allclose(s[col], expected, rtol=0 if col == "lam" else rtol,
                                    err_msg=f"{name}: {col}")
+
+
+@pytest.mark.parametrize("case", [fig2, fig3, fig4, crosscheck],
+                         ids=["fig2", "fig3", "fig4", "crosscheck"])
+def test_plot_from_committed_data(case, tmp_path):
+    """`colony case NAME --from-data`: every figure redraws from cases/data/NAME alone."""
+    name = case.__name__.split(".")[-1]
+    data = Path(case.__file__).parent / "data" / name
+    assert (data / "README.md").is_file()
+    paths = case.plot(data, tmp_path)
+    assert paths and all(p.stat().st_size > 1000 for p in paths)
