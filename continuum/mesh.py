@@ -237,7 +237,7 @@ def triangulate(
     seg = np.column_stack([np.arange(k), (np.arange(k) + 1) % k])
     graded = h_interior is not None and h_interior > 1.2 * h
     a_max = np.sqrt(3.0) / 4.0 * (h_interior if graded else h) ** 2
-    out = tr.triangulate({"vertices": boundary, "segments": seg}, f"pq{min_angle:g}a{a_max:.17g}YQ")
+    out = tr.triangulate({"vertices": boundary, "segments": seg}, f"pq{min_angle:g}a{a_max:.20f}YQ")
     if graded:
         from scipy.spatial import cKDTree
 

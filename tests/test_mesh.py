@@ -67,9 +67,11 @@ def test_resample_spacing_argument():
         M.resample_polygon(c, spacing=0.0)
 
 
-@pytest.mark.parametrize("h", [0.5, 0.25])
+@pytest.mark.parametrize("h", [0.5, 0.25, 0.02])
 def test_triangulate_quality_and_boundary(h):
-    bnd = M.resample_polygon(M.ellipse_polygon(3.0, 2.0, 200), spacing=h)
+    """Also at a small h, whose area limit Triangle must read in fixed-point notation."""
+    scale = 1.0 if h > 0.1 else 0.05
+    bnd = M.resample_polygon(M.ellipse_polygon(3.0 * scale, 2.0 * scale, 200), spacing=h)
     pts, tri = M.triangulate(bnd, h)
     np.testing.assert_allclose(pts[: len(bnd)], bnd)
     area = M.triangle_areas(pts, tri)

@@ -132,3 +132,21 @@ def test_inverted_element_raises():
     bad[len(bnd)] = bad[0] * 3  # drag an interior node far outside
     with pytest.raises(PressureDivergence, match="inverted"):
         S.solve(bad)
+
+
+def test_pcg_vcycle_match_direct_solve():
+    import pyamg
+    import scipy.sparse.linalg as sla
+
+    from continuum.pressure import pcg, vcycle
+
+    A = pyamg.gallery.poisson((40, 40), format="csr")
+    ml = pyamg.smoothed_aggregation_solver(A, symmetry="hermitian", max_coarse=50)
+    b = np.random.default_rng(1).random(A.shape[0])
+    np.testing.assert_allclose(vcycle(ml, b), ml.solve(b, maxiter=1, cycle="V", tol=1e-300))
+    x, its, ok = pcg(A, b, lambda r: vcycle(ml, r), 1e-10)
+    assert ok and its < 20
+    np.testing.assert_allclose(x, sla.spsolve(A.tocsc(), b), rtol=1e-8)
+    # a matrix that is not positive definite is reported, not silently "solved"
+    _, _, ok = pcg(-A, b, lambda r: r, 1e-10)
+    assert not ok
