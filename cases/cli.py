@@ -145,6 +145,8 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
                                edge_width=PARTICLE_EDGE_WIDTH, radius=colony.radius())
     write_csv(partial / "profile.csv", profile)
     _draw_particles(colony, partial / "colony")
+    for checkpoint in partial.glob("checkpoint*"):  # the run is complete: nothing to resume
+        checkpoint.unlink()
     publish(partial, out)
     return colony
 

@@ -30,8 +30,12 @@ def test_config_layers(tmp_path):
 
 @pytest.mark.parametrize(
     "toml,sets,match",
-    [(None, ["nope=1"], "unknown setting"), (None, ["n"], "KEY=VALUE"),
-     ("missing.toml", [], "not found"), (None, ["lam=-1"], "lam must be")],
+    [
+        (None, ["nope=1"], "unknown setting"),
+        (None, ["n"], "KEY=VALUE"),
+        ("missing.toml", [], "not found"),
+        (None, ["lam=-1"], "lam must be"),
+    ],
 )
 def test_config_errors(toml, sets, match):
     with pytest.raises(ValueError, match=match):
@@ -49,16 +53,20 @@ def test_stage_publish(tmp_path):
 
 
 def _colony(*args):
-    return subprocess.run([sys.executable, "-m", "cases.cli", *args],
-                          capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "cases.cli", *args], capture_output=True, text=True, timeout=300
+    )
 
 
-@pytest.mark.parametrize("args", [
-    ["continuum", "--lam", "nan", "--radius", "2"],
-    ["particles", "--lam", "0.01", "--radius", "inf"],
-    ["continuum", "--lam", "0.01", "--radius", "-1"],
-    ["continuum", "--lam", "0.01", "--radius", "2", "--config", "missing.toml"],
-])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["continuum", "--lam", "nan", "--radius", "2"],
+        ["particles", "--lam", "0.01", "--radius", "inf"],
+        ["continuum", "--lam", "0.01", "--radius", "-1"],
+        ["continuum", "--lam", "0.01", "--radius", "2", "--config", "missing.toml"],
+    ],
+)
 def test_bad_arguments_one_line_exit_2(args, tmp_path):
     res = _colony(*args, "--out", str(tmp_path / "o"))
     assert res.returncode == 2
@@ -70,3 +78,52 @@ def test_bad_arguments_one_line_exit_2(args, tmp_path):
 def test_argparse_errors_exit_2():
     res = _colony("continuum", "--lam", "0.1")  # neither --radius nor --time
     assert res.returncode == 2 and "Traceback" not in res.stderr
+
+
+def _header(path):
+    return path.read_text().splitlines()[0].split(",")
+
+
+def test_continuum_end_to_end(tmp_path):
+    out = tmp_path / "c"
+    res = _colony("continuum", "--lam", "1e-2", "--radius", "2", "--out", str(out), "--quiet")
+    assert res.returncode == 0, res.stderr
+    for name in (
+        "history.csv",
+        "profile.csv",
+        "boundary.csv",
+        "fields.pvd",
+        "config.json",
+        "mean_length.png",
+    ):
+        assert (out / name).is_file(), name
+    assert {"t", "radius", "area", "max_pressure"} <= set(_header(out / "history.csv"))
+    assert {"r", "mean_length", "pressure"} <= set(_header(out / "profile.csv"))
+    assert _header(out / "boundary.csv") == ["x", "y"]
+    assert not out.with_name("c.partial").exists()
+    # a second run into the same folder is refused, the first is untouched
+    res = _colony("continuum", "--lam", "1e-2", "--radius", "2", "--out", str(out), "--quiet")
+    assert res.returncode == 2 and "exists" in res.stderr
+
+
+def test_particles_end_to_end(tmp_path):
+    out = tmp_path / "p"
+    res = _colony(
+        "particles", "--lam", "1e-2", "--radius", "3", "--seed", "3", "--out", str(out), "--quiet"
+    )
+    assert res.returncode == 0, res.stderr
+    for name in (
+        "history.csv",
+        "profile.csv",
+        "particles.csv",
+        "trajectory.gsd",
+        "config.json",
+        "colony.png",
+    ):
+        assert (out / name).is_file(), name
+    assert {"t", "radius", "n_particles", "max_stress", "max_overlap", "iterations"} <= set(
+        _header(out / "history.csv")
+    )
+    assert {"r", "mean_length", "stress"} <= set(_header(out / "profile.csv"))
+    assert {"x", "y", "theta", "length", "stress"} <= set(_header(out / "particles.csv"))
+    assert not list(out.glob("checkpoint*"))
