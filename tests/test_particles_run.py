@@ -76,8 +76,10 @@ def test_outputs_and_checkpoint_resume(tmp_path):
         assert (full / name).read_bytes() == (part / name).read_bytes(), name
     for k in ("x", "y", "theta", "length", "stress"):
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
-    with gsd.hoomd.open(str(full / "trajectory.gsd")) as ta, \
-            gsd.hoomd.open(str(part / "trajectory.gsd")) as tb:
+    with (
+        gsd.hoomd.open(str(full / "trajectory.gsd")) as ta,
+        gsd.hoomd.open(str(part / "trajectory.gsd")) as tb,
+    ):
         nh = len(a.history)
         assert len(ta) == len(tb) == 1 + nh // 7 + (nh % 7 != 0)
         fa, fb = ta[-1], tb[-1]
@@ -85,8 +87,9 @@ def test_outputs_and_checkpoint_resume(tmp_path):
         np.testing.assert_allclose(fa.log["particles/length"], a.length.astype(np.float32))
         np.testing.assert_allclose(fa.log["particles/stress"], a.stress.astype(np.float32))
         q = fa.particles.orientation
-        np.testing.assert_allclose(2 * np.arctan2(q[:, 3], q[:, 0]),
-                                   np.angle(np.exp(1j * a.theta)), atol=1e-5)
+        np.testing.assert_allclose(
+            2 * np.arctan2(q[:, 3], q[:, 0]), np.angle(np.exp(1j * a.theta)), atol=1e-5
+        )
         assert fa.particles.N == a.n and fa.configuration.step == len(a.history)
     hist = np.genfromtxt(full / "history.csv", delimiter=",", names=True)
     assert hist.size == len(a.history)
@@ -110,12 +113,21 @@ def test_init_file(tmp_path):
         run(ParticleConfig(lam=0.0, time=0.1, init=str(bad)))
 
 
-@pytest.mark.parametrize("kw", [
-    dict(lam=-1.0, time=1.0), dict(lam=0.0), dict(lam=0.0, time=1.0, radius=2.0),
-    dict(lam=0.0, time=-1.0), dict(lam=0.0, time=1.0, dt=0.0), dict(lam=0.0, time=1.0, tol=1.0),
-    dict(lam=0.0, time=1.0, solver="nope"), dict(lam=0.0, time=1.0, init="/nonexistent.csv"),
-    dict(lam=float("nan"), time=1.0), dict(lam=0.0, time=1.0, output_every=0),
-])
+@pytest.mark.parametrize(
+    "kw",
+    [
+        dict(lam=-1.0, time=1.0),
+        dict(lam=0.0),
+        dict(lam=0.0, time=1.0, radius=2.0),
+        dict(lam=0.0, time=-1.0),
+        dict(lam=0.0, time=1.0, dt=0.0),
+        dict(lam=0.0, time=1.0, tol=1.0),
+        dict(lam=0.0, time=1.0, solver="nope"),
+        dict(lam=0.0, time=1.0, init="/nonexistent.csv"),
+        dict(lam=float("nan"), time=1.0),
+        dict(lam=0.0, time=1.0, output_every=0),
+    ],
+)
 def test_validate(kw):
     with pytest.raises(ValueError):
         ParticleConfig(**kw).validate()
@@ -124,3 +136,16 @@ def test_validate(kw):
 def test_radius_of_single_particle():
     st = initial_state(ParticleConfig(lam=0.0, time=1.0))
     assert colony_radius(st) == pytest.approx(0.5)
+
+
+@pytest.mark.slow
+def test_radius_40_colony(tmp_path):
+    """The issue's acceptance run: lam = 1e-2 to radius 40 (about a minute on 2 cores)."""
+    c = run(ParticleConfig(lam=1e-2, radius=40.0), tmp_path)
+    assert c.n > 5000
+    hist = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
+    assert np.all(hist["max_overlap"] <= 1e-3)
+    assert np.all(np.diff(hist["total_length"]) > 0)  # growth never reverses
+    # the stress is largest inside the colony, near zero at the edge
+    r = np.hypot(c.x - c.x.mean(), c.y - c.y.mean())
+    assert c.stress[r < 10].mean() > 5 * c.stress[r > 35].mean()
