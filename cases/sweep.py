@@ -7,6 +7,12 @@ finished by a ``DONE`` file and renamed to ``<name>/``. A folder holding ``DONE`
 stopped sweep (killed job, lost node, walltime) resumes where it stopped; a left-over
 ``.partial`` folder is removed and its run redone.
 
+Any parameter can be swept, e.g. an ensemble of particle colonies over lam and seeds::
+
+    params = [{"engine": "particles", "lam": lam, "radius": 40.0, "seed": s}
+              for lam in (1e-3, 1e-2) for s in range(8)]
+    folders = sweep(run_engine, params, "runs/ensemble")   # one folder per (lam, seed)
+
 By default the runs go to a :class:`dask.distributed.LocalCluster` of ``n_workers`` processes
 with one thread each (the engines are single-threaded and Numba/BLAS threads would compete).
 Given ``scheduler="tcp://host:8786"`` they go to an existing scheduler instead, so the same sweep
