@@ -14,7 +14,10 @@ contact found from both sides is kept once).  Each contact k carries
 - growth loads G_ik = -d phi_k / d l_i = (s_i / L_i) p_i . n_k and
   G_jk = -d phi_k / d l_j = -(s_j / L_j) p_j . n_k, where s is the arc position of the contact
   point from the centre (the point moves by s/L per unit growth).  At a true closest point this is
-  model.md's G = |s| |p . n| / L: (1/2)|p . n| at a segment end, 0 at an interior point;
+  model.md's G = |s| |p . n| / L: (1/2)|p . n| at a segment end, 0 at an interior point.
+  The signed form (the exact derivative of each constraint) differs from |.| only for the
+  second contact of a pair; measured on a 3000-particle colony (lam = 1e-2) those negative
+  entries carry 1e-4 of the total load;
 - code in 0..3 naming the endpoint that generated it (i+, i-, j+, j-): with the particle ids it
   is the contact identity used to warm-start the solver.
 
