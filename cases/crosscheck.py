@@ -17,8 +17,8 @@ of the runs.
 
 ``compute`` writes ``table.csv``, ``exponents.csv`` and ``radius_diff_lam=*.csv`` to
 ``out/data``; ``plot`` writes ``results.md`` (the table) and ``crosscheck.png/pdf`` (relative
-R(t) difference against t) from those CSVs only. Scales as in cases.sweep.SCALES (smoke: about a
-minute on 2 cores; paper: hours).
+R(t) difference against t, for both particle radii) from those CSVs only. Scales as in
+cases.sweep.SCALES (smoke: about a minute on 2 cores; paper: hours).
 """
 
 from __future__ import annotations
@@ -94,10 +94,11 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
         fc, fp = folders["continuum", lam], folders["particles", lam]
         hc, hp = A.read_csv(fc / "history.csv"), A.read_csv(fp / "history.csv")
         diff = radius_difference(hc["t"], hc["radius"], hp["t"], hp["radius"])
-        A.write_csv(data / f"radius_diff_lam={lam:g}.csv", A.thin_rows(diff))
+        hull = radius_difference(hc["t"], hc["radius"], hp["t"], hp["hull_radius"])
+        A.write_csv(data / f"radius_diff_lam={lam:g}.csv",
+                    A.thin_rows({**diff, "rel_diff_hull": hull["rel_diff"]}))
         R_f = float(hc["radius"][-1])
         late = diff["radius_continuum"] >= 0.5 * R_f
-        hull = radius_difference(hc["t"], hc["radius"], hp["t"], hp["hull_radius"])
         pp = A.final_particle_profile(fp, growth_window=1.0)
         wc = A.wavelength_series(fc, "continuum")
         wp = A.profile_wavelength(A.final_particle_profile(fp, growth_window=0.0), noisy=True)
@@ -203,10 +204,14 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     files = sorted(data.glob("radius_diff_lam=*.csv"), key=lambda p: float(p.stem.split("=")[1]))
     for i, p in enumerate(files):
         d = A.read_csv(p)
-        ax.plot(d["t"], 100 * d["rel_diff"], color=plt.cm.plasma(i / max(1, len(files))),
+        c = plt.cm.plasma(i / max(1, len(files)))
+        ax.plot(d["t"], 100 * d["rel_diff"], color=c,
                 label=rf"$\lambda$ = {float(p.stem.split('=')[1]):g}")
+        if "rel_diff_hull" in d:
+            ax.plot(d["t"], 100 * d["rel_diff_hull"], "--", color=c)
     ax.axhline(0, color="k", lw=0.5)
-    ax.set(xlabel="t", ylabel=r"$(R_p - R_c)/R_c$ [%]", title="particles vs continuum radius")
+    ax.set(xlabel="t", ylabel=r"$(R_p - R_c)/R_c$ [%]",
+           title="particle radius: enclosing disc (solid), sqrt(hull area/pi) (dashed)")
     ax.legend(fontsize=8)
     return [md, *save_figure(fig, out / "crosscheck")]
 
