@@ -224,8 +224,10 @@ SCALES: dict[str, dict[str, Any]] = {
         "radius": 150.0,
         "lams": (1e-4, 1e-3, 1e-2),
         "scaling_lams": (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2),
-        "continuum": {"output_every": 0.25},
-        "particles": {"output_every": 100},
+        # frames every 0.5 time units (particles: 50 steps of the default dt = 0.01); at
+        # lam = 5e-2 the run lasts t = 32, i.e. ~65 frames (continuum ~20 MB each at R = 150)
+        "continuum": {"output_every": 0.5},
+        "particles": {"output_every": 50},
     },
 }
 
