@@ -23,7 +23,7 @@ from .state import B, ParticleState
 
 HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "max_stress",
                    "mean_stress", "max_overlap", "iterations", "passes", "n_contacts",
-                   "residual", "total_length", "divisions")
+                   "residual", "total_length", "divisions", "substeps")
 
 
 def write_config(out: Path, config) -> None:

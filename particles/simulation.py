@@ -10,7 +10,9 @@ One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
 4. re-detect contacts on the new configuration; while the real overlap max(b - d) exceeds
    ``tol``, solve the overlap-removal problem (the same E without growth, Phi = the new gaps,
    mobility at the new lengths) and move by dt M D gamma'; those forces act over the same step and
-   are added to the loads sigma.  At most ``max_passes`` passes, else OverlapError;
+   are added to the loads sigma.  At most ``max_passes`` passes, else OverlapError, upon which
+   the step is redone from the same state as two steps of dt/2 (``robust_step``, nested up to
+   dt/16);
 5. divide particles with l >= 2 (growth.py).
 
 The history row of a step records the real overlap after step 4, the solver iterations of
@@ -31,7 +33,7 @@ import numpy as np
 from tqdm import tqdm
 
 from . import output
-from .contact_solver import solve_contacts
+from .contact_solver import ContactSolveError, solve_contacts
 from .geometry import Contacts, find_contacts, generalised_forces, loads
 from .growth import divide, grow
 from .neighbours import candidate_pairs
@@ -292,6 +294,39 @@ def step(state: ParticleState, config: ParticleConfig, dt: float,
     return info, (keys, gamma)
 
 
+MAX_HALVINGS = 4
+"""A step that fails (OverlapError or ContactSolveError) is retried as two half steps, up to
+this many times nested (dt / 16), before the error is raised."""
+
+
+def robust_step(state: ParticleState, config: ParticleConfig, dt: float,
+                warm: tuple[np.ndarray, np.ndarray], timers: dict | None = None,
+                depth: int = 0) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
+    """:func:`step`, retried from the same state as two steps of dt/2 when it fails.
+
+    The returned info sums iterations and passes over the sub-steps, reports the largest
+    overlap and residual, and counts the sub-steps (``substeps``).  Deterministic.
+    """
+    backup = state.copy()
+    try:
+        info, warm2 = step(state, config, dt, warm, timers)
+        info["substeps"] = 1
+        return info, warm2
+    except (OverlapError, ContactSolveError):
+        if depth >= MAX_HALVINGS:
+            raise
+    for name, value in backup.arrays().items():
+        setattr(state, name, value)
+    a, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1)
+    b, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1)
+    info = dict(b)
+    for k in ("iterations", "passes", "substeps"):
+        info[k] = a[k] + b[k]
+    info["max_overlap"] = max(a["max_overlap"], b["max_overlap"])
+    info["residual"] = max(a["residual"], b["residual"])
+    return info, warm
+
+
 def initial_state(config: ParticleConfig) -> ParticleState:
     """One particle of length 1 at the origin, or the particles of ``config.init``."""
     if config.init is None:
@@ -384,7 +419,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
             dt = config.dt
             if config.time is not None and config.time - t < dt * (1 + 1e-9):
                 dt = config.time - t
-            info, warm = step(state, config, dt, warm)
+            info, warm = robust_step(state, config, dt, warm)
             ndiv = divide(state, rng, config.division_noise)
             t += dt
             nstep += 1
@@ -397,7 +432,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
                    "max_overlap": info["max_overlap"], "iterations": int(info["iterations"]),
                    "passes": int(info["passes"]), "n_contacts": int(info["n_contacts"]),
                    "residual": info["residual"], "total_length": float(state.length.sum()),
-                   "divisions": int(ndiv)}
+                   "divisions": int(ndiv), "substeps": int(info["substeps"])}
             history.append(row)
             bar.n = min(total, t if config.time is not None else r)
             bar.refresh()

@@ -149,3 +149,12 @@ def test_radius_40_colony(tmp_path):
     # the stress is largest inside the colony, near zero at the edge
     r = np.hypot(c.x - c.x.mean(), c.y - c.y.mean())
     assert c.stress[r < 10].mean() > 5 * c.stress[r > 35].mean()
+
+
+def test_failed_steps_are_halved():
+    """With no re-solve passes allowed, overlapping steps are redone as dt/2 sub-steps."""
+    c = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.02, max_passes=0))
+    sub = np.array([r["substeps"] for r in c.history])
+    assert sub.max() > 1 and np.all(np.array([r["passes"] for r in c.history]) == 0)
+    assert max(r["max_overlap"] for r in c.history) <= 1e-3
+    assert c.t == pytest.approx(4.0, abs=1e-12)
