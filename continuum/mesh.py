@@ -30,6 +30,7 @@ __all__ = [
     "h_for_nodes",
     "load_polygon_csv",
     "smooth_mesh",
+    "turning_angles",
 ]
 
 
@@ -136,8 +137,21 @@ def boundary_spacing(xy: np.ndarray) -> np.ndarray:
     return np.linalg.norm(np.roll(xy, -1, axis=0) - xy, axis=1)
 
 
+def turning_angles(xy: np.ndarray) -> np.ndarray:
+    """Exterior (turning) angle in radians at each vertex of the closed polygon."""
+    e = np.roll(xy, -1, axis=0) - xy
+    e_in = np.roll(e, 1, axis=0)
+    cross = e_in[:, 0] * e[:, 1] - e_in[:, 1] * e[:, 0]
+    dot = np.sum(e_in * e, axis=1)
+    return np.abs(np.arctan2(cross, dot))
+
+
 def resample_polygon(
-    xy: np.ndarray, spacing: float | None = None, n: int | None = None, min_points: int = 12
+    xy: np.ndarray,
+    spacing: float | None = None,
+    n: int | None = None,
+    min_points: int = 12,
+    corner_angle: float = 0.35,
 ) -> np.ndarray:
     """Resample a closed curve to equal arc-length spacing with a periodic cubic spline.
 
@@ -154,6 +168,10 @@ def resample_polygon(
         Target spacing; n = max(ceil(S / spacing), min_points).
     n : int, optional
         Number of vertices (overrides spacing).
+    corner_angle : float
+        If a vertex turns by more than this angle (radians; the curve has a corner, e.g. an
+        input polygon), the curve is resampled piecewise linearly instead: a spline through
+        a corner overshoots and would add area.
     """
     if n is None:
         if spacing is None or not spacing > 0:
@@ -162,6 +180,11 @@ def resample_polygon(
         n = max(int(np.ceil(perimeter / spacing)), min_points)
     closed = np.vstack([xy, xy[:1]])
     s = np.concatenate([[0.0], np.cumsum(boundary_spacing(xy))])
+    if np.max(turning_angles(xy)) > corner_angle:
+        target = np.linspace(0.0, s[-1], n, endpoint=False)
+        return np.column_stack(
+            [np.interp(target, s, closed[:, 0]), np.interp(target, s, closed[:, 1])]
+        )
     spline = CubicSpline(s, closed, bc_type="periodic")
     # one fixed-point pass on the spline's own arc length makes the spacing uniform to O(h^2)
     fine = np.linspace(0.0, s[-1], 16 * max(n, len(xy)) + 1)
