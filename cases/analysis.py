@@ -9,9 +9,9 @@ continuum solver (samples = mesh nodes, weighted by their lumped areas) are redu
   last two peaks of the radial mean-length profile (Fig 4B, C);
 - :func:`late_slope`: the late-time dR/dt by a linear fit (Fig 3D); :func:`max_value` (Fig 3C);
 - :func:`power_law_fit`: exponent and prefactor of y = C x^a (Fig 3C, Fig 4C);
-- :func:`ecoli_lambda`: the paper's estimate lam ~ 1.1e-3 for E. coli;
-- :func:`radial_pressure`, :func:`radial_max_pressure`, :func:`radial_speed`: the closed-form
-  radial solution of model.md, used as the analytic curves of Fig 3.
+- :func:`ecoli_lambda`: the paper's estimate lam ~ 1.1e-3 for E. coli.
+
+The closed-form radial solution (analytic curves of Fig 3) is :mod:`continuum.radial`.
 """
 
 from __future__ import annotations
@@ -36,10 +36,6 @@ __all__ = [
     "max_value",
     "power_law_fit",
     "ecoli_lambda",
-    "radial_c",
-    "radial_pressure",
-    "radial_max_pressure",
-    "radial_speed",
     "read_csv",
     "write_csv",
     "continuum_frames",
@@ -412,38 +408,6 @@ def ecoli_lambda(
             raise ValueError(f"{name} must be finite and > 0, got {val}")
     v = dRdt_um_per_s * tau_min * 60.0 / l0_um
     return 2.0 / v**2
-
-
-def radial_c(lam: float, R: float) -> float:
-    """c(R) = [sqrt(1 + lam R^2/2) - 1] / (2 lam R^2) = 1 / (4 (sqrt(1 + lam R^2/2) + 1)).
-
-    The stable second form is used; lam = 0 gives 1/8.
-    """
-    if lam < 0:
-        raise ValueError(f"lam must be >= 0, got {lam}")
-    return 1.0 / (4.0 * (math.sqrt(1.0 + 0.5 * lam * R * R) + 1.0))
-
-
-def radial_pressure(r: np.ndarray, lam: float, R: float) -> np.ndarray:
-    """Pressure of the radial colony of radius R (model.md).
-
-    lam > 0: p(r) = (2/lam) ln(1/(8c) - c lam r^2); lam = 0: p = (R^2 - r^2)/4.
-    """
-    r = np.asarray(r, dtype=float)
-    if lam == 0:
-        return 0.25 * (R * R - r * r)
-    c = radial_c(lam, R)
-    return (2.0 / lam) * np.log(1.0 / (8.0 * c) - c * lam * r * r)
-
-
-def radial_max_pressure(lam: float, R: float) -> float:
-    """p(0) = (2/lam) ln(1/(8c)) (lam > 0), R^2/4 (lam = 0): the analytic curve of Fig 3C."""
-    return float(radial_pressure(np.zeros(1), lam, R)[0])
-
-
-def radial_speed(lam: float, R: float) -> float:
-    """Boundary speed dR/dt = u(R) = 4 c R; tends to sqrt(2/lam) as lam^(1/2) R -> infinity."""
-    return 4.0 * radial_c(lam, R) * R
 
 
 # ----------------------------------------------------------------------------------------------

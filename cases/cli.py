@@ -6,7 +6,8 @@
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
                      [--division-noise EPS] [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
-    colony case NAME [--scale smoke|paper] [--out DIR] [--from-data] [--scheduler ADDRESS]
+    colony case NAME [--scale smoke|medium|paper] [--out DIR] [--runs DIR] [--from-data]
+                [--scheduler ADDRESS] [--workers N]
 
 Every run is configured by one dataclass (``ContinuumConfig`` / ``ParticleConfig``), built from
 the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
@@ -216,11 +217,15 @@ def parser() -> argparse.ArgumentParser:
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)
-    k.add_argument("--scale", choices=("smoke", "paper"), default="smoke")
+    k.add_argument("--scale", choices=("smoke", "medium", "paper"), default="smoke")
     k.add_argument("--out", default=None, help="output folder (default runs/case-NAME-SCALE)")
     k.add_argument("--from-data", action="store_true",
                    help="redraw from the data committed in cases/data/NAME (no computation)")
+    k.add_argument("--runs", help="folder of the engine runs, shared between cases "
+                   "(default OUT/runs); finished runs in it are reused")
     k.add_argument("--scheduler", help="address of an existing dask scheduler for sweeps")
+    k.add_argument("--workers", type=int, default=2,
+                   help="local dask workers when no --scheduler is given (default 2)")
     return top
 
 
@@ -259,7 +264,10 @@ def _dispatch(args) -> int:
             if not data.is_dir():
                 raise UsageError(f"no committed data for case {args.name} in {data}")
         else:
-            data = module.compute(scale=args.scale, out=out, scheduler=args.scheduler)
+            if args.workers < 1:
+                raise UsageError(f"--workers must be >= 1, got {args.workers}")
+            data = module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
+                                  n_workers=args.workers, runs=args.runs)
         module.plot(data, out)
         print(f"case {args.name} written to {out}")
     return 0

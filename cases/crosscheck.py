@@ -31,6 +31,7 @@ import numpy as np
 from cases import analysis as A
 from cases.fig4 import exact_wavelength
 from cases.sweep import engine_runs, scale_config
+from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "radius_difference", "markdown_table"]
 
@@ -113,11 +114,11 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
             "max_rel_diff_R_hull_late": float(np.max(np.abs(hull["rel_diff"][late]))),
             "slope_particles": A.late_slope(hp["t"], hp["radius"], LATE_FRACTION),
             "slope_continuum": A.late_slope(hc["t"], hc["radius"], LATE_FRACTION),
-            "slope_exact": A.radial_speed(lam, R_f),
+            "slope_exact": radial.radius_rate(R_f, lam),
             "slope_asymptotic": math.sqrt(2.0 / lam) if lam > 0 else math.nan,
             "max_stress_particles": A.max_value(pp["stress"]),
             "max_pressure_continuum": float(hc["max_pressure"][-1]),
-            "p0_exact": A.radial_max_pressure(lam, R_f),
+            "p0_exact": radial.max_pressure(R_f, lam),
             "wavelength_particles": wp,
             "wavelength_continuum": float(wc["wavelength"][-1]),
             "wavelength_exact": exact_wavelength(lam, R_f) if lam > 0 else math.nan,

@@ -26,6 +26,7 @@ import numpy as np
 
 from cases import analysis as A
 from cases.sweep import engine_runs, scale_config
+from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed"]
 
@@ -80,10 +81,10 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
         rows["radius_particles"].append(float(hp["radius"][-1]))
         rows["max_stress_particles"].append(A.max_value(pp["stress"]))
         rows["max_pressure_continuum"].append(float(hc["max_pressure"][-1]))
-        rows["p0_exact"].append(A.radial_max_pressure(lam, R_c))
+        rows["p0_exact"].append(radial.max_pressure(R_c, lam))
         rows["slope_particles"].append(A.late_slope(hp["t"], hp["radius"], LATE_FRACTION))
         rows["slope_continuum"].append(A.late_slope(hc["t"], hc["radius"], LATE_FRACTION))
-        rows["slope_exact"].append(A.radial_speed(lam, R_c))
+        rows["slope_exact"].append(radial.radius_rate(R_c, lam))
         rows["slope_asymptotic"].append(math.sqrt(2.0 / lam) if lam > 0 else math.nan)
     A.write_csv(data / "summary.csv", rows)
     return data

@@ -220,6 +220,15 @@ SCALES: dict[str, dict[str, Any]] = {
         "continuum": {"output_every": 0.5},
         "particles": {"output_every": 20},
     },
+    "medium": {
+        # what one 2-core machine does in about an hour for both engines (particles: ~5e3
+        # particles per run at radius 40)
+        "radius": 40.0,
+        "lams": (1e-3, 1e-2, 3e-2),
+        "scaling_lams": (1e-3, 3e-3, 1e-2, 3e-2, 1e-1),
+        "continuum": {"output_every": 0.5},
+        "particles": {"output_every": 50},
+    },
     "paper": {
         "radius": 150.0,
         "lams": (1e-4, 1e-3, 1e-2),

@@ -200,25 +200,6 @@ def test_ecoli_lambda_is_the_papers_estimate():
         A.ecoli_lambda(tau_min=0)
 
 
-def test_radial_solution_formulas():
-    lam, R = 1e-2, 40.0
-    r = np.linspace(0, R, 9)
-    p = A.radial_pressure(r, lam, R)
-    assert p[-1] == pytest.approx(0.0, abs=1e-12)
-    # -Laplace p = exp(-lam p) by finite differences in r (second order, checked at r = 20)
-    h, r0 = 1e-3, 20.0
-    pm, p0, pp = A.radial_pressure(np.array([r0 - h, r0, r0 + h]), lam, R)
-    lap = (pp - 2 * p0 + pm) / h**2 + (pp - pm) / (2 * h) / r0
-    assert -lap == pytest.approx(math.exp(-lam * p0), rel=1e-5)
-    # u(R) = -p'(R) = 4 c R, tending to sqrt(2/lam)
-    dp = (A.radial_pressure(np.array([R]), lam, R) - A.radial_pressure(np.array([R - h]), lam, R))
-    assert -dp[0] / h == pytest.approx(A.radial_speed(lam, R), rel=1e-3)
-    assert A.radial_speed(lam, 1e8) == pytest.approx(math.sqrt(2 / lam), rel=1e-6)
-    assert A.radial_max_pressure(0.0, 4.0) == 4.0
-    # small lam tends to the lam = 0 solution
-    assert A.radial_max_pressure(1e-9, 4.0) == pytest.approx(4.0, rel=1e-6)
-
-
 @pytest.mark.parametrize("lam, R", [(1e-2, 150.0), (0.1, 30.0)])
 def test_wavelength_of_exact_radial_profile_matches_ring_spacing(lam, R):
     """The 1D radial reference lbar(r) (a sawtooth dropping from 2 to 1 at each ring): the

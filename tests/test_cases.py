@@ -24,6 +24,7 @@ import pytest
 
 from cases import analysis as A
 from cases import crosscheck, fig2, fig3, fig4
+from continuum import radial
 
 LAMS = (0.01, 0.04, 0.16)
 TIMES = np.array([0.0, 3.5, 7.0, 10.5, 14.0])
@@ -62,12 +63,12 @@ def fake_continuum_run(folder: Path, lam: float) -> Path:
     R = R_continuum(TIMES)
     A.write_csv(folder / "history.csv", {
         "t": TIMES, "radius": R, "area": np.pi * R**2,
-        "max_pressure": [A.radial_max_pressure(lam, x) for x in R]})
+        "max_pressure": [radial.max_pressure(x, lam) for x in R]})
     entries = []
     for i, (t, Rt) in enumerate(zip(TIMES, R, strict=True)):
         pts, tri = _disc_mesh(Rt, n=int(400 + 3 * Rt**2))
         r = np.hypot(*pts.T)
-        data = {"p": A.radial_pressure(np.minimum(r, Rt), lam, Rt),
+        data = {"p": radial.pressure(np.minimum(r, Rt), Rt, lam),
                 "mean_length": mean_length(r, lam) + 0 * r}
         name = f"fields/frame_{i:05d}.vtu"
         meshio.write(folder / name, meshio.Mesh(np.column_stack([pts, 0 * r]),
@@ -97,7 +98,7 @@ def fake_particle_run(folder: Path, lam: float, seed: int = 0) -> Path:
             a = 2 * np.pi * rng.random(n)
             theta = rng.uniform(-np.pi, np.pi, n)
             length = np.clip(mean_length(r, lam) + rng.normal(0, 0.1, n), 1.0, 2.0)
-            stress = 2 * A.radial_pressure(r, lam, Rt - 1.0)
+            stress = 2 * radial.pressure(r, Rt - 1.0, lam)
             f = gsd.hoomd.Frame()
             f.configuration.step = int(step)
             f.configuration.dimensions = 2
@@ -141,13 +142,13 @@ def test_fig3_reduce_and_plot(fake_runs, tmp_path):
     np.testing.assert_allclose(s["slope_particles"], 2.2, rtol=1e-12)
     np.testing.assert_allclose(s["max_pressure_continuum"], s["p0_exact"], rtol=1e-12)
     # particle stress = 2 p(r) of the disc of radius R - 1: the first annulus' mean is just below
-    p0 = np.array([2 * A.radial_max_pressure(lam, 1.1 * 30 - 1) for lam in s["lam"]])
+    p0 = np.array([2 * radial.max_pressure(1.1 * 30 - 1, lam) for lam in s["lam"]])
     np.testing.assert_allclose(s["max_stress_particles"], p0, rtol=0.03)
     assert np.all(s["max_stress_particles"] <= p0)
     np.testing.assert_allclose(s["slope_asymptotic"][1:], np.sqrt(2 / np.array(LAMS)))
     pc = A.read_csv(data / "profile_continuum_lam=0.01.csv")
     ok = np.isfinite(pc["pressure"])
-    np.testing.assert_allclose(pc["pressure"][ok], A.radial_pressure(pc["r"][ok], 0.01, 30.0),
+    np.testing.assert_allclose(pc["pressure"][ok], radial.pressure(pc["r"][ok], 30.0, 0.01),
                                rtol=0.01, atol=0.2)  # P1 interpolation error
     assert not (data / "profile_continuum_lam=0.04.csv").exists()
     paths = fig3.plot(data, tmp_path)
