@@ -222,6 +222,7 @@ class PressureSolver:
         self.assembler: P1Assembler | None = None
         self._amg = None
         self.stats = NewtonStats()
+        self.last: dict | None = None
 
     def set_mesh(self, tris: np.ndarray, n_nodes: int, n_boundary: int) -> None:
         """Change topology: new pattern and scatter map, and forget the AMG hierarchy."""
@@ -311,7 +312,8 @@ class PressureSolver:
         for it in range(self.max_newton + 1):
             g = np.exp(-lam * p)
             b = A.load(area, g)
-            F = K @ p - b
+            r_full = K @ p - b
+            F = r_full.copy()
             F[: A.nb] = 0.0
             res = float(np.sqrt(_dot(F[interior], F[interior])))
             scale = float(np.sqrt(_dot(b[interior], b[interior])))
@@ -322,6 +324,8 @@ class PressureSolver:
                 st.residual = res / max(scale, 1e-300)
                 st.newton_iterations = it
                 self.stats = st
+                # kept for the residual flux and the velocity recovery at this solution
+                self.last = {"residual": r_full, "area": area, "grads": grads, "g": g}
                 return p
             if it == self.max_newton:
                 break

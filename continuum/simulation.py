@@ -65,6 +65,8 @@ class ContinuumConfig:
         Cap on the boundary mesh spacing h.
     interior_coarsening : float
         Interior mesh size up to this multiple of h (1 = uniform mesh).
+    grading : float
+        Growth of the interior mesh size with the distance d to the edge: min(c h, h + grading d).
     courant : float
         dt = courant * h_boundary / max u_boundary.
     q_min : float
@@ -91,6 +93,7 @@ class ContinuumConfig:
     n_nodes: int = 2000
     h_max: float = 1.0
     interior_coarsening: float = 1.0
+    grading: float = 0.25
     courant: float = 0.6
     q_min: float = 0.35
     stretch: float = 1.5
@@ -112,7 +115,7 @@ class ContinuumConfig:
             raise ValueError(f"lam must be a finite number, got {self.lam!r}")
         if (self.radius is None) == (self.time is None):
             raise ValueError("give exactly one of radius and time")
-        for name in ("initial_radius", "h_max", "courant", "bump_width"):
+        for name in ("initial_radius", "h_max", "courant", "bump_width", "grading"):
             positive(name)
         if self.radius is not None:
             positive("radius")
@@ -242,7 +245,9 @@ class _Colony:
     def _mesh(self, bnd: np.ndarray, h: float) -> None:
         t0 = _time.perf_counter()
         c = self.cfg.interior_coarsening
-        self.points, self.tris = M.triangulate(bnd, h, h_interior=c * h if c > 1 else None)
+        self.points, self.tris = M.triangulate(
+            bnd, h, h_interior=c * h if c > 1 else None, grading=self.cfg.grading
+        )
         self.nb = len(bnd)
         self.solver.set_mesh(self.tris, len(self.points), self.nb)
         self.h_mesh = h
@@ -261,10 +266,12 @@ class _Colony:
         self.newton += st.newton_iterations
         self.krylov += st.krylov_iterations
         t0 = _time.perf_counter()
-        r, _ = self.solver.residual(points, p)
-        u = nodal_velocity(self.solver.assembler, points, p, r)
+        last = self.solver.last
+        u = nodal_velocity(
+            self.solver.assembler, points, p, last["residual"], (last["area"], last["grads"])
+        )
         self.timings["assembly"] += _time.perf_counter() - t0
-        return p, u, np.exp(-self.cfg.lam * p)
+        return p, u, last["g"]
 
     def solve_here(self) -> None:
         self.p, self.u, self.g = self._solve(self.points, self.p)

@@ -181,7 +181,11 @@ def boundary_velocity(
 
 
 def nodal_velocity(
-    assembler: P1Assembler, points: np.ndarray, p: np.ndarray, residual: np.ndarray
+    assembler: P1Assembler,
+    points: np.ndarray,
+    p: np.ndarray,
+    residual: np.ndarray,
+    geometry: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """u = -grad p at every node: recovered inside, residual flux on the boundary, (N, 2).
 
@@ -189,9 +193,10 @@ def nodal_velocity(
     ----------
     assembler : topology; points : (N, 2) nodes; p : (N,) pressure;
     residual : (N,) FE residual K p - b (its boundary entries are the consistent flux).
+    geometry : optional (areas, barycentric gradients) of this mesh, if already computed.
     """
     n_boundary = assembler.nb
-    area, grads = assembler.geometry(points)
+    area, grads = assembler.geometry(points) if geometry is None else geometry
     u = -recovered_gradient(assembler.tris, area, grads, p, points)
     u[:n_boundary] = boundary_velocity(residual, points[:n_boundary])
     return u
