@@ -91,15 +91,15 @@ class ContinuumConfig:
     shape: str = "circle"
     initial_radius: float = R0
     n_nodes: int = 2000
-    h_max: float = 1.0
-    interior_coarsening: float = 1.0
-    grading: float = 0.25
+    h_max: float = 0.7
+    interior_coarsening: float = 2.0
+    grading: float = 0.05
     courant: float = 0.6
     q_min: float = 0.35
     stretch: float = 1.5
     n_length_cells: int = 40
     bump_width: float = 0.08
-    output_every: float = 0.0
+    output_every: float = 1.0
     write_fields: bool = True
     max_steps: int = 200_000
 

@@ -94,6 +94,7 @@ def test_radial_growth_converges_second_order(lam):
                 initial_radius=r_init,
                 n_nodes=n,
                 h_max=100.0,
+                interior_coarsening=1.0,
                 write_fields=False,
             )
         )
