@@ -161,6 +161,8 @@ def main(argv=None) -> None:
     p.add_argument("--margin", type=float, default=0.1)
     p.add_argument("--solvers", nargs="+", default=list(SOLVERS), choices=list(SOLVERS))
     p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--ref-factor", type=float, default=100.0,
+                   help="reference loads: BBPGD at tol / ref_factor")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=None)
     args = p.parse_args(argv)
@@ -179,11 +181,12 @@ def main(argv=None) -> None:
         n = x.shape[0]
         c = contacts_of(x, y, theta, length, args.margin)
         for tol in args.tol:
-            # reference for the warm start and the load comparison: BBPGD at tol / 100
-            gref, _ = solve_contacts(c, length, args.dt, args.lam, None, tol / 100, 10_000_000)
+            # reference for the warm start and the load comparison: BBPGD at tol / ref_factor
+            rtol = tol / args.ref_factor
+            gref, _ = solve_contacts(c, length, args.dt, args.lam, None, rtol, 10_000_000)
             (x2, y2, th2, l2), c2, g0 = warm_problem(x, y, theta, length, c, gref, args.dt,
                                                      args.lam, args.margin)
-            gref2, _ = solve_contacts(c2, l2, args.dt, args.lam, g0, tol / 100, 10_000_000)
+            gref2, _ = solve_contacts(c2, l2, args.dt, args.lam, g0, rtol, 10_000_000)
             for start, cc, ll, gg, ref in (("cold", c, length, None, gref),
                                            ("warm", c2, l2, g0, gref2)):
                 sref = loads(cc, ref, n)
@@ -220,17 +223,18 @@ def _summary(rows, solvers) -> None:
                     rg = d[s]["gradients"] / max(1, d["bbpgd"]["gradients"])
                     rs = d[s]["seconds"] / d["bbpgd"]["seconds"]
                     print(f"#   {k}: {s} grads x{rg:.2f} seconds x{rs:.2f}")
-    print("# exponents in N (synthetic states): iterations ~ N^a, seconds ~ N^b")
-    for s in solvers:
-        for start in ("cold", "warm"):
-            for tol in sorted({r["tol"] for r in rows}):
-                sel = [r for r in rows if r["solver"] == s and r["start"] == start
-                       and r["tol"] == tol and r["state"].startswith("rings")]
-                if len(sel) >= 2:
-                    ln = np.log([r["N"] for r in sel])
-                    a = np.polyfit(ln, np.log([max(1, r["iterations"]) for r in sel]), 1)[0]
-                    b = np.polyfit(ln, np.log([r["seconds"] for r in sel]), 1)[0]
-                    print(f"#   {s:>6} {start} tol={tol:g}: a={a:.2f} b={b:.2f}")
+    print("# exponents in N, per family of states: iterations ~ N^a, seconds ~ N^b")
+    for fam in ("rings", "grown"):
+        for s in solvers:
+            for start in ("cold", "warm"):
+                for tol in sorted({r["tol"] for r in rows}):
+                    sel = [r for r in rows if r["solver"] == s and r["start"] == start
+                           and r["tol"] == tol and r["state"].startswith(fam)]
+                    if len(sel) >= 2:
+                        ln = np.log([r["N"] for r in sel])
+                        a = np.polyfit(ln, np.log([max(1, r["iterations"]) for r in sel]), 1)[0]
+                        b = np.polyfit(ln, np.log([r["seconds"] for r in sel]), 1)[0]
+                        print(f"#   {fam} {s:>6} {start} tol={tol:g}: a={a:.2f} b={b:.2f}")
 
 
 if __name__ == "__main__":

@@ -37,7 +37,8 @@ Accelerated methods need O(sqrt(kappa)) iterations where steepest descent needs 
 kappa of the scaled contact operator growing like N (a discrete pressure Poisson problem at
 large N), APGD iterations grow like N^(1/2) at best.  One gradient evaluation per iteration,
 as BBPGD: the residual is tested at the extrapolated point y_k, whose gradient the step needs
-anyway, and y_k is accepted only when it is feasible (y_k >= 0).
+anyway, and y_k is accepted only when it is feasible (y_k >= 0; else its projection
+max(0, y_k) is tested, at the price of one extra gradient).
 """
 
 from __future__ import annotations
@@ -177,9 +178,11 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
 
     Iteration k evaluates q(y_k) once; it serves the residual test of y_k (accepted when
     y_k >= 0 and res(y_k) <= tol, so the returned forces are feasible and their residual is
-    exact), the projected step and the restart test.  Returns the number of iterations when
-    res <= tol, -1 after maxiter iterations.  hist[k] is res(y_k) (hist[0]: initial guess).
-    On return gam holds the accepted iterate (success) or the best one seen (failure).
+    exact; when res(y_k) <= tol but y_k has negative entries, max(0, y_k) is tested with one
+    extra gradient), the curvature safeguard, the projected step and the restart test.  Returns the
+    number of iterations when res <= tol, -1 after maxiter iterations.  hist[k] is res(y_k)
+    (hist[0]: initial guess).  On return gam holds the accepted iterate (success) or the best
+    one recorded (failure; recorded when the residual drops by 10%).
     """
     n = mt.shape[0]
     m = gam.shape[0]
@@ -195,46 +198,56 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
     qp = np.empty(m)
     best = np.empty(m)
     for k in range(m):
-        if gam[k] < 0.0:
-            gam[k] = 0.0
-    x0[:] = gam
-    y[:] = gam
-    best[:] = gam
+        v = gam[k] if gam[k] > 0.0 else 0.0
+        x0[k] = v
+        y[k] = v
+        best[k] = v
     best_res = np.inf
     theta = 1.0
     t = step
     for it in range(0, maxiter + 1):
         gap_kernel(y, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
                    vx, vy, om, sig, qy)
-        res = residual_kernel(y, qy, akk)
-        hist[it] = res
+        # one pass: residual, feasibility, curvature (q(y) - q(yp)).(y - yp) / |y - yp|_P^-1
+        res = 0.0
         feasible = True
+        num = 0.0
+        den = 0.0
         for k in range(m):
+            a = akk[k] * y[k]
+            v = qy[k] if qy[k] < a else a
+            if abs(v) > res:
+                res = abs(v)
             if y[k] < 0.0:
                 feasible = False
-                break
+            if it > 0:
+                d = y[k] - yp[k]
+                num += (qy[k] - qp[k]) * d
+                den += akk[k] * d * d
+        if not feasible and res <= tol:
+            # y passes the test but has negative entries: test its projection max(0, y)
+            # instead (one extra gradient, only in the final phase)
+            for k in range(m):
+                x1[k] = y[k] if y[k] > 0.0 else 0.0
+            gap_kernel(x1, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+                       growth, vx, vy, om, sig, qp)
+            rp = residual_kernel(x1, qp, akk)
+            if rp <= tol:
+                hist[it] = rp
+                gam[:] = x1
+                return it
+            num = 0.0
+            den = 0.0  # qp was overwritten: skip this iteration's curvature test
+        hist[it] = res
         if feasible:
             if res <= tol:
                 gam[:] = y
                 return it
-            if res < best_res:
+            if res < 0.9 * best_res:
                 best_res = res
                 best[:] = y
         if it == maxiter:
             break
-        # curvature of E between successive points, in the Jacobi metric: a lower bound of L;
-        # a value above 1/t proves the step too long: shorten it and drop the momentum
-        restart = False
-        if it > 0:
-            num = 0.0
-            den = 0.0
-            for k in range(m):
-                d = y[k] - yp[k]
-                num += (qy[k] - qp[k]) * d
-                den += akk[k] * d * d
-            if num * t > den * (1.0 + 1e-9) and den > 0.0:
-                t = den / (1.1 * num)
-                restart = True
         if res > 1e3 * best_res:
             # runaway although the curvature test passed: halve the step, back to the best
             t *= 0.5
@@ -242,8 +255,11 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
             y[:] = best
             theta = 1.0
             continue
-        yp[:] = y
-        qp[:] = qy
+        restart = False
+        if den > 0.0 and num * t > den * (1.0 + 1e-9):
+            # the curvature bounds L from below: the step is provably too long
+            t = den / (1.1 * num)
+            restart = True
         # projected step from y in the Jacobi metric; gradient restart q(y).(x1 - x0) > 0
         dot = 0.0
         for k in range(m):
@@ -251,6 +267,8 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
             v = v if v > 0.0 else 0.0
             dot += qy[k] * (v - x0[k])
             x1[k] = v
+        yp, y = y, yp
+        qp, qy = qy, qp
         if dot > 0.0 or restart:
             theta = 1.0
             y[:] = x1
@@ -260,7 +278,7 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
             theta = th1
             for k in range(m):
                 y[k] = x1[k] + beta * (x1[k] - x0[k])
-        x0[:] = x1
+        x0, x1 = x1, x0
     gam[:] = best
     return -1
 
