@@ -28,11 +28,15 @@ STAGES = ("meshing", "assembly", "amg_setup", "krylov", "remeshing", "transport"
 
 def step_costs(n_nodes: int, steps: int = 5, lam: float = 1e-2) -> dict:
     """Median seconds per step of each stage on a disc meshed with about n_nodes nodes."""
+    from continuum.pressure import limit_blas_threads
     from continuum.simulation import ContinuumConfig, _Colony
 
     R = 20.0
-    cfg = ContinuumConfig(lam=lam, time=1.0, initial_radius=R, n_nodes=n_nodes, h_max=1e9)
+    cfg = ContinuumConfig(
+        lam=lam, time=1.0, initial_radius=R, n_nodes=n_nodes, h_max=1e9, interior_coarsening=1.0
+    )
     cfg.validate()
+    limit_blas_threads(1)
     col = _Colony(cfg)
     from continuum.motion import stable_dt
 

@@ -31,7 +31,52 @@ import numpy as np
 import pyamg
 import scipy.sparse as sp
 
-__all__ = ["PressureDivergence", "P1Assembler", "PressureSolver", "NewtonStats", "pcg", "vcycle"]
+__all__ = [
+    "PressureDivergence",
+    "P1Assembler",
+    "PressureSolver",
+    "NewtonStats",
+    "pcg",
+    "vcycle",
+    "limit_blas_threads",
+]
+
+
+def limit_blas_threads(n: int = 1) -> int:
+    """Set the thread count of the OpenBLAS libraries bundled with numpy and scipy.
+
+    The solver's BLAS work is small (level-1 products, small dense eigenproblems in the AMG
+    setup); multi-threaded OpenBLAS spins on such calls and was measured 10-100x slower on a
+    loaded 2-core machine. Called by ``continuum.simulation.run``. Returns how many libraries
+    were set (0 when none is found: then this is a no-op).
+    """
+    import ctypes
+    import glob
+    import os
+
+    import scipy
+
+    count = 0
+    for pkg in (np, scipy):
+        base = os.path.dirname(os.path.dirname(pkg.__file__))
+        libs = glob.glob(os.path.join(base, f"{pkg.__name__}.libs", "lib*openblas*.so*"))
+        for path in libs:
+            try:
+                lib = ctypes.CDLL(path)
+            except OSError:
+                continue
+            for sym in (
+                "scipy_openblas_set_num_threads64_",
+                "scipy_openblas_set_num_threads",
+                "openblas_set_num_threads64_",
+                "openblas_set_num_threads",
+            ):
+                fn = getattr(lib, sym, None)
+                if fn is not None:
+                    fn(ctypes.c_int(n))
+                    count += 1
+                    break
+    return count
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:

@@ -32,7 +32,7 @@ import numpy as np
 
 from continuum import mesh as M
 from continuum.motion import Locator, gradient_corrected_matrix, remesh_reason, stable_dt
-from continuum.pressure import PressureDivergence, PressureSolver
+from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.radial import R0
 from continuum.sizes import LengthGrid, SizeDistribution
 from continuum.velocity import nodal_velocity
@@ -429,6 +429,7 @@ def run(config: ContinuumConfig, out: Path | None = None, progress: bool = False
     from continuum import output
 
     config.validate()
+    limit_blas_threads(1)
     writer = None
     if out is not None:
         out = Path(out)
