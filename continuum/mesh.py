@@ -151,7 +151,7 @@ def resample_polygon(
     spacing: float | None = None,
     n: int | None = None,
     min_points: int = 12,
-    corner_angle: float = 0.35,
+    corner_angle: float = 0.6,
 ) -> np.ndarray:
     """Resample a closed curve to equal arc-length spacing with a periodic cubic spline.
 

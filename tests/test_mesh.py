@@ -47,7 +47,7 @@ def test_resample_ellipse_stays_on_curve_fourth_order():
     """Spline resampling of an ellipse: distance to the curve converges at order ~4."""
     a, b = 2.0, 1.0
     errs, hs = [], []
-    for n in (20, 40, 80):
+    for n in (40, 80, 160):
         coarse = M.ellipse_polygon(a, b, n)
         fine = M.resample_polygon(coarse, n=3 * n + 1)
         # algebraic distance to the ellipse, scaled to a length
@@ -106,3 +106,13 @@ def test_graded_mesh_is_coarser_inside():
 def test_triangulate_bad_size(h):
     with pytest.raises(ValueError, match="mesh size"):
         M.triangulate(M.circle_polygon(1.0, 20), h)
+
+
+def test_resample_keeps_corners_of_a_polygon():
+    """A square (turning angle pi/2 > corner_angle) is resampled piecewise linearly: its area
+    is kept exactly (a periodic spline through the corners would bulge out)."""
+    sq = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], float)
+    out = M.resample_polygon(sq, spacing=0.1)
+    assert len(out) == 80
+    assert M.polygon_area(out) == pytest.approx(4.0, rel=1e-12)
+    assert np.max(M.turning_angles(out)) == pytest.approx(np.pi / 2)
