@@ -162,7 +162,9 @@ def main(argv=None) -> None:
     p.add_argument("--solvers", nargs="+", default=list(SOLVERS), choices=list(SOLVERS))
     p.add_argument("--repeat", type=int, default=3)
     p.add_argument("--ref-factor", type=float, default=100.0,
-                   help="reference loads: BBPGD at tol / ref_factor")
+                   help="reference loads: solved at tol / ref_factor")
+    p.add_argument("--ref-solver", default="bbpgd", choices=list(SOLVERS),
+                   help="solver of the reference loads and of the warm-start step")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=None)
     args = p.parse_args(argv)
@@ -181,12 +183,13 @@ def main(argv=None) -> None:
         n = x.shape[0]
         c = contacts_of(x, y, theta, length, args.margin)
         for tol in args.tol:
-            # reference for the warm start and the load comparison: BBPGD at tol / ref_factor
+            # reference for the warm start and the load comparison, at tol / ref_factor
             rtol = tol / args.ref_factor
-            gref, _ = solve_contacts(c, length, args.dt, args.lam, None, rtol, 10_000_000)
+            ref_solve = SOLVERS[args.ref_solver][0]
+            gref, _ = ref_solve(c, length, args.dt, args.lam, None, rtol, 10_000_000)
             (x2, y2, th2, l2), c2, g0 = warm_problem(x, y, theta, length, c, gref, args.dt,
                                                      args.lam, args.margin)
-            gref2, _ = solve_contacts(c2, l2, args.dt, args.lam, g0, rtol, 10_000_000)
+            gref2, _ = ref_solve(c2, l2, args.dt, args.lam, g0, rtol, 10_000_000)
             for start, cc, ll, gg, ref in (("cold", c, length, None, gref),
                                            ("warm", c2, l2, g0, gref2)):
                 sref = loads(cc, ref, n)
