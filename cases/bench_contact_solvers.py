@@ -16,7 +16,9 @@ States (``--sizes``, target particle numbers):
   colony is jammed under one growth step: growth along each ring pushes on the next ring out,
   a 2D-coupled, pressure-like load path;
 - ``--grown FILE.npz`` (repeatable): saved engine states (arrays x, y, theta, length),
-  e.g. from ``particles.simulation.run(ParticleConfig(lam=1e-2, radius=R))``.
+  e.g. from ``particles.simulation.run(ParticleConfig(lam=1e-2, radius=R))``, or ring
+  packings grown by the engine for a short time (jammed, most contacts loaded).  States are
+  grouped into families by the leading letters of their file names for the fitted exponents.
 
 Prints a table of medians over ``--repeat`` runs (iterations, gradient evaluations, seconds,
 final residual, max |sigma - sigma_ref|) and the fitted exponents of iterations and seconds in
@@ -29,6 +31,7 @@ from __future__ import annotations
 import argparse
 import csv
 import os
+import re
 import time
 from pathlib import Path
 
@@ -212,6 +215,11 @@ def main(argv=None) -> None:
             w.writerows(rows)
 
 
+def _family(label: str) -> str:
+    """Family of a state label: its leading letters (rings1000 -> rings, grown_R17 -> grown)."""
+    return re.match(r"[A-Za-z]*", label).group(0)
+
+
 def _summary(rows, solvers) -> None:
     """Ratios to BBPGD and fitted exponents d log(iterations) / d log N per series."""
     print("# ratios (solver / bbpgd): gradient evaluations, seconds")
@@ -227,12 +235,13 @@ def _summary(rows, solvers) -> None:
                     rs = d[s]["seconds"] / d["bbpgd"]["seconds"]
                     print(f"#   {k}: {s} grads x{rg:.2f} seconds x{rs:.2f}")
     print("# exponents in N, per family of states: iterations ~ N^a, seconds ~ N^b")
-    for fam in ("rings", "grown"):
+    families = sorted({_family(r["state"]) for r in rows})
+    for fam in families:
         for s in solvers:
             for start in ("cold", "warm"):
                 for tol in sorted({r["tol"] for r in rows}):
                     sel = [r for r in rows if r["solver"] == s and r["start"] == start
-                           and r["tol"] == tol and r["state"].startswith(fam)]
+                           and r["tol"] == tol and _family(r["state"]) == fam]
                     if len(sel) >= 2:
                         ln = np.log([r["N"] for r in sel])
                         a = np.polyfit(ln, np.log([max(1, r["iterations"]) for r in sel]), 1)[0]
