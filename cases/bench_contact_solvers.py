@@ -20,6 +20,19 @@ States (``--sizes``, target particle numbers):
   packings grown by the engine for a short time (jammed, most contacts loaded).  States are
   grouped into families by the leading letters of their file names for the fitted exponents.
 
+Candidate measured and rejected (prototype not kept; numbers from this machine, 2026-11-21):
+augmented Lagrangian in particle space (growth linearised at the current loads, proximal
+point on gamma with weight rho = s / median(a_kk), semismooth Newton on the 4N scaled
+particle unknowns, Hessian I + rho S_A S_A^T, S = (dt M, c)^(1/2) [D; G], by CG with pyamg
+smoothed aggregation, 4x4 blocks, near-null space translations/spin/growth).  On the grown
+colony N = 1022 (tol 1e-3, cold): s = 1e4: 2 outer, 17 Newton, 3505 CG iterations, 45.6 s;
+s = 1e2: 7 outer, 23 Newton, 765 CG, 21.4 s; BBPGD: 151 iterations, 0.05 s.  The AMG-PCG
+alone on H at the converged active set (s = 1e4, rtol 1e-6) needs 285 iterations at 4N = 4088
+and 286 at 4N = 50900 (N = 12725): flat in N but far too many; the network of active
+frictionless contacts is close to isostatic (3022 active contacts for 3N = 3066 at N = 1022),
+so its low modes are not smooth and aggregation does not capture them.  SuperLU (MMD) on the
+same H at 4N = 50900 did not factor within 9 minutes.
+
 Prints a table of medians over ``--repeat`` runs (iterations, gradient evaluations, seconds,
 final residual, max |sigma - sigma_ref|) and the fitted exponents of iterations and seconds in
 N, and writes the rows to ``--out`` (CSV).  Record ``uptime`` beside the timings: the machine
