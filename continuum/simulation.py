@@ -91,8 +91,8 @@ class ContinuumConfig:
     shape: str = "circle"
     initial_radius: float = R0
     n_nodes: int = 2000
-    h_max: float = 0.7
-    interior_coarsening: float = 2.0
+    h_max: float = 0.55
+    interior_coarsening: float = 2.5
     grading: float = 0.05
     courant: float = 0.6
     q_min: float = 0.35
