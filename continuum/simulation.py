@@ -464,7 +464,13 @@ def run(config: ContinuumConfig, out: Path | None = None, progress: bool = False
         elif col.t + dt >= goal * (1 - 1e-12):
             dt = goal - col.t
             done = True
-        dt = col.step(dt)
+        try:
+            dt = col.step(dt)
+        except PressureDivergence:
+            if out is not None:  # keep the history up to the failure for diagnosis
+                output.write_history(out, history)
+            bar.close()
+            raise
         row = col.history_row(dt, reason)
         history.append(row)
         progress_now = row["radius"] if by_radius else col.t
