@@ -129,6 +129,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
     state = run(config, out=partial, progress=progress)
     profile = field_profile(state.points, state.triangles,
                             {"mean_length": state.fields["mean_length"],
+                             "mean_length_psi": state.fields["mean_length_psi"],
                              "pressure": state.fields["p"]}, edge_width=CONTINUUM_EDGE_WIDTH)
     write_csv(partial / "profile.csv", profile)
     _draw_continuum(state, partial / "mean_length")

@@ -3,8 +3,9 @@
 - ``config.json``: the run's ContinuumConfig fields;
 - ``history.csv``: one row per time step (t, radius, area, max_pressure, n_nodes, ...);
 - ``boundary.csv``: final boundary polygon, columns x,y;
-- ``fields.pvd`` + ``fields/frame_NNNNN.vtu``: point data p, u, G, mean_length, number,
-  total_length (meshio VTU, one file per output step; ParaView reads the .pvd time series).
+- ``fields.pvd`` + ``fields/frame_NNNNN.vtu``: point data p, u, G, mean_length (delta initial
+  condition, from G), mean_length_psi, number, total_length (moments of Psi); meshio VTU,
+  one file per output step; ParaView reads the .pvd time series.
 
 Every writer refuses non-finite values (``ValueError``): NaN fields are never written.
 """

@@ -178,8 +178,13 @@ class ContinuumState:
     Attributes
     ----------
     points : (N, 2) node positions; triangles : (M, 3) counter-clockwise triangles.
-    fields : dict of nodal fields p (N,), u (N, 2), G (N,), mean_length (N,), number (N,) and
-        total_length (N,) (per current area), mean_length_delta = 2^frac(G/ln 2) (N,).
+    fields : dict of nodal fields p (N,), u (N, 2), G (N,) (growth phase),
+        mean_length = 2^frac(G/ln 2) (N,): the exact mean length for the model's initial
+        Psi0 = delta(l - 1) (model.md), what the figures show;
+        mean_length_psi, number, total_length (N,): moments of the transported size
+        distribution Psi (started from the smooth bump of ``sizes.SizeDistribution.bump``;
+        number and total length per current area). The bump smears over many divisions
+        (finite volumes in l), so mean_length_psi is the smoother of the two.
     t : time; boundary : (K, 2) boundary polygon (the nodes 0..K-1); history : per-step rows.
     timings : accumulated seconds per stage.
     """
@@ -370,10 +375,10 @@ class _Colony:
             "p": self.p.copy(),
             "u": self.u.copy(),
             "G": self.G.copy(),
-            "mean_length": total / number,
+            "mean_length": 2.0 ** (q - np.floor(q)),
+            "mean_length_psi": total / number,
             "number": number * stretch,
             "total_length": total * stretch,
-            "mean_length_delta": 2.0 ** (q - np.floor(q)),
         }
 
     def history_row(self, dt: float, reason: str | None) -> dict:

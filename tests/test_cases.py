@@ -5,7 +5,7 @@
    radius 10 % above the continuum's (relative difference exactly 0.1), mean-length waves of
    wavelength w = 1.2 lam^(-1/2) (wavelengths and the fitted exponent -1/2), pressure = the
    exact disc pressure (max pressure = p(0)).
-2. The smoke scale of every case with the real engines (skipped while an engine is missing):
+2. The smoke scale of every case with the real engines:
    the cases share one runs folder, so the eight smoke runs are computed once (about a minute
    on 2 cores). Asserted: the physics the smoke colonies must already show (continuum max
    pressure = analytic p(0) at the final radius, late speeds below the disc speed 4cR and
@@ -225,24 +225,11 @@ SMOKE = {
 RTOL = {"continuum": 0.03, "particles": 0.25}
 
 
-def _engines_available() -> bool:
-    try:
-        import continuum.simulation  # noqa: F401
-        import particles.simulation  # noqa: F401
-    except ImportError:
-        return False
-    return True
-
-
-needs_engines = pytest.mark.skipif(not _engines_available(), reason="engines not installed yet")
-
-
 @pytest.fixture(scope="module")
 def smoke_runs(tmp_path_factory) -> Path:
     return tmp_path_factory.mktemp("smoke_runs")
 
 
-@needs_engines
 @pytest.mark.parametrize("case", [fig3, fig4, fig2, crosscheck],
                          ids=["fig3", "fig4", "fig2", "crosscheck"])
 def test_smoke_case(case, smoke_runs, tmp_path):

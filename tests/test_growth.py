@@ -238,13 +238,14 @@ def test_polygon_shape_and_outputs(tmp_path):
     frames = sorted((out / "fields").glob("*.vtu"))
     assert len(frames) >= 3 and (out / "fields.pvd").read_text().count("<DataSet") == len(frames)
     m = meshio.read(frames[-1])
-    for name in ("p", "u", "G", "mean_length", "number", "total_length"):
+    for name in ("p", "u", "G", "mean_length", "mean_length_psi", "number", "total_length"):
         assert np.all(np.isfinite(m.point_data[name]))
     # total length per current area is conserved (the packing)
     L0 = meshio.read(frames[0]).point_data["total_length"]
     assert np.ptp(L0) < 1e-12
     np.testing.assert_allclose(s.fields["total_length"], L0[0], rtol=2e-3)
-    assert np.all((s.fields["mean_length"] >= 1.0) & (s.fields["mean_length"] <= 2.0))
+    for name in ("mean_length", "mean_length_psi"):
+        assert np.all((s.fields[name] >= 1.0) & (s.fields[name] <= 2.0))
     # sampling: NaN outside, P1 values inside
     v = s.sample(np.array([[0.0, 0.0], [10.0, 10.0]]))
     assert np.isfinite(v["p"][0]) and np.isnan(v["p"][1])
