@@ -30,6 +30,8 @@ import sys
 import tomllib
 from pathlib import Path
 
+import numpy as np
+
 from cases.analysis import field_profile, particle_profile, write_csv
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
@@ -132,7 +134,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
                              "mean_length_psi": state.fields["mean_length_psi"],
                              "pressure": state.fields["p"]}, edge_width=CONTINUUM_EDGE_WIDTH)
     write_csv(partial / "profile.csv", profile)
-    _draw_continuum(state, partial / "mean_length")
+    _draw_continuum(state, partial / "mean_length", config.lam)
     publish(partial, out)
     return state
 
@@ -146,39 +148,63 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
     profile = particle_profile(colony.x, colony.y, colony.length, colony.stress,
                                edge_width=PARTICLE_EDGE_WIDTH, radius=colony.radius())
     write_csv(partial / "profile.csv", profile)
-    _draw_particles(colony, partial / "colony")
+    _draw_particles(colony, partial / "colony", config.lam)
     for checkpoint in partial.glob("checkpoint*"):  # the run is complete: nothing to resume
         checkpoint.unlink()
     publish(partial, out)
     return colony
 
 
-def _draw_continuum(state, stem: Path) -> None:
+def mean_length_image(points, triangles, G, pixels: int = 900):
+    """Pixel image of lbar = 2^frac(G / ln 2) on the mesh's bounding box (NaN outside).
+
+    The growth phase G is smooth, lbar is a sawtooth: interpolating G linearly at each pixel
+    and applying the sawtooth there keeps the rings sharp, where shading the nodal lbar would
+    smear every jump over a triangle. Returns (image, extent) for ``imshow``.
+    """
+    from matplotlib.tri import LinearTriInterpolator, Triangulation
+
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    x = np.linspace(lo[0], hi[0], pixels)
+    y = np.linspace(lo[1], hi[1], pixels)
+    X, Y = np.meshgrid(x, y)
+    tri = Triangulation(points[:, 0], points[:, 1], triangles)
+    g = LinearTriInterpolator(tri, G)(X, Y)
+    q = np.ma.filled(g.astype(float), np.nan) / math.log(2.0)
+    return 2.0 ** (q - np.floor(q)), (lo[0], hi[0], lo[1], hi[1])
+
+
+def _draw_continuum(state, stem: Path, lam: float) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cases.draw import draw_field, save_figure
+    from cases.draw import DEFAULT_CMAP, LENGTH_LIMITS, colorbar, save_figure
 
-    fig, ax = plt.subplots(figsize=(6, 6))
-    draw_field(state.points, state.triangles, state.fields["mean_length"], ax=ax)
-    ax.set_title(f"continuum, t = {state.t:.3g}")
+    fig, ax = plt.subplots(figsize=(6.6, 6))
+    image, extent = mean_length_image(state.points, state.triangles, state.fields["G"])
+    mappable = ax.imshow(image, origin="lower", extent=extent, cmap=DEFAULT_CMAP,
+                         vmin=LENGTH_LIMITS[0], vmax=LENGTH_LIMITS[1], interpolation="nearest")
+    ax.set_aspect("equal")
+    colorbar(fig, mappable, ax, label=r"mean length $\bar\ell$")
+    ax.set_title(f"continuum, lam = {lam:g}, t = {state.t:.3g}")
     save_figure(fig, stem, formats=("png",))
     plt.close(fig)
 
 
-def _draw_particles(colony, stem: Path) -> None:
+def _draw_particles(colony, stem: Path, lam: float) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cases.draw import draw_particles, save_figure
+    from cases.draw import colorbar, draw_particles, save_figure
 
-    fig, ax = plt.subplots(figsize=(6, 6))
-    draw_particles(colony.x, colony.y, colony.theta, colony.length, ax=ax)
-    ax.set_title(f"particles, N = {len(colony.x)}, t = {colony.t:.3g}")
+    fig, ax = plt.subplots(figsize=(6.6, 6))
+    mappable = draw_particles(colony.x, colony.y, colony.theta, colony.length, ax=ax)
+    colorbar(fig, mappable, ax)
+    ax.set_title(f"particles, lam = {lam:g}, N = {len(colony.x)}, t = {colony.t:.3g}")
     save_figure(fig, stem, formats=("png",))
     plt.close(fig)
 
@@ -208,6 +234,10 @@ def parser() -> argparse.ArgumentParser:
     _common(c, "runs/continuum")
     c.add_argument("--shape", default=None,
                    help="initial shape: circle (default), ellipse:A,B or polygon:FILE.csv")
+    c.add_argument("--h-max", type=float,
+                   help="largest boundary mesh spacing (default 0.55; sets the resolution)")
+    c.add_argument("--n-nodes", type=int, help="node count while the colony is small")
+    c.add_argument("--output-every", type=float, help="time between VTU outputs (0: final only)")
 
     p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
     _common(p, "runs/particles")
@@ -242,7 +272,9 @@ def _dispatch(args) -> int:
         from continuum.simulation import ContinuumConfig
 
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
-                 "time": _finite("time", args.time), "shape": args.shape}
+                 "time": _finite("time", args.time), "shape": args.shape,
+                 "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
+                 "output_every": _finite("output-every", args.output_every)}
         config = build_config(ContinuumConfig, args.config, args.set, flags)
         run_continuum(config, Path(args.out), args.overwrite, progress)
         print(f"continuum run written to {args.out}")

@@ -4,6 +4,7 @@ import dataclasses
 import subprocess
 import sys
 
+import numpy as np
 import pytest
 
 from cases import cli
@@ -127,3 +128,15 @@ def test_particles_end_to_end(tmp_path):
     assert {"r", "mean_length", "stress"} <= set(_header(out / "profile.csv"))
     assert {"x", "y", "theta", "length", "stress"} <= set(_header(out / "particles.csv"))
     assert not list(out.glob("checkpoint*"))
+
+
+def test_mean_length_image_applies_the_sawtooth_per_pixel():
+    # G = 3 x on the unit square: lbar = 2^frac(3x / ln 2) exactly at every pixel centre
+    pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
+    tri = np.array([[0, 1, 2], [0, 2, 3]])
+    image, extent = cli.mean_length_image(pts, tri, 3.0 * pts[:, 0], pixels=50)
+    x = np.linspace(0, 1, 50)
+    q = 3.0 * x / np.log(2.0)
+    np.testing.assert_allclose(image, np.broadcast_to(2.0 ** (q - np.floor(q)), (50, 50)),
+                               rtol=1e-9)
+    assert extent == (0.0, 1.0, 0.0, 1.0)
