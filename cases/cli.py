@@ -58,7 +58,10 @@ def _coerce(value: str, like):
             return False
         raise UsageError(f"expected a boolean, got {value!r}")
     if isinstance(like, int):
-        return int(value)
+        try:
+            return int(value)
+        except ValueError:
+            raise UsageError(f"expected an integer, got {value!r}") from None
     if isinstance(like, float) or like is None:
         try:
             return float(value)
@@ -91,7 +94,10 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
         default = names[key].default
         if default is dataclasses.MISSING:
             default = getattr(defaults, key, None)
-        values[key] = _coerce(raw, default)
+        try:
+            values[key] = _coerce(raw, default)
+        except UsageError as err:
+            raise UsageError(f"--set {key}: {err}") from None
     values.update({k: v for k, v in flags.items() if v is not None})
     unknown = set(values) - set(names)
     if unknown:
@@ -316,6 +322,10 @@ def main(argv: list[str] | None = None) -> int:
         return 130
     except (ValueError, FileNotFoundError, RuntimeError, OSError) as err:
         message = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        out = getattr(args, "out", None)
+        partial = Path(out).with_name(Path(out).name + ".partial") if out else None
+        if args.command != "case" and partial is not None and partial.is_dir():
+            message += f" (output so far kept in {partial})"
         print(f"colony: error: {message}", file=sys.stderr)
         return 2
 
