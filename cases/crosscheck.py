@@ -30,7 +30,7 @@ import numpy as np
 
 from cases import analysis as A
 from cases.fig4 import exact_wavelength
-from cases.sweep import engine_runs, scale_config
+from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
 from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "radius_difference", "markdown_table"]
@@ -48,11 +48,12 @@ EXPONENTS = {
 }
 
 
-def runs_needed(scale: str) -> tuple[list[float], list[tuple[str, float]]]:
+def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
+                ) -> tuple[list[float], list[tuple[str, float]]]:
     """(lam values, (engine, lam) runs) at ``scale``."""
     cfg = scale_config(scale)
     lams = sorted({0.0, *cfg["lams"], *cfg["scaling_lams"]})
-    return lams, [(e, lam) for lam in lams for e in ("continuum", "particles")]
+    return lams, engine_pairs(lams, engines)
 
 
 def radius_difference(t_c: np.ndarray, R_c: np.ndarray, t_p: np.ndarray, R_p: np.ndarray
@@ -72,62 +73,89 @@ def radius_difference(t_c: np.ndarray, R_c: np.ndarray, t_p: np.ndarray, R_p: np
 
 def compute(scale: str = "smoke", out: str | Path = "runs/case-crosscheck-smoke",
             scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None) -> Path:
-    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data."""
+            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES) -> Path:
+    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
+
+    ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
+    """
     out = Path(out)
-    _, needed = runs_needed(scale)
+    if "continuum" not in engines:
+        raise ValueError("crosscheck needs the continuum runs (engines must include 'continuum')")
+    _, needed = runs_needed(scale, engines)
     folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
                           scheduler=scheduler, n_workers=n_workers)
     return reduce(folders, out / "data")
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
-    """Measure every row of the table from the run folders {(engine, lam): folder}."""
+    """Measure every row of the table from the run folders {(engine, lam): folder}.
+
+    The continuum runs are required; a lam without its particle run gets nan (printed "-") in
+    the particle and comparison columns.
+    """
     data = Path(data)
     lams = sorted({lam for _, lam in folders})
-    cols = ("lam", "radius_final", "t_final_continuum", "t_final_particles", "max_rel_diff_R",
-            "max_rel_diff_R_late", "max_rel_diff_R_hull", "max_rel_diff_R_hull_late",
-            "slope_particles", "slope_continuum", "slope_exact",
-            "slope_asymptotic", "max_stress_particles", "max_pressure_continuum", "p0_exact",
-            "wavelength_particles", "wavelength_continuum", "wavelength_exact")
-    table = {k: [] for k in cols}
+    table: dict[str, list] = {k: [] for k in COLUMNS}
     for lam in lams:
-        fc, fp = folders["continuum", lam], folders["particles", lam]
-        hc, hp = A.read_csv(fc / "history.csv"), A.read_csv(fp / "history.csv")
-        diff = radius_difference(hc["t"], hc["radius"], hp["t"], hp["radius"])
-        hull = radius_difference(hc["t"], hc["radius"], hp["t"], hp["hull_radius"])
-        A.write_csv(data / f"radius_diff_lam={lam:g}.csv",
-                    A.thin_rows({**diff, "rel_diff_hull": hull["rel_diff"]}))
-        R_f = float(hc["radius"][-1])
-        late = diff["radius_continuum"] >= 0.5 * R_f
-        pp = A.final_particle_profile(fp, growth_window=1.0)
-        wc = A.wavelength_series(fc, "continuum")
-        wp = A.profile_wavelength(A.final_particle_profile(fp, growth_window=0.0), noisy=True)
-        row = {
-            "lam": lam,
-            "radius_final": R_f,
-            "t_final_continuum": float(hc["t"][-1]),
-            "t_final_particles": float(hp["t"][-1]),
-            "max_rel_diff_R": float(np.max(np.abs(diff["rel_diff"]))),
-            "max_rel_diff_R_late": float(np.max(np.abs(diff["rel_diff"][late]))),
-            "max_rel_diff_R_hull": float(np.max(np.abs(hull["rel_diff"]))),
-            "max_rel_diff_R_hull_late": float(np.max(np.abs(hull["rel_diff"][late]))),
-            "slope_particles": A.late_slope(hp["t"], hp["radius"], LATE_FRACTION),
-            "slope_continuum": A.late_slope(hc["t"], hc["radius"], LATE_FRACTION),
-            "slope_exact": radial.radius_rate(R_f, lam),
-            "slope_asymptotic": math.sqrt(2.0 / lam) if lam > 0 else math.nan,
-            "max_stress_particles": A.max_value(pp["stress"]),
-            "max_pressure_continuum": float(hc["max_pressure"][-1]),
-            "p0_exact": radial.max_pressure(R_f, lam),
-            "wavelength_particles": wp,
-            "wavelength_continuum": float(wc["wavelength"][-1]),
-            "wavelength_exact": exact_wavelength(lam, R_f) if lam > 0 else math.nan,
-        }
-        for k in cols:
+        row = _continuum_row(folders["continuum", lam], lam)
+        fp = folders.get(("particles", lam))
+        row |= (_particle_row(fp, folders["continuum", lam], lam, data) if fp is not None
+                else dict.fromkeys(PARTICLE_COLUMNS, math.nan))
+        for k in COLUMNS:
             table[k].append(row[k])
     A.write_csv(data / "table.csv", table)
     A.write_csv(data / "exponents.csv", exponents(table))
     return data
+
+
+PARTICLE_COLUMNS = ("t_final_particles", "max_rel_diff_R", "max_rel_diff_R_late",
+                    "max_rel_diff_R_hull", "max_rel_diff_R_hull_late", "slope_particles",
+                    "max_stress_particles", "wavelength_particles")
+COLUMNS = ("lam", "radius_final", "t_final_continuum", "t_final_particles", "max_rel_diff_R",
+           "max_rel_diff_R_late", "max_rel_diff_R_hull", "max_rel_diff_R_hull_late",
+           "slope_particles", "slope_continuum", "slope_exact",
+           "slope_asymptotic", "max_stress_particles", "max_pressure_continuum", "p0_exact",
+           "wavelength_particles", "wavelength_continuum", "wavelength_exact")
+
+
+def _continuum_row(fc: Path, lam: float) -> dict[str, float]:
+    """The continuum's and the exact references' columns of the table."""
+    hc = A.read_csv(fc / "history.csv")
+    R_f = float(hc["radius"][-1])
+    return {
+        "lam": lam,
+        "radius_final": R_f,
+        "t_final_continuum": float(hc["t"][-1]),
+        "slope_continuum": A.late_slope(hc["t"], hc["radius"], LATE_FRACTION),
+        "slope_exact": radial.radius_rate(R_f, lam),
+        "slope_asymptotic": math.sqrt(2.0 / lam) if lam > 0 else math.nan,
+        "max_pressure_continuum": float(hc["max_pressure"][-1]),
+        "p0_exact": radial.max_pressure(R_f, lam),
+        "wavelength_continuum": float(A.wavelength_series(fc, "continuum")["wavelength"][-1]),
+        "wavelength_exact": exact_wavelength(lam, R_f) if lam > 0 else math.nan,
+    }
+
+
+def _particle_row(fp: Path, fc: Path, lam: float, data: Path) -> dict[str, float]:
+    """The particle columns, R(t) against the continuum's (also written to radius_diff_*.csv)."""
+    hc, hp = A.read_csv(fc / "history.csv"), A.read_csv(fp / "history.csv")
+    diff = radius_difference(hc["t"], hc["radius"], hp["t"], hp["radius"])
+    hull = radius_difference(hc["t"], hc["radius"], hp["t"], hp["hull_radius"])
+    A.write_csv(data / f"radius_diff_lam={lam:g}.csv",
+                A.thin_rows({**diff, "rel_diff_hull": hull["rel_diff"]}))
+    late = diff["radius_continuum"] >= 0.5 * float(hc["radius"][-1])
+    pp = A.final_particle_profile(fp, growth_window=1.0)
+    return {
+        "t_final_particles": float(hp["t"][-1]),
+        "max_rel_diff_R": float(np.max(np.abs(diff["rel_diff"]))),
+        "max_rel_diff_R_late": float(np.max(np.abs(diff["rel_diff"][late]))),
+        "max_rel_diff_R_hull": float(np.max(np.abs(hull["rel_diff"]))),
+        "max_rel_diff_R_hull_late": float(np.max(np.abs(hull["rel_diff"][late]))),
+        "slope_particles": A.late_slope(hp["t"], hp["radius"], LATE_FRACTION),
+        "max_stress_particles": A.max_value(pp["stress"]),
+        "wavelength_particles": A.profile_wavelength(
+            A.final_particle_profile(fp, growth_window=0.0), noisy=True),
+    }
 
 
 def exponents(table: dict[str, list]) -> dict[str, np.ndarray]:
@@ -195,7 +223,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Write ``results.md`` and the R(t) difference figure (PNG, PDF) from the CSVs in ``data``."""
     import matplotlib.pyplot as plt
 
-    from cases.draw import save_figure
+    from cases.draw import note_missing_engines, save_figure
 
     data, out = Path(data), Path(out)
     out.mkdir(parents=True, exist_ok=True)
@@ -213,7 +241,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     ax.axhline(0, color="k", lw=0.5)
     ax.set(xlabel="t", ylabel=r"$(R_p - R_c)/R_c$ [%]",
            title="particle radius: enclosing disc (solid), sqrt(hull area/pi) (dashed)")
-    ax.legend(fontsize=8)
+    if files:
+        ax.legend(fontsize=8)
+    note_missing_engines(fig, {"continuum", *(["particles"] if files else [])})
     return [md, *save_figure(fig, out / "crosscheck")]
 
 

@@ -26,7 +26,7 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 __all__ = ["LENGTH_LIMITS", "DEFAULT_CMAP", "spherocylinder_polygons", "draw_particles",
-           "draw_field", "save_figure", "colorbar"]
+           "draw_field", "save_figure", "colorbar", "note_missing_engines"]
 
 LENGTH_LIMITS = (1.0, 2.0)
 DEFAULT_CMAP = "viridis"
@@ -152,6 +152,17 @@ def colorbar(fig: Figure, mappable, ax, label: str = r"length $\ell$"):
     cb = fig.colorbar(mappable, ax=ax, shrink=0.8)
     cb.set_label(label)
     return cb
+
+
+def note_missing_engines(fig: Figure, present: set[str],
+                         engines: Sequence[str] = ("continuum", "particles")) -> list[str]:
+    """Write at the foot of `fig` which of `engines` are absent from its data; returns them."""
+    missing = [e for e in engines if e not in present]
+    if missing:
+        fig.text(0.5, -0.01, f"{' and '.join(missing)}: not computed at this scale; "
+                 "their panels and curves are omitted", ha="center", va="top", fontsize=9,
+                 style="italic")
+    return missing
 
 
 def save_figure(

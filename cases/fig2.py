@@ -23,17 +23,18 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import engine_runs, scale_config
+from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "snapshot_indices", "N_SNAPSHOTS"]
 
 N_SNAPSHOTS = 5
 
 
-def runs_needed(scale: str) -> tuple[list[float], list[tuple[str, float]]]:
+def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
+                ) -> tuple[list[float], list[tuple[str, float]]]:
     """(lam values, (engine, lam) runs) at ``scale``."""
     lams = sorted(scale_config(scale)["lams"])
-    return lams, [(e, lam) for lam in lams for e in ("continuum", "particles")]
+    return lams, engine_pairs(lams, engines)
 
 
 def snapshot_indices(times: np.ndarray, n: int = N_SNAPSHOTS) -> list[int]:
@@ -47,10 +48,13 @@ def snapshot_indices(times: np.ndarray, n: int = N_SNAPSHOTS) -> list[int]:
 
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig2-smoke",
             scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None) -> Path:
-    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data."""
+            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES) -> Path:
+    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
+
+    ``engines``: the engines whose rows are made (a subset of ENGINES).
+    """
     out = Path(out)
-    _, needed = runs_needed(scale)
+    _, needed = runs_needed(scale, engines)
     folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
                           scheduler=scheduler, n_workers=n_workers)
     return reduce(folders, out / "data")
@@ -111,12 +115,13 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 2 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
     import matplotlib.pyplot as plt
 
-    from cases.draw import colorbar, draw_particles, save_figure
+    from cases.draw import colorbar, draw_particles, note_missing_engines, save_figure
 
     data, out = Path(data), Path(out)
     idx = A.read_csv(data / "snapshots.csv")
     lams = sorted(set(idx["lam"].tolist()))
-    rows = [(1, lam) for lam in lams] + [(0, lam) for lam in lams]
+    present = sorted(set(idx["engine"].astype(int).tolist()), reverse=True)  # particles first
+    rows = [(engine, lam) for engine in present for lam in lams]
     fig, axes = plt.subplots(len(rows), N_SNAPSHOTS, figsize=(2.2 * N_SNAPSHOTS, 2.2 * len(rows)),
                              squeeze=False)
     mappable = None
@@ -141,11 +146,12 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             ax.set_yticks([])
             if hit.any():
                 ax.set_title(f"t = {float(idx['t'][hit][0]):.3g}", fontsize=8)
-        label = "ABCDEF"[row] if row < 6 else str(row)
+        label = chr(ord("A") + row + (len(lams) if 1 not in present else 0))  # continuum D-F
         axes[row, 0].set_ylabel(f"({label}) {'particles' if engine else 'continuum'}\n"
                                 rf"$\lambda$ = {lam:g}", fontsize=8)
     if mappable is not None:
         colorbar(fig, mappable, axes.ravel().tolist())
+    note_missing_engines(fig, {ENGINES[e] for e in present})  # codes 0, 1 as in ENGINES
     return save_figure(fig, out / "fig2")
 
 

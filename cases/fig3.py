@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import engine_runs, scale_config
+from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
 from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed"]
@@ -33,19 +33,25 @@ __all__ = ["compute", "reduce", "plot", "runs_needed"]
 LATE_FRACTION = 0.2
 
 
-def runs_needed(scale: str) -> tuple[list[float], list[tuple[str, float]]]:
+def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
+                ) -> tuple[list[float], list[tuple[str, float]]]:
     """(lam values of the figure, (engine, lam) runs) at ``scale``."""
     cfg = scale_config(scale)
     lams = sorted({0.0, *cfg["lams"], *cfg["scaling_lams"]})
-    return lams, [(e, lam) for lam in lams for e in ("continuum", "particles")]
+    return lams, engine_pairs(lams, engines)
 
 
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig3-smoke",
             scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None) -> Path:
-    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data."""
+            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES) -> Path:
+    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
+
+    ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
+    """
     out = Path(out)
-    lams, needed = runs_needed(scale)
+    if "continuum" not in engines:
+        raise ValueError("fig3 needs the continuum runs (engines must include 'continuum')")
+    lams, needed = runs_needed(scale, engines)
     folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
                           scheduler=scheduler, n_workers=n_workers)
     cfg = scale_config(scale)
@@ -55,39 +61,60 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-fig3-smoke",
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path,
            profile_lams: list[float]) -> Path:
-    """Reduce run folders {(engine, lam): folder} to the CSVs of the figure in ``data``."""
+    """Reduce run folders {(engine, lam): folder} to the CSVs of the figure in ``data``.
+
+    The continuum runs are required; a lam without its particle run gets nan in the particle
+    columns of ``summary.csv`` and no particle CSVs (continuum-only scales).
+    """
     data = Path(data)
     lams = sorted({lam for _, lam in folders})
-    rows = {k: [] for k in ("lam", "radius_continuum", "radius_particles", "max_stress_particles",
-                            "max_pressure_continuum", "p0_exact", "slope_particles",
-                            "slope_continuum", "slope_exact", "slope_asymptotic")}
+    rows: dict[str, list] = {k: [] for k in SUMMARY}
     for lam in lams:
-        hc = A.read_csv(folders["continuum", lam] / "history.csv")
-        hp = A.read_csv(folders["particles", lam] / "history.csv")
-        A.write_csv(data / f"radius_continuum_lam={lam:g}.csv",
-                    A.thin_rows({"t": hc["t"], "radius": hc["radius"],
-                                 "max_pressure": hc["max_pressure"]}))
-        A.write_csv(data / f"radius_particles_lam={lam:g}.csv",
-                    A.thin_rows({"t": hp["t"], "radius": hp["radius"],
-                                 "max_stress": hp["max_stress"]}))
-        pp = A.final_particle_profile(folders["particles", lam], growth_window=1.0)
-        if lam in profile_lams:
-            pc = A.final_continuum_profile(folders["continuum", lam])
-            A.write_csv(data / f"profile_continuum_lam={lam:g}.csv", pc)
-            A.write_csv(data / f"profile_particles_lam={lam:g}.csv", pp)
-        R_c = float(hc["radius"][-1])
-        rows["lam"].append(lam)
-        rows["radius_continuum"].append(R_c)
-        rows["radius_particles"].append(float(hp["radius"][-1]))
-        rows["max_stress_particles"].append(A.max_value(pp["stress"]))
-        rows["max_pressure_continuum"].append(float(hc["max_pressure"][-1]))
-        rows["p0_exact"].append(radial.max_pressure(R_c, lam))
-        rows["slope_particles"].append(A.late_slope(hp["t"], hp["radius"], LATE_FRACTION))
-        rows["slope_continuum"].append(A.late_slope(hc["t"], hc["radius"], LATE_FRACTION))
-        rows["slope_exact"].append(radial.radius_rate(R_c, lam))
-        rows["slope_asymptotic"].append(math.sqrt(2.0 / lam) if lam > 0 else math.nan)
+        row = _continuum_row(folders["continuum", lam], lam, data, lam in profile_lams)
+        fp = folders.get(("particles", lam))
+        row |= (_particle_row(fp, lam, data, lam in profile_lams) if fp is not None
+                else dict.fromkeys(PARTICLE_COLUMNS, math.nan))
+        for k in SUMMARY:
+            rows[k].append(row[k])
     A.write_csv(data / "summary.csv", rows)
     return data
+
+
+PARTICLE_COLUMNS = ("radius_particles", "max_stress_particles", "slope_particles")
+SUMMARY = ("lam", "radius_continuum", "radius_particles", "max_stress_particles",
+           "max_pressure_continuum", "p0_exact", "slope_particles", "slope_continuum",
+           "slope_exact", "slope_asymptotic")
+
+
+def _continuum_row(folder: Path, lam: float, data: Path, profile: bool) -> dict[str, float]:
+    """Write R(t) (and the final profile) of a continuum run; its columns of the summary."""
+    hc = A.read_csv(folder / "history.csv")
+    A.write_csv(data / f"radius_continuum_lam={lam:g}.csv",
+                A.thin_rows({"t": hc["t"], "radius": hc["radius"],
+                             "max_pressure": hc["max_pressure"]}))
+    if profile:
+        A.write_csv(data / f"profile_continuum_lam={lam:g}.csv", A.final_continuum_profile(folder))
+    R_c = float(hc["radius"][-1])
+    return {"lam": lam, "radius_continuum": R_c,
+            "max_pressure_continuum": float(hc["max_pressure"][-1]),
+            "p0_exact": radial.max_pressure(R_c, lam),
+            "slope_continuum": A.late_slope(hc["t"], hc["radius"], LATE_FRACTION),
+            "slope_exact": radial.radius_rate(R_c, lam),
+            "slope_asymptotic": math.sqrt(2.0 / lam) if lam > 0 else math.nan}
+
+
+def _particle_row(folder: Path, lam: float, data: Path, profile: bool) -> dict[str, float]:
+    """Write R(t) (and the pooled final profile) of a particle run; its summary columns."""
+    hp = A.read_csv(folder / "history.csv")
+    A.write_csv(data / f"radius_particles_lam={lam:g}.csv",
+                A.thin_rows({"t": hp["t"], "radius": hp["radius"],
+                             "max_stress": hp["max_stress"]}))
+    pp = A.final_particle_profile(folder, growth_window=1.0)
+    if profile:
+        A.write_csv(data / f"profile_particles_lam={lam:g}.csv", pp)
+    return {"radius_particles": float(hp["radius"][-1]),
+            "max_stress_particles": A.max_value(pp["stress"]),
+            "slope_particles": A.late_slope(hp["t"], hp["radius"], LATE_FRACTION)}
 
 
 def _lam_files(data: Path, prefix: str) -> dict[float, Path]:
@@ -102,32 +129,31 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
-    from cases.draw import save_figure
+    from cases.draw import note_missing_engines, save_figure
 
     data, out = Path(data), Path(out)
     summary = A.read_csv(data / "summary.csv")
     fig, ax = plt.subplots(2, 2, figsize=(10, 8))
-    prof_lams = sorted(_lam_files(data, "profile_particles"))
+    prof_lams = sorted(_lam_files(data, "profile_continuum"))
     colors = {lam: plt.cm.plasma(i / max(1, len(prof_lams))) for i, lam in enumerate(prof_lams)}
 
     a = ax[0, 0]
     for lam in prof_lams:
-        pp = A.read_csv(data / f"profile_particles_lam={lam:g}.csv")
         pc = A.read_csv(data / f"profile_continuum_lam={lam:g}.csv")
-        a.plot(pp["r"], pp["stress"], "-", color=colors[lam], label=rf"$\lambda$ = {lam:g}")
-        a.plot(pc["r"], pc["pressure"], "--", color=colors[lam])
+        a.plot(pc["r"], pc["pressure"], "--", color=colors[lam], label=rf"$\lambda$ = {lam:g}")
+        if (path := data / f"profile_particles_lam={lam:g}.csv").exists():
+            pp = A.read_csv(path)
+            a.plot(pp["r"], pp["stress"], "-", color=colors[lam])
     a.set(xlabel="r", ylabel=r"$\langle\sigma_n\rangle$ (solid), $p$ (dashed)", title="(A)")
     a.legend(fontsize=8)
 
     a = ax[0, 1]
-    for lam, path in _lam_files(data, "radius_particles").items():
-        c = colors.get(lam)
-        if c is None:
-            continue
-        hp = A.read_csv(path)
+    for lam in prof_lams:
         hc = A.read_csv(data / f"radius_continuum_lam={lam:g}.csv")
-        a.plot(hp["t"], hp["radius"], "-", color=c, label=rf"$\lambda$ = {lam:g}")
-        a.plot(hc["t"], hc["radius"], "--", color=c)
+        a.plot(hc["t"], hc["radius"], "--", color=colors[lam], label=rf"$\lambda$ = {lam:g}")
+        if (path := data / f"radius_particles_lam={lam:g}.csv").exists():
+            hp = A.read_csv(path)
+            a.plot(hp["t"], hp["radius"], "-", color=colors[lam])
     a.set(xlabel="t", ylabel="R(t)", yscale="log", title="(B) particles solid, continuum dashed")
     a.legend(fontsize=8)
 
@@ -138,6 +164,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                               ("max_pressure_continuum", "s", "continuum"),
                               ("p0_exact", "k--", r"analytic $p(0)$")):
         y = summary[key][pos]
+        if not np.isfinite(y).any():
+            continue
         try:
             expo, _ = A.power_law_fit(lam, y)
             label = f"{label} (slope {expo:.2f})"
@@ -148,8 +176,10 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     a.legend(fontsize=8)
 
     a = ax[1, 1]
-    a.plot(lam, summary["slope_particles"][pos], "o", mfc="none", label="particles")
-    a.plot(lam, summary["slope_continuum"][pos], "s", mfc="none", label="continuum")
+    for key, style, label in (("slope_particles", "o", "particles"),
+                              ("slope_continuum", "s", "continuum")):
+        if np.isfinite(summary[key][pos]).any():
+            a.plot(lam, summary[key][pos], style, mfc="none", label=label)
     a.plot(lam, summary["slope_exact"][pos], "k:", label=r"disc $4cR$ at final $R$")
     lg = np.logspace(np.log10(lam.min()), np.log10(lam.max()), 50)
     a.plot(lg, np.sqrt(2 / lg), "k--", label=r"$(2/\lambda)^{1/2}$")
@@ -160,6 +190,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         if a.get_xscale() == "log":
             a.xaxis.set_minor_formatter(NullFormatter())
     fig.tight_layout()
+    note_missing_engines(fig, {e for e in ENGINES if np.isfinite(summary[f"slope_{e}"]).any()})
     return save_figure(fig, out / "fig3")
 
 

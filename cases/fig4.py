@@ -15,21 +15,23 @@ CSVs behind every curve to ``out/data``; ``plot`` draws from those CSVs only.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import engine_runs, scale_config
+from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "exact_wavelength"]
 
 
-def runs_needed(scale: str) -> tuple[list[float], list[tuple[str, float]]]:
+def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
+                ) -> tuple[list[float], list[tuple[str, float]]]:
     """(lam values, (engine, lam) runs) at ``scale``."""
     cfg = scale_config(scale)
     lams = sorted({*cfg["lams"], *cfg["scaling_lams"]})
-    return lams, [(e, lam) for lam in lams for e in ("continuum", "particles")]
+    return lams, engine_pairs(lams, engines)
 
 
 def exact_wavelength(lam: float, radius: float, n: int = 8001) -> float:
@@ -42,10 +44,15 @@ def exact_wavelength(lam: float, radius: float, n: int = 8001) -> float:
 
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig4-smoke",
             scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None) -> Path:
-    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data."""
+            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES) -> Path:
+    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
+
+    ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
+    """
     out = Path(out)
-    _, needed = runs_needed(scale)
+    if "continuum" not in engines:
+        raise ValueError("fig4 needs the continuum runs (engines must include 'continuum')")
+    _, needed = runs_needed(scale, engines)
     folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
                           scheduler=scheduler, n_workers=n_workers)
     return reduce(folders, out / "data", list(scale_config(scale)["lams"]))
@@ -53,27 +60,39 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-fig4-smoke",
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path,
            profile_lams: list[float]) -> Path:
-    """Reduce run folders {(engine, lam): folder} to the CSVs of the figure in ``data``."""
+    """Reduce run folders {(engine, lam): folder} to the CSVs of the figure in ``data``.
+
+    The continuum runs are required; a lam without its particle run gets nan in the particle
+    columns of ``summary.csv`` and no particle CSVs (continuum-only scales).
+    """
     data = Path(data)
     lams = sorted({lam for _, lam in folders})
     rows = {k: [] for k in ("lam", "radius_continuum", "radius_particles",
                             "wavelength_continuum", "wavelength_particles", "wavelength_exact")}
     for lam in lams:
-        wc = A.wavelength_series(folders["continuum", lam], "continuum")
-        wp = A.wavelength_series(folders["particles", lam], "particles")
-        if lam in profile_lams:
-            A.write_csv(data / f"wavelength_continuum_lam={lam:g}.csv", wc)
-            A.write_csv(data / f"wavelength_particles_lam={lam:g}.csv", A.thin_rows(wp))
-            pp = A.final_particle_profile(folders["particles", lam], growth_window=0.0)
-            A.write_csv(data / f"profile_particles_lam={lam:g}.csv", pp)
+        for engine in ENGINES:
+            if (engine, lam) not in folders:
+                rows[f"radius_{engine}"].append(math.nan)
+                rows[f"wavelength_{engine}"].append(math.nan)
+                continue
+            w = A.wavelength_series(folders[engine, lam], engine)
+            rows[f"radius_{engine}"].append(float(w["radius"][-1]))
+            rows[f"wavelength_{engine}"].append(float(w["wavelength"][-1]))
+            if lam in profile_lams:
+                A.write_csv(data / f"wavelength_{engine}_lam={lam:g}.csv", A.thin_rows(w))
+                A.write_csv(data / f"profile_{engine}_lam={lam:g}.csv",
+                            _final_profile(folders[engine, lam], engine))
         rows["lam"].append(lam)
-        rows["radius_continuum"].append(float(wc["radius"][-1]))
-        rows["radius_particles"].append(float(wp["radius"][-1]))
-        rows["wavelength_continuum"].append(float(wc["wavelength"][-1]))
-        rows["wavelength_particles"].append(float(wp["wavelength"][-1]))
-        rows["wavelength_exact"].append(exact_wavelength(lam, float(wc["radius"][-1])))
+        rows["wavelength_exact"].append(exact_wavelength(lam, rows["radius_continuum"][-1]))
     A.write_csv(data / "summary.csv", rows)
     return data
+
+
+def _final_profile(folder: Path, engine: str) -> dict[str, np.ndarray]:
+    """Final radial mean-length profile: the last frame only (no pooling: rings move)."""
+    if engine == "continuum":
+        return A.final_continuum_profile(folder)
+    return A.final_particle_profile(folder, growth_window=0.0)
 
 
 def _lams(data: Path, prefix: str) -> list[float]:
@@ -85,21 +104,27 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     import matplotlib.pyplot as plt
     from matplotlib.ticker import NullFormatter
 
-    from cases.draw import save_figure
+    from cases.draw import note_missing_engines, save_figure
 
     data, out = Path(data), Path(out)
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
-    lams = _lams(data, "profile_particles")
+    lams = sorted({*_lams(data, "profile_particles"), *_lams(data, "profile_continuum")})
     colors = {lam: plt.cm.viridis(i / max(1, len(lams))) for i, lam in enumerate(lams)}
 
     a = ax[0]
     for lam in lams:
-        p = A.read_csv(data / f"profile_particles_lam={lam:g}.csv")
-        ok = p["count"] > 0
-        r, m, s = p["r"][ok], p["mean_length"][ok], p["mean_length_std"][ok]
-        a.plot(r, m, color=colors[lam], label=rf"$\lambda$ = {lam:g}")
-        a.fill_between(r, m - s, m + s, color=colors[lam], alpha=0.2, lw=0)
-    a.set(xlabel="r", ylabel=r"$\langle \ell_n \rangle$", title="(A) particles, final time")
+        label = rf"$\lambda$ = {lam:g}"
+        for engine, style in (("particles", "-"), ("continuum", "--")):
+            if not (path := data / f"profile_{engine}_lam={lam:g}.csv").exists():
+                continue
+            p = A.read_csv(path)
+            ok = p["count"] > 0
+            r, m, s = p["r"][ok], p["mean_length"][ok], p["mean_length_std"][ok]
+            a.plot(r, m, style, color=colors[lam], lw=1, label=label)
+            label = None
+            a.fill_between(r, m - s, m + s, color=colors[lam], alpha=0.2, lw=0)
+    a.set(xlabel="r", ylabel=r"$\langle \ell_n \rangle$ $\pm$ 1 s.d.",
+          title="(A) final time: particles solid, continuum dashed")
     a.legend(fontsize=8)
 
     a = ax[1]
@@ -120,6 +145,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     for key, style, label in (("wavelength_particles", "o", "particles"),
                               ("wavelength_continuum", "s", "continuum"),
                               ("wavelength_exact", "k.", "radial reference")):
+        if not np.isfinite(s[key]).any():
+            continue
         try:
             expo, _ = A.power_law_fit(s["lam"], s[key])
             label = f"{label} (slope {expo:.2f})"
@@ -138,6 +165,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         if a.get_xscale() == "log":
             a.xaxis.set_minor_formatter(NullFormatter())
     fig.tight_layout()
+    note_missing_engines(fig, {e for e in ENGINES if np.isfinite(s[f"radius_{e}"]).any()})
     return save_figure(fig, out / "fig4")
 
 

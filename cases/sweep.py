@@ -42,7 +42,7 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["SweepError", "run_name", "is_done", "run_one", "sweep", "DONE", "run_engine",
-           "engine_runs", "SCALES", "scale_config"]
+           "engine_runs", "engine_pairs", "ENGINES", "SCALES", "scale_config"]
 
 DONE = "DONE"
 
@@ -184,6 +184,20 @@ def sweep(
 
 
 ENGINES = ("continuum", "particles")
+
+
+def engine_pairs(lams: Sequence[float], engines: Sequence[str] = ENGINES
+                 ) -> list[tuple[str, float]]:
+    """The runs (engine, lam) of every lam for each of ``engines`` (a subset of ENGINES).
+
+    A figure case given ``engines=("continuum",)`` reduces and draws the continuum only (the
+    paper-scale particle runs need a faster contact solver than this session has).
+    """
+    engines = tuple(engines)
+    bad = [e for e in engines if e not in ENGINES]
+    if bad or not engines:
+        raise ValueError(f"engines must be a non-empty subset of {ENGINES}, got {engines!r}")
+    return [(e, float(lam)) for lam in lams for e in engines]
 
 
 def run_engine(params: dict, folder: Path) -> None:

@@ -271,3 +271,56 @@ def test_plot_from_committed_data(case, tmp_path):
     assert (data / "README.md").is_file()
     paths = case.plot(data, tmp_path)
     assert paths and all(p.stat().st_size > 1000 for p in paths)
+
+
+# ------------------------------------------------------------------ continuum-only reductions
+
+
+def test_engine_pairs():
+    from cases.sweep import engine_pairs
+
+    assert engine_pairs([0.1, 0.2], ("continuum",)) == [("continuum", 0.1), ("continuum", 0.2)]
+    assert fig3.runs_needed("paper", ("continuum",))[1] == [
+        ("continuum", lam) for lam in (0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2)]
+    for bad in ((), ("fluid",), ("continuum", "particle")):
+        with pytest.raises(ValueError, match="subset"):
+            engine_pairs([0.1], bad)
+    with pytest.raises(ValueError, match="continuum"):
+        fig3.compute("smoke", engines=("particles",))
+
+
+def test_note_missing_engines():
+    import matplotlib.pyplot as plt
+
+    from cases.draw import note_missing_engines
+
+    fig = plt.figure()
+    assert note_missing_engines(fig, {"continuum", "particles"}) == [] and not fig.texts
+    assert note_missing_engines(fig, {"continuum"}) == ["particles"]
+    assert "particles: not computed" in fig.texts[0].get_text()
+    plt.close(fig)
+
+
+@pytest.mark.parametrize("case", [fig2, fig3, fig4, crosscheck],
+                         ids=["fig2", "fig3", "fig4", "crosscheck"])
+def test_continuum_only_reduce_and_plot(case, fake_runs, tmp_path):
+    """Without particle runs the particle columns are nan, the continuum ones unchanged."""
+    name = case.__name__.split(".")[-1]
+    both = {k: v for k, v in fake_runs.items() if name not in ("fig2", "fig4") or k[1] in LAMS}
+    only = {k: v for k, v in both.items() if k[0] == "continuum"}
+    extra = {"profile_lams": list(LAMS)} if name in ("fig3", "fig4") else {}
+    d1 = case.reduce(both, tmp_path / "both", **extra)
+    d2 = case.reduce(only, tmp_path / "only", **extra)
+    assert not list(d2.glob("*particles*")) and not list(d2.glob("radius_diff*"))
+    summary = {"fig2": "snapshots.csv", "crosscheck": "table.csv"}.get(name, "summary.csv")
+    s1, s2 = A.read_csv(d1 / summary), A.read_csv(d2 / summary)
+    if name == "fig2":
+        np.testing.assert_array_equal(s2["engine"], 0)
+        assert len(s2["k"]) == len(LAMS) * fig2.N_SNAPSHOTS
+    for col in s2 if name != "fig2" else ():
+        if "particles" in col or "diff" in col:
+            assert np.all(np.isnan(s2[col])) and np.any(np.isfinite(s1[col])), col
+        else:
+            np.testing.assert_array_equal(s2[col], s1[col], err_msg=col)
+    paths = case.plot(d2, tmp_path / "fig")
+    assert paths and all(p.stat().st_size > 1000 for p in paths)
