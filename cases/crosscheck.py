@@ -19,6 +19,11 @@ of the runs.
 ``out/data``; ``plot`` writes ``results.md`` (the table) and ``crosscheck.png/pdf`` (relative
 R(t) difference against t, for both particle radii) from those CSVs only. Scales as in
 cases.sweep.SCALES (smoke: about a minute on 2 cores; paper: hours).
+
+Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
+(particle columns nan, particle panels omitted and the figure says so). Committed data
+(cases/data): crosscheck at scale "medium" (radius 40, both engines; reduction < 10 s) and
+crosscheck_paper_continuum at scale "paper", continuum only (reduction under ~5 min).
 """
 
 from __future__ import annotations

@@ -15,6 +15,11 @@ Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3} and 0; about a minute on 2 co
 cases.sweep.SCALES; hours per particle run). ``compute`` runs (or reuses) the engine runs and
 writes the small CSVs behind every curve to ``out/data``; ``plot`` draws the figure from those
 CSVs only (``colony case fig3 --from-data`` redraws from cases/data/fig3).
+
+Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
+(particle columns nan, particle panels omitted and the figure says so). Committed data
+(cases/data): fig3 at scale "medium" (radius 40, both engines; reduction < 10 s) and
+fig3_paper_continuum at scale "paper", continuum only (reduction under ~5 min).
 """
 
 from __future__ import annotations

@@ -1,7 +1,8 @@
 """Fig 4 of the paper: dynamics of size inhomogeneity (the rings).
 
 (A) radially averaged particle length <l_n> in equal-area annuli at the final time, with a
-    one-standard-deviation band, for the three lam of Fig 2;
+    one-standard-deviation band, for the three lam of Fig 2 (continuum lbar dashed, its band the
+    azimuthal spread);
 (B) ring wavelength (distance between the last two peaks of the radial mean-length profile,
     cases.analysis.ring_wavelength) against time: continuum (lines) and particles (open circles);
 (C) final wavelength against lam for both models and the converged 1D radial reference
@@ -11,6 +12,11 @@ Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3}; about a minute on 2 cores, r
 the other cases through a common ``runs`` folder) or "paper" (radius 150, lam in
 {1e-4, 1e-3, 1e-2} and the scaling values of cases.sweep.SCALES; hours). ``compute`` writes the
 CSVs behind every curve to ``out/data``; ``plot`` draws from those CSVs only.
+
+Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
+(particle columns nan, particle panels omitted and the figure says so). Committed data
+(cases/data): fig4 at scale "medium" (radius 40, both engines; reduction < 10 s) and
+fig4_paper_continuum at scale "paper", continuum only (reduction under ~5 min).
 """
 
 from __future__ import annotations

@@ -265,12 +265,17 @@ def test_smoke_case(case, smoke_runs, tmp_path):
 @pytest.mark.parametrize("case", [fig2, fig3, fig4, crosscheck],
                          ids=["fig2", "fig3", "fig4", "crosscheck"])
 def test_plot_from_committed_data(case, tmp_path):
-    """`colony case NAME --from-data`: every figure redraws from cases/data/NAME alone."""
+    """`colony case NAME --from-data`: every figure redraws from cases/data/NAME alone.
+
+    Also the other committed data sets of the case (cases/data/NAME_paper_continuum).
+    """
     name = case.__name__.split(".")[-1]
-    data = Path(case.__file__).parent / "data" / name
-    assert (data / "README.md").is_file()
-    paths = case.plot(data, tmp_path)
-    assert paths and all(p.stat().st_size > 1000 for p in paths)
+    root = Path(case.__file__).parent / "data"
+    sets = [root / name, *sorted(root.glob(f"{name}_*"))]
+    for data in sets:
+        assert (data / "README.md").is_file()
+        paths = case.plot(data, tmp_path / data.name)
+        assert paths and all(p.stat().st_size > 1000 for p in paths)
 
 
 # ------------------------------------------------------------------ continuum-only reductions
