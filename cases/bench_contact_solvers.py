@@ -33,6 +33,12 @@ frictionless contacts is close to isostatic (3022 active contacts for 3N = 3066 
 so its low modes are not smooth and aggregation does not capture them.  SuperLU (MMD) on the
 same H at 4N = 50900 did not factor within 9 minutes.
 
+The load error column compares sigma = G gamma with the reference solve (``--ref-solver`` at
+tol / ``--ref-factor``); with a small factor, or with the reference computed by one of the
+compared solvers, it is biased towards that solver: use BBPGD and a factor >= 100 for a fair
+comparison (at tol 1e-3 both solvers' loads then differ from the reference by 20-40% at
+N ~ 1e4: the gap tolerance does not pin the loads).
+
 Prints a table of medians over ``--repeat`` runs (iterations, gradient evaluations, seconds,
 final residual, max |sigma - sigma_ref|) and the fitted exponents of iterations and seconds in
 N, and writes the rows to ``--out`` (CSV).  Record ``uptime`` beside the timings: the machine
