@@ -33,13 +33,14 @@ import numpy as np
 from tqdm import tqdm
 
 from . import output
+from .apgd import solve_contacts_apgd
 from .contact_solver import ContactSolveError, solve_contacts
 from .geometry import Contacts, find_contacts, generalised_forces, loads
 from .growth import divide, grow
 from .neighbours import candidate_pairs
 from .state import B, ParticleState, colony_radius, hull_radius
 
-SOLVERS = {"bbpgd": solve_contacts}
+SOLVERS = {"bbpgd": solve_contacts, "apgd": solve_contacts_apgd}
 """Contact solvers by name: callables (contacts, length, dt, lam, gamma0, tol, maxiter, growth)
 -> (gamma, residual history)."""
 

@@ -252,9 +252,9 @@ def test_bad_input_raises_value_error():
     assert g.shape == (0,) and h.shape == (1,)
 
 
-def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd(monkeypatch):
+def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
     """A small grown colony (lam = 1e-2) with APGD selected by name in the engine."""
-    monkeypatch.setitem(simulation.SOLVERS, "apgd", solve_contacts_apgd)
+    assert simulation.SOLVERS["apgd"] is solve_contacts_apgd
     cfg = dict(lam=1e-2, time=3.0, dt=0.01, division_noise=0.02, seed=1)
     ca = simulation.run(simulation.ParticleConfig(solver="apgd", **cfg))
     cb = simulation.run(simulation.ParticleConfig(solver="bbpgd", **cfg))
