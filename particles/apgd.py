@@ -55,53 +55,12 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .contact_solver import ContactSolveError
+from .contact_solver import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - G^T dl
+from .contact_solver import finish, prepare, problem_arrays, scatter
 from .geometry import Contacts
 
 NAME = "apgd"
 """Name under which the engine may register this solver (ParticleConfig.solver)."""
-
-
-@njit(cache=True)
-def gap_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-               vx, vy, om, sig, out):
-    """out = Phi + dt D^T M D gam - G^T dl(G gam)  (the linearised gap q(gam)).
-
-    vx, vy, om, sig are work arrays of shape (N,).  Returns nothing.
-    """
-    n = mt.shape[0]
-    for p in range(n):
-        vx[p] = 0.0
-        vy[p] = 0.0
-        om[p] = 0.0
-        sig[p] = 0.0
-    for k in range(gam.shape[0]):
-        g = gam[k]
-        if g == 0.0:
-            continue
-        i = ci[k]
-        j = cj[k]
-        vx[j] += g * nx[k]
-        vy[j] += g * ny[k]
-        om[j] += g * tj[k]
-        vx[i] -= g * nx[k]
-        vy[i] -= g * ny[k]
-        om[i] -= g * ti[k]
-        sig[i] += gi[k] * g
-        sig[j] += gj[k] * g
-    for p in range(n):
-        vx[p] *= dt * mt[p]
-        vy[p] *= dt * mt[p]
-        om[p] *= dt * mr[p]
-        if growth:
-            sig[p] = length[p] * np.expm1(dt * np.exp(-lam * sig[p]))
-        else:
-            sig[p] = 0.0
-    for k in range(gam.shape[0]):
-        i = ci[k]
-        j = cj[k]
-        rel = nx[k] * (vx[j] - vx[i]) + ny[k] * (vy[j] - vy[i]) + om[j] * tj[k] - om[i] * ti[k]
-        out[k] = phi[k] + rel - (gi[k] * sig[i] + gj[k] * sig[j])
 
 
 @njit(cache=True)
@@ -120,23 +79,7 @@ def residual_kernel(gam, q, akk):
 def hessian_apply(v, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om, sig, out):
     """out = (dt D^T M D + G^T diag(cmax) G) v."""
     n = mt.shape[0]
-    for p in range(n):
-        vx[p] = 0.0
-        vy[p] = 0.0
-        om[p] = 0.0
-        sig[p] = 0.0
-    for k in range(v.shape[0]):
-        g = v[k]
-        i = ci[k]
-        j = cj[k]
-        vx[j] += g * nx[k]
-        vy[j] += g * ny[k]
-        om[j] += g * tj[k]
-        vx[i] -= g * nx[k]
-        vy[i] -= g * ny[k]
-        om[i] -= g * ti[k]
-        sig[i] += gi[k] * g
-        sig[j] += gj[k] * g
+    scatter(v, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
     for p in range(n):
         vx[p] *= dt * mt[p]
         vy[p] *= dt * mt[p]
@@ -300,16 +243,6 @@ def apgd_kernel(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, la
     return -1
 
 
-def _arrays(c: Contacts, length: np.ndarray, dt: float):
-    """Per-particle mobilities (1/l, 12/l^3), contact torque arms r x n and a_kk."""
-    mt = 1.0 / length
-    mr = 12.0 / length**3
-    ti = c.rix * c.ny - c.riy * c.nx
-    tj = c.rjx * c.ny - c.rjy * c.nx
-    akk = dt * (mt[c.i] + mt[c.j] + mr[c.i] * ti**2 + mr[c.j] * tj**2)
-    return mt, mr, ti, tj, akk
-
-
 def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, lam: float, growth: bool = True,
                     iters: int = 30, seed: int = 12345, min_iters: int = 8,
                     rtol: float = 1e-3) -> float:
@@ -320,7 +253,7 @@ def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, lam: float, grow
     the estimate grows by less than ``rtol`` (relative) after ``min_iters``.
     """
     length = np.ascontiguousarray(length, dtype=np.float64)
-    mt, mr, ti, tj, akk = _arrays(c, length, dt)
+    mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
     cmax = length * lam * dt * np.exp(dt) if growth else np.zeros_like(length)
     return float(lipschitz_kernel(c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, mt, mr, cmax,
                                   float(dt), akk, int(iters), int(seed), int(min_iters),
@@ -379,32 +312,16 @@ def solve_contacts_apgd(
     ContactSolveError
         When maxiter iterations do not reach tol (carries N, contacts, residual history).
     """
-    if dt <= 0 or not np.isfinite(dt):
-        raise ValueError(f"dt must be positive and finite, got {dt}")
-    if lam < 0 or not np.isfinite(lam):
-        raise ValueError(f"lam must be >= 0 and finite in the particle engine, got {lam}")
     if not lipschitz_margin >= 1.0 or power_iterations < 1:
         raise ValueError("lipschitz_margin must be >= 1 and power_iterations >= 1")
-    length = np.ascontiguousarray(length, dtype=np.float64)
-    n = length.shape[0]
-    c = contacts
-    m = len(c)
+    length, gam, (mt, mr, ti, tj, akk) = prepare(contacts, length, dt, lam, gamma0)
+    n, m, c = length.shape[0], len(contacts), contacts
     if m == 0:
-        return np.zeros(0), np.zeros(1)
-    gam = np.zeros(m) if gamma0 is None else np.array(gamma0, dtype=np.float64)
-    if gam.shape != (m,):
-        raise ValueError(f"gamma0 must have shape ({m},), got {gam.shape}")
-    mt, mr, ti, tj, akk = _arrays(c, length, dt)
+        return gam, np.zeros(1)
     lip = lipschitz_bound(c, length, dt, lam, growth, power_iterations)
     step = 1.0 / (lipschitz_margin * lip)
     hist = np.full(maxiter + 1, np.nan)
     it = apgd_kernel(gam, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
                      float(dt), float(lam), bool(growth), akk, step, float(tol), int(maxiter),
                      hist)
-    if it < 0:
-        raise ContactSolveError(
-            f"APGD did not reach residual {tol:g} in {maxiter} iterations "
-            f"(N={n}, contacts={m}, last residual {hist[-1]:.3g})",
-            n, m, hist,
-        )
-    return gam, hist[: it + 1].copy()
+    return finish("APGD", gam, hist, it, tol, n)

@@ -54,11 +54,10 @@ class ContactSolveError(RuntimeError):
 
 
 @njit(cache=True)
-def _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-              vx, vy, om, sig, out):
-    """out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
-    n = mt.shape[0]
-    for p in range(n):
+def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
+    """Per-particle force, torque and load of contact forces gam: (vx, vy, om) = D gam,
+    sig = G gam (written into the four work arrays of shape (N,))."""
+    for p in range(vx.shape[0]):
         vx[p] = 0.0
         vy[p] = 0.0
         om[p] = 0.0
@@ -77,6 +76,14 @@ def _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
         om[i] -= g * ti[k]
         sig[i] += gi[k] * g
         sig[j] += gj[k] * g
+
+
+@njit(cache=True)
+def _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+              vx, vy, om, sig, out):
+    """out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
+    n = mt.shape[0]
+    scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
     for p in range(n):
         vx[p] *= mt[p]
         vy[p] *= mt[p]
@@ -206,30 +213,46 @@ def solve_contacts(
     ContactSolveError
         When maxiter iterations do not reach tol.
     """
-    if dt <= 0 or not np.isfinite(dt):
-        raise ValueError(f"dt must be positive and finite, got {dt}")
-    if lam < 0 or not np.isfinite(lam):
-        raise ValueError(f"lam must be >= 0 and finite in the particle engine, got {lam}")
-    length = np.ascontiguousarray(length, dtype=np.float64)
-    n = length.shape[0]
-    m = len(contacts)
+    length, gam, (mt, mr, ti, tj, akk) = prepare(contacts, length, dt, lam, gamma0)
+    n, m, c = length.shape[0], len(contacts), contacts
     if m == 0:
-        return np.zeros(0), np.zeros(1)
-    gam = np.zeros(m) if gamma0 is None else np.array(gamma0, dtype=np.float64)
-    if gam.shape != (m,):
-        raise ValueError(f"gamma0 must have shape ({m},), got {gam.shape}")
-    c = contacts
+        return gam, np.zeros(1)
+    hist = np.full(maxiter + 1, np.nan)
+    it = _bbpgd(gam, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
+                float(dt), float(lam), bool(growth), akk, float(tol), int(maxiter), hist)
+    return finish("BBPGD", gam, hist, it, tol, n)
+
+
+def problem_arrays(c: Contacts, length: np.ndarray, dt: float):
+    """Mobilities mt = 1/l, mr = 12/l^3, torque arms t = r x n and a_kk = dt (D^T M D)_kk."""
     mt = 1.0 / length
     mr = 12.0 / length**3
     ti = c.rix * c.ny - c.riy * c.nx
     tj = c.rjx * c.ny - c.rjy * c.nx
     akk = dt * (mt[c.i] + mt[c.j] + mr[c.i] * ti**2 + mr[c.j] * tj**2)
-    hist = np.full(maxiter + 1, np.nan)
-    it = _bbpgd(gam, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
-                float(dt), float(lam), bool(growth), akk, float(tol), int(maxiter), hist)
+    return mt, mr, ti, tj, akk
+
+
+def prepare(contacts: Contacts, length, dt: float, lam: float, gamma0):
+    """Checked inputs of a solve: (length as float64, starting gamma, problem_arrays)."""
+    if dt <= 0 or not np.isfinite(dt):
+        raise ValueError(f"dt must be positive and finite, got {dt}")
+    if lam < 0 or not np.isfinite(lam):
+        raise ValueError(f"lam must be >= 0 and finite in the particle engine, got {lam}")
+    length = np.ascontiguousarray(length, dtype=np.float64)
+    m = len(contacts)
+    gam = np.zeros(m) if gamma0 is None else np.array(gamma0, dtype=np.float64)
+    if gam.shape != (m,):
+        raise ValueError(f"gamma0 must have shape ({m},), got {gam.shape}")
+    return length, gam, problem_arrays(contacts, length, dt)
+
+
+def finish(name: str, gam: np.ndarray, hist: np.ndarray, it: int, tol: float, n: int):
+    """(gamma, residual history) of a solve that took ``it`` iterations; it < 0: failure."""
     if it < 0:
+        m = gam.shape[0]
         raise ContactSolveError(
-            f"BBPGD did not reach residual {tol:g} in {maxiter} iterations "
+            f"{name} did not reach residual {tol:g} in {hist.shape[0] - 1} iterations "
             f"(N={n}, contacts={m}, last residual {hist[-1]:.3g})",
             n, m, hist,
         )

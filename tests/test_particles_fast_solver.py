@@ -18,8 +18,13 @@ from scipy.optimize import brentq, root
 
 from cases.bench_contact_solvers import contacts_of, ring_packing, warm_problem
 from particles import simulation
-from particles.apgd import _arrays, apgd_kernel, lipschitz_bound, solve_contacts_apgd
-from particles.contact_solver import ContactSolveError, linearised_gap, solve_contacts
+from particles.apgd import apgd_kernel, lipschitz_bound, solve_contacts_apgd
+from particles.contact_solver import (
+    ContactSolveError,
+    linearised_gap,
+    problem_arrays,
+    solve_contacts,
+)
 from particles.geometry import find_contacts, generalised_forces, loads
 from particles.neighbours import candidate_pairs
 
@@ -46,7 +51,7 @@ def chain_conditions(gamma, lengths, dt, lam):
 
 
 def diagonal(c, length, dt):
-    return _arrays(c, np.asarray(length, dtype=float), dt)[4]
+    return problem_arrays(c, np.asarray(length, dtype=float), dt)[4]
 
 
 def assert_kkt(c, length, dt, lam, gamma, tol, growth=True):
@@ -190,7 +195,7 @@ def test_lipschitz_estimate_matches_dense_eigenvalue(grown):
     c = contacts_of(x, y, th, length, 0.1)
     dt, lam = 0.005, 0.5
     m = len(c)
-    mt, mr, ti, tj, akk = _arrays(c, length, dt)
+    mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
     # dense Hessian: columns are q(e_k) - q(0) of the quadratic model with curvature c_max
     n = length.size
     dmat = np.zeros((3 * n, m))
@@ -216,7 +221,7 @@ def test_too_long_step_is_recovered_by_halving(grown):
     x, y, th, length = grown
     c = contacts_of(x, y, th, length, 0.1)
     dt, lam, tol = 0.005, 1e-2, 1e-7
-    mt, mr, ti, tj, akk = _arrays(c, length, dt)
+    mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
     lip = lipschitz_bound(c, length, dt, lam)
     gam = np.zeros(len(c))
     hist = np.full(200_001, np.nan)
