@@ -5,7 +5,8 @@
     colony continuum --lam LAM (--radius R | --time T) [--shape circle|ellipse:A,B|polygon:FILE.csv]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
-                     [--division-noise EPS] [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
+                     [--division-noise EPS] [--solver bbpgd|apgd] [--out DIR]
+                     [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--out DIR] [--runs DIR] [--from-data]
                 [--scheduler ADDRESS] [--workers N]
 
@@ -251,6 +252,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="random seed (division noise)")
     p.add_argument("--dt", type=float, help="time step")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
+    p.add_argument("--solver", help="contact solver: bbpgd (default) or apgd")
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)
@@ -290,7 +292,8 @@ def _dispatch(args) -> int:
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
                  "dt": _finite("dt", args.dt),
-                 "division_noise": _finite("division-noise", args.division_noise)}
+                 "division_noise": _finite("division-noise", args.division_noise),
+                 "solver": args.solver}
         config = build_config(ParticleConfig, args.config, args.set, flags)
         run_particles(config, Path(args.out), args.overwrite, progress)
         print(f"particle run written to {args.out}")
