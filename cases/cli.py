@@ -7,8 +7,9 @@
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
                      [--division-noise EPS] [--solver bbpgd|apgd] [--out DIR]
                      [--config FILE.toml] [--set KEY=VALUE ...]
-    colony case NAME [--scale smoke|medium|paper] [--out DIR] [--runs DIR] [--from-data]
-                [--scheduler ADDRESS] [--workers N]
+    colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
+                [--runs DIR] [--scheduler ADDRESS] [--workers N]
+    colony case NAME --from-data [--data-set medium|paper_continuum] [--out DIR]
 
 Every run is configured by one dataclass (``ContinuumConfig`` / ``ParticleConfig``), built from
 the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
@@ -41,6 +42,8 @@ CONTINUUM_EDGE_WIDTH = 0.05
 PARTICLE_EDGE_WIDTH = 0.5
 
 CASES = ("fig2", "fig3", "fig4", "crosscheck")
+#: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper_continuum.
+DATA_SETS = ("medium", "paper_continuum")
 
 
 class UsageError(ValueError):
@@ -259,7 +262,12 @@ def parser() -> argparse.ArgumentParser:
     k.add_argument("--scale", choices=("smoke", "medium", "paper"), default="smoke")
     k.add_argument("--out", default=None, help="output folder (default runs/case-NAME-SCALE)")
     k.add_argument("--from-data", action="store_true",
-                   help="redraw from the data committed in cases/data/NAME (no computation)")
+                   help="redraw from the data committed in cases/data (no computation)")
+    k.add_argument("--data-set", choices=DATA_SETS, default="medium",
+                   help="committed data to redraw: medium (radius 40, both engines, default) or "
+                   "paper_continuum (radius 150, continuum only)")
+    k.add_argument("--engines", choices=("both", "continuum"), default="both",
+                   help="compute both engines (default) or the continuum only")
     k.add_argument("--runs", help="folder of the engine runs, shared between cases "
                    "(default OUT/runs); finished runs in it are reused")
     k.add_argument("--scheduler", help="address of an existing dask scheduler for sweeps")
@@ -302,14 +310,16 @@ def _dispatch(args) -> int:
         out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
         out.mkdir(parents=True, exist_ok=True)
         if args.from_data:
-            data = Path(__file__).parent / "data" / args.name
+            suffix = "" if args.data_set == "medium" else f"_{args.data_set}"
+            data = Path(__file__).parent / "data" / f"{args.name}{suffix}"
             if not data.is_dir():
                 raise UsageError(f"no committed data for case {args.name} in {data}")
         else:
             if args.workers < 1:
                 raise UsageError(f"--workers must be >= 1, got {args.workers}")
+            engines = ("continuum", "particles") if args.engines == "both" else ("continuum",)
             data = module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
-                                  n_workers=args.workers, runs=args.runs)
+                                  n_workers=args.workers, runs=args.runs, engines=engines)
         module.plot(data, out)
         print(f"case {args.name} written to {out}")
     return 0

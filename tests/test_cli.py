@@ -140,3 +140,11 @@ def test_mean_length_image_applies_the_sawtooth_per_pixel():
     np.testing.assert_allclose(image, np.broadcast_to(2.0 ** (q - np.floor(q)), (50, 50)),
                                rtol=1e-9)
     assert extent == (0.0, 1.0, 0.0, 1.0)
+
+
+@pytest.mark.parametrize("data_set", ["medium", "paper_continuum"])
+def test_case_from_committed_data(tmp_path, data_set):
+    res = _colony("case", "fig3", "--from-data", "--data-set", data_set,
+                  "--out", str(tmp_path / "f"))
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "f" / "fig3.png").stat().st_size > 0
