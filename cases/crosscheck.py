@@ -35,7 +35,7 @@ import numpy as np
 
 from cases import analysis as A
 from cases.fig4 import exact_wavelength
-from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
+from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "radius_difference", "markdown_table"]
@@ -83,13 +83,10 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-crosscheck-smoke"
 
     ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
     """
-    out = Path(out)
-    if "continuum" not in engines:
-        raise ValueError("crosscheck needs the continuum runs (engines must include 'continuum')")
     _, needed = runs_needed(scale, engines)
-    folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
-                          scheduler=scheduler, n_workers=n_workers)
-    return reduce(folders, out / "data")
+    folders = case_runs("crosscheck", needed, scale, out, runs, scheduler, n_workers, engines,
+                        needs_continuum=True)
+    return reduce(folders, Path(out) / "data")
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
@@ -252,15 +249,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     return [md, *save_figure(fig, out / "crosscheck")]
 
 
-if __name__ == "__main__":
-    import argparse
+if __name__ == "__main__":  # same options as `colony case crosscheck ...`
+    import sys
 
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scale", default="smoke", choices=("smoke", "paper"))
-    p.add_argument("--out", default=None)
-    p.add_argument("--from-data", action="store_true")
-    args = p.parse_args()
-    out = Path(args.out or f"runs/case-crosscheck-{args.scale}")
-    data = (Path(__file__).parent / "data" / "crosscheck" if args.from_data
-            else compute(args.scale, out))
-    print(plot(data, out))
+    from cases.cli import main
+
+    sys.exit(main(["case", "crosscheck", *sys.argv[1:]]))

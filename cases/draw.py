@@ -26,7 +26,7 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 __all__ = ["LENGTH_LIMITS", "DEFAULT_CMAP", "spherocylinder_polygons", "draw_particles",
-           "draw_field", "save_figure", "colorbar", "note_missing_engines"]
+           "draw_field", "save_figure", "colorbar", "note_missing_engines", "plain_log_ticks"]
 
 LENGTH_LIMITS = (1.0, 2.0)
 DEFAULT_CMAP = "viridis"
@@ -185,3 +185,12 @@ def save_figure(
     if close:
         plt.close(fig)
     return paths
+
+
+def plain_log_ticks(fig: Figure) -> None:
+    """No minor tick labels on the logarithmic x axes of ``fig`` (they crowd the decades)."""
+    from matplotlib.ticker import NullFormatter
+
+    for ax in fig.axes:
+        if ax.get_xscale() == "log":
+            ax.xaxis.set_minor_formatter(NullFormatter())

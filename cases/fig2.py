@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
+from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "snapshot_indices", "N_SNAPSHOTS"]
 
@@ -58,11 +58,10 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-fig2-smoke",
 
     ``engines``: the engines whose rows are made (a subset of ENGINES).
     """
-    out = Path(out)
     _, needed = runs_needed(scale, engines)
-    folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
-                          scheduler=scheduler, n_workers=n_workers)
-    return reduce(folders, out / "data")
+    folders = case_runs("fig2", needed, scale, out, runs, scheduler, n_workers, engines,
+                        needs_continuum=False)
+    return reduce(folders, Path(out) / "data")
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
@@ -160,14 +159,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     return save_figure(fig, out / "fig2")
 
 
-if __name__ == "__main__":
-    import argparse
+if __name__ == "__main__":  # same options as `colony case fig2 ...`
+    import sys
 
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scale", default="smoke", choices=("smoke", "paper"))
-    p.add_argument("--out", default=None)
-    p.add_argument("--from-data", action="store_true")
-    args = p.parse_args()
-    out = Path(args.out or f"runs/case-fig2-{args.scale}")
-    data = Path(__file__).parent / "data" / "fig2" if args.from_data else compute(args.scale, out)
-    print(plot(data, out))
+    from cases.cli import main
+
+    sys.exit(main(["case", "fig2", *sys.argv[1:]]))

@@ -30,7 +30,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
+from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed"]
@@ -53,15 +53,12 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-fig3-smoke",
 
     ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
     """
-    out = Path(out)
-    if "continuum" not in engines:
-        raise ValueError("fig3 needs the continuum runs (engines must include 'continuum')")
     lams, needed = runs_needed(scale, engines)
-    folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
-                          scheduler=scheduler, n_workers=n_workers)
+    folders = case_runs("fig3", needed, scale, out, runs, scheduler, n_workers, engines,
+                        needs_continuum=True)
     cfg = scale_config(scale)
     profile_lams = sorted({0.0, *cfg["lams"]})
-    return reduce(folders, out / "data", profile_lams)
+    return reduce(folders, Path(out) / "data", profile_lams)
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path,
@@ -132,9 +129,8 @@ def _lam_files(data: Path, prefix: str) -> dict[float, Path]:
 def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 3 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import NullFormatter
 
-    from cases.draw import note_missing_engines, save_figure
+    from cases.draw import note_missing_engines, plain_log_ticks, save_figure
 
     data, out = Path(data), Path(out)
     summary = A.read_csv(data / "summary.csv")
@@ -191,22 +187,15 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel=r"$dR/dt$ at $t_f$",
           title="(D)")
     a.legend(fontsize=8)
-    for a in fig.axes:
-        if a.get_xscale() == "log":
-            a.xaxis.set_minor_formatter(NullFormatter())
+    plain_log_ticks(fig)
     fig.tight_layout()
     note_missing_engines(fig, {e for e in ENGINES if np.isfinite(summary[f"slope_{e}"]).any()})
     return save_figure(fig, out / "fig3")
 
 
-if __name__ == "__main__":
-    import argparse
+if __name__ == "__main__":  # same options as `colony case fig3 ...`
+    import sys
 
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scale", default="smoke", choices=("smoke", "paper"))
-    p.add_argument("--out", default=None)
-    p.add_argument("--from-data", action="store_true")
-    args = p.parse_args()
-    out = Path(args.out or f"runs/case-fig3-{args.scale}")
-    data = Path(__file__).parent / "data" / "fig3" if args.from_data else compute(args.scale, out)
-    print(plot(data, out))
+    from cases.cli import main
+
+    sys.exit(main(["case", "fig3", *sys.argv[1:]]))

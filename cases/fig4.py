@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import ENGINES, engine_pairs, engine_runs, scale_config
+from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "exact_wavelength"]
 
@@ -55,13 +55,10 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-fig4-smoke",
 
     ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
     """
-    out = Path(out)
-    if "continuum" not in engines:
-        raise ValueError("fig4 needs the continuum runs (engines must include 'continuum')")
     _, needed = runs_needed(scale, engines)
-    folders = engine_runs(needed, scale, Path(runs) if runs else out / "runs",
-                          scheduler=scheduler, n_workers=n_workers)
-    return reduce(folders, out / "data", list(scale_config(scale)["lams"]))
+    folders = case_runs("fig4", needed, scale, out, runs, scheduler, n_workers, engines,
+                        needs_continuum=True)
+    return reduce(folders, Path(out) / "data", list(scale_config(scale)["lams"]))
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path,
@@ -108,9 +105,8 @@ def _lams(data: Path, prefix: str) -> list[float]:
 def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 4 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
     import matplotlib.pyplot as plt
-    from matplotlib.ticker import NullFormatter
 
-    from cases.draw import note_missing_engines, save_figure
+    from cases.draw import note_missing_engines, plain_log_ticks, save_figure
 
     data, out = Path(data), Path(out)
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
@@ -167,22 +163,15 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel="final wavelength",
           title="(C)")
     a.legend(fontsize=8)
-    for a in fig.axes:
-        if a.get_xscale() == "log":
-            a.xaxis.set_minor_formatter(NullFormatter())
+    plain_log_ticks(fig)
     fig.tight_layout()
     note_missing_engines(fig, {e for e in ENGINES if np.isfinite(s[f"radius_{e}"]).any()})
     return save_figure(fig, out / "fig4")
 
 
-if __name__ == "__main__":
-    import argparse
+if __name__ == "__main__":  # same options as `colony case fig4 ...`
+    import sys
 
-    p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    p.add_argument("--scale", default="smoke", choices=("smoke", "paper"))
-    p.add_argument("--out", default=None)
-    p.add_argument("--from-data", action="store_true")
-    args = p.parse_args()
-    out = Path(args.out or f"runs/case-fig4-{args.scale}")
-    data = Path(__file__).parent / "data" / "fig4" if args.from_data else compute(args.scale, out)
-    print(plot(data, out))
+    from cases.cli import main
+
+    sys.exit(main(["case", "fig4", *sys.argv[1:]]))

@@ -283,3 +283,18 @@ def engine_runs(
                        **cfg[engine]})
     folders = sweep(run_engine, params, root, scheduler=scheduler, n_workers=n_workers)
     return {(e, float(lam)): f for (e, lam), f in zip(runs, folders, strict=True)}
+
+
+def case_runs(case: str, needed: Sequence[tuple[str, float]], scale: str, out: str | Path,
+              runs: str | Path | None = None, scheduler: str | None = None, n_workers: int = 2,
+              engines: Sequence[str] = ENGINES, needs_continuum: bool = True,
+              ) -> dict[tuple[str, float], Path]:
+    """The engine runs of a figure case (run or reused under ``runs``, default ``out/runs``).
+
+    ``needs_continuum``: the case measures against the continuum (its radius is the reference),
+    so ``engines`` must include it.
+    """
+    if needs_continuum and "continuum" not in engines:
+        raise ValueError(f"{case} needs the continuum runs (engines must include 'continuum')")
+    root = Path(runs) if runs else Path(out) / "runs"
+    return engine_runs(needed, scale, root, scheduler=scheduler, n_workers=n_workers)
