@@ -23,6 +23,7 @@ import pytest
 from scipy.linalg import solve_banded
 from scipy.optimize import brentq, root
 
+from particles.apgd import solve_contacts_apgd
 from particles.contact_solver import linearised_gap, solve_contacts
 from particles.geometry import find_contacts, loads
 from particles.neighbours import candidate_pairs
@@ -61,14 +62,20 @@ def test_chain_contacts_are_end_to_end():
     np.testing.assert_allclose(c.gj, 0.5, atol=1e-14)
 
 
+#: Both contact solvers must reproduce the exact chain answers.
+SOLVERS = pytest.mark.parametrize("solve", [solve_contacts, solve_contacts_apgd],
+                                  ids=["bbpgd", "apgd"])
+
+
+@SOLVERS
 @pytest.mark.parametrize("n", [5, 20])
-def test_chain_lam0_tridiagonal(n):
+def test_chain_lam0_tridiagonal(n, solve):
     rng = np.random.default_rng(n)
     lengths = rng.uniform(1.0, 2.0, n)
     dt = 0.01
     _, c = chain(lengths)
     tol = 1e-12
-    gamma, hist = solve_contacts(c, lengths, dt, 0.0, tol=tol)
+    gamma, hist = solve(c, lengths, dt, 0.0, tol=tol)
     # tridiagonal reference
     diag = dt * (1 / lengths[:-1] + 1 / lengths[1:])
     off = -dt / lengths[1:-1]
@@ -87,14 +94,15 @@ def test_chain_lam0_tridiagonal(n):
     assert hist[-1] <= tol and len(hist) > 2
 
 
+@SOLVERS
 @pytest.mark.parametrize("lam", [0.05, 0.5])
-def test_chain_lam_positive_nonlinear(lam):
+def test_chain_lam_positive_nonlinear(lam, solve):
     n = 15
     rng = np.random.default_rng(7)
     lengths = rng.uniform(1.0, 2.0, n)
     dt = 0.01
     _, c = chain(lengths)
-    gamma, _ = solve_contacts(c, lengths, dt, lam, tol=1e-13)
+    gamma, _ = solve(c, lengths, dt, lam, tol=1e-13)
     ref = root(residual_reference, np.ones(n - 1), args=(lengths, dt, lam), tol=1e-12)
     assert np.max(np.abs(residual_reference(ref.x, lengths, dt, lam))) < 1e-13
     np.testing.assert_allclose(gamma, ref.x, rtol=1e-8, atol=0)
@@ -115,8 +123,9 @@ def continuum_1d(x, radius, lam):
     return (2 / lam) * np.log(np.cos(k * x) / np.cos(k * radius))
 
 
+@SOLVERS
 @pytest.mark.parametrize("lam_r2", [0.0, 2.0])
-def test_long_chain_matches_1d_continuum_second_order(lam_r2):
+def test_long_chain_matches_1d_continuum_second_order(lam_r2, solve):
     ns = np.array([16, 32, 64, 128])
     errs = []
     for n in ns:
@@ -125,10 +134,25 @@ def test_long_chain_matches_1d_continuum_second_order(lam_r2):
         lam = lam_r2 / radius**2
         x, c = chain(lengths)
         dt = 1e-7
-        gamma, _ = solve_contacts(c, lengths, dt, lam, tol=1e-16 * radius**2)
+        gamma, _ = solve(c, lengths, dt, lam, tol=1e-16 * radius**2)
         sig = loads(c, gamma, n)
         p = continuum_1d(x, radius, lam)
         errs.append(np.max(np.abs(sig - p)) / p.max())
     rate = np.polyfit(np.log(ns), np.log(errs), 1)[0]
     assert errs[-1] < 1e-3
     assert abs(rate + 2) < 0.1, (errs, rate)
+
+
+@SOLVERS
+def test_chain_error_is_first_order_in_the_tolerance(solve):
+    """|gamma - gamma_exact| <= |A^-1|_inf res: the error follows the tolerance, order 1."""
+    n = 40
+    lengths = np.random.default_rng(3).uniform(1.0, 2.0, n)
+    dt = 0.01
+    _, c = chain(lengths)
+    ref = root(residual_reference, np.ones(n - 1), args=(lengths, dt, 0.2), tol=1e-13).x
+    tols = np.array([1e-5, 1e-6, 1e-7, 1e-8, 1e-9])
+    errs = [np.max(np.abs(solve(c, lengths, dt, 0.2, tol=tol)[0] - ref)) / np.max(ref)
+            for tol in tols]
+    rate = np.polyfit(np.log(tols), np.log(errs), 1)[0]
+    assert 0.7 < rate < 1.3, (errs, rate)

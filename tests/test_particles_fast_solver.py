@@ -1,10 +1,7 @@
 """Jacobi-scaled APGD contact solver (particles/apgd.py) against exact answers and BBPGD.
 
-References:
-- straight chain of rods (all N - 1 end-to-end contacts active): lam = 0 is a tridiagonal
-  linear system, lam > 0 a small nonlinear system (scipy), both independent of the engine;
-  a long chain converges to the 1D continuum pressure at second order (p(x) of
-  tests/test_particles_chain.py, re-derived in its module docstring);
+The exact chain answers are checked for both solvers in tests/test_particles_chain.py.
+References here:
 - dense packings (a small colony grown by the engine, concentric rings of
   cases.bench_contact_solvers):
   KKT conditions of E to the tolerance and the unique quantities of the solution (loads
@@ -13,8 +10,7 @@ References:
 
 import numpy as np
 import pytest
-from scipy.linalg import solve_banded
-from scipy.optimize import brentq, root
+from test_particles_chain import chain
 
 from cases.bench_contact_solvers import contacts_of, ring_packing, warm_problem
 from particles import simulation
@@ -26,28 +22,6 @@ from particles.contact_solver import (
     solve_contacts,
 )
 from particles.geometry import find_contacts, generalised_forces, loads
-from particles.neighbours import candidate_pairs
-
-
-def chain(lengths):
-    lengths = np.asarray(lengths, dtype=float)
-    right = np.cumsum(lengths)
-    x = right - lengths / 2 - right[-1] / 2
-    z = np.zeros_like(x)
-    c = find_contacts(x, z, z, lengths, candidate_pairs(x, z, lengths, 0.05), 0.05)
-    return x, c
-
-
-def chain_conditions(gamma, lengths, dt, lam):
-    """Optimality conditions of the chain with every contact active (gap Phi = 0)."""
-    n = lengths.size
-    g_full = np.concatenate([[0.0], gamma, [0.0]])
-    sigma = 0.5 * (g_full[:-1] + g_full[1:])
-    rate = lengths * np.expm1(dt * np.exp(-lam * sigma))
-    a = dt * ((1 / lengths[:-1] + 1 / lengths[1:]) * gamma)
-    a[1:] -= dt * gamma[:-1] / lengths[1 : n - 1]
-    a[:-1] -= dt * gamma[1:] / lengths[1 : n - 1]
-    return a - 0.5 * (rate[:-1] + rate[1:])
 
 
 def diagonal(c, length, dt):
@@ -63,83 +37,6 @@ def assert_kkt(c, length, dt, lam, gamma, tol, growth=True):
     assert np.max(np.abs(np.minimum(a * gamma, q))) <= tol
     loaded = a * gamma > tol
     assert np.all(np.abs(q[loaded]) <= tol)
-
-
-@pytest.mark.parametrize("n", [5, 30])
-def test_chain_lam0_equals_tridiagonal_solution(n):
-    rng = np.random.default_rng(n)
-    lengths = rng.uniform(1.0, 2.0, n)
-    dt = 0.01
-    _, c = chain(lengths)
-    tol = 1e-12
-    gamma, hist = solve_contacts_apgd(c, lengths, dt, 0.0, tol=tol)
-    diag = dt * (1 / lengths[:-1] + 1 / lengths[1:])
-    off = -dt / lengths[1:-1]
-    ab = np.zeros((3, n - 1))
-    ab[0, 1:] = off
-    ab[1] = diag
-    ab[2, :-1] = off
-    gref = solve_banded((1, 1), ab, 0.5 * (lengths[:-1] + lengths[1:]) * np.expm1(dt))
-    a = np.diag(diag) + np.diag(off, 1) + np.diag(off, -1)
-    bound = np.abs(np.linalg.inv(a)).sum(axis=1).max() * tol  # |gamma - gref| <= |A^-1| res
-    assert np.max(np.abs(gamma - gref)) <= bound
-    assert hist[-1] <= tol and len(hist) > 2
-    assert_kkt(c, lengths, dt, 0.0, gamma, tol)
-
-
-@pytest.mark.parametrize("lam", [0.05, 0.5])
-def test_chain_lam_positive_equals_nonlinear_solution(lam):
-    n = 15
-    lengths = np.random.default_rng(7).uniform(1.0, 2.0, n)
-    dt = 0.01
-    _, c = chain(lengths)
-    gamma, _ = solve_contacts_apgd(c, lengths, dt, lam, tol=1e-13)
-    ref = root(chain_conditions, np.ones(n - 1), args=(lengths, dt, lam), tol=1e-12)
-    assert np.max(np.abs(chain_conditions(ref.x, lengths, dt, lam))) < 1e-13
-    np.testing.assert_allclose(gamma, ref.x, rtol=1e-8, atol=0)
-
-
-def test_chain_error_is_first_order_in_the_tolerance():
-    """|gamma - gamma_exact| <= |A^-1|_inf res: the error follows the tolerance, order 1."""
-    n = 40
-    lengths = np.random.default_rng(3).uniform(1.0, 2.0, n)
-    dt = 0.01
-    _, c = chain(lengths)
-    ref = root(chain_conditions, np.ones(n - 1), args=(lengths, dt, 0.2), tol=1e-13).x
-    tols = np.array([1e-5, 1e-6, 1e-7, 1e-8, 1e-9])
-    errs = []
-    for tol in tols:
-        gamma, hist = solve_contacts_apgd(c, lengths, dt, 0.2, tol=tol)
-        errs.append(np.max(np.abs(gamma - ref)) / np.max(ref))
-    rate = np.polyfit(np.log(tols), np.log(errs), 1)[0]
-    assert 0.7 < rate < 1.3, (errs, rate)
-
-
-def continuum_1d(x, radius, lam):
-    """p(x) of -p'' = exp(-lam p), p(+-R) = 0 (tests/test_particles_chain.py)."""
-    if lam == 0:
-        return (radius**2 - x**2) / 2
-    s = np.sqrt(lam / 2)
-    k = brentq(lambda k: k - s * np.cos(k * radius), 0.0, np.pi / (2 * radius))
-    return (2 / lam) * np.log(np.cos(k * x) / np.cos(k * radius))
-
-
-@pytest.mark.parametrize("lam_r2", [0.0, 2.0])
-def test_long_chain_loads_converge_to_1d_continuum_at_second_order(lam_r2):
-    ns = np.array([16, 32, 64, 128])
-    errs = []
-    for n in ns:
-        lengths = np.ones(n)
-        radius = n / 2
-        lam = lam_r2 / radius**2
-        x, c = chain(lengths)
-        dt = 1e-7
-        gamma, _ = solve_contacts_apgd(c, lengths, dt, lam, tol=1e-16 * radius**2)
-        p = continuum_1d(x, radius, lam)
-        errs.append(np.max(np.abs(loads(c, gamma, n) - p)) / p.max())
-    rate = np.polyfit(np.log(ns), np.log(errs), 1)[0]
-    assert errs[-1] < 1e-3
-    assert abs(rate + 2) < 0.1, (errs, rate)
 
 
 @pytest.fixture(scope="module")
