@@ -48,11 +48,12 @@ NAME = "twolevel"
 
 @njit(cache=True)
 def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
-              tol, nu, alpha, parity, hist):
+              tol, nu, alpha, parity, hist, qout):
     """At most nu BBPGD iterations in place on gam (contact_solver's iteration), starting from
     the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
     alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1 when tol is
-    not reached.  hist[it] = residual after iteration it (hist[0]: start)."""
+    not reached.  hist[it] = residual after iteration it (hist[0]: start); qout = q(gam)
+    on return."""
     n = mt.shape[0]
     m = gam.shape[0]
     vx = np.empty(n)
@@ -66,6 +67,7 @@ def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
               vx, vy, om, sig, g0)
     res = _residual(gam, g0, akk)
     hist[0] = res
+    qout[:] = g0
     if res <= tol:
         return 0, alpha, parity
     if not (alpha > 0.0):
@@ -95,6 +97,7 @@ def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
             gam[k] = x1[k]
             g0[k] = g1[k]
         if res <= tol:
+            qout[:] = g0
             return it, alpha, parity
         parity = 1 - parity
         if parity == 0:
@@ -106,6 +109,7 @@ def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
         alpha = a / bb
         if not (alpha > 0.0):
             alpha = 1.0 / max(1e-300, np.max(akk))
+    qout[:] = g0
     return -1, alpha, parity
 
 
@@ -240,14 +244,14 @@ def solve_contacts_twolevel(
     maxiter: int = 100_000,
     growth: bool = True,
     *,
-    smoothing: int = 20,
+    smoothing: int = 200,
     coarse_h: float = 4.0,
-    keep_step: bool = True,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Minimise E(gamma) over gamma >= 0 by BBPGD smoothing + multiplicative coarse correction.
 
     Same signature, problem, residual and stopping test as
     :func:`particles.contact_solver.solve_contacts`; ``maxiter`` counts smoothing iterations.
+    The BB step carries over a coarse correction (it is not reset).
 
     Parameters
     ----------
@@ -260,7 +264,8 @@ def solve_contacts_twolevel(
     -------
     gamma : array (K,)
     residuals : array
-        Residual after each smoothing iteration and each coarse step (first: initial guess).
+        Residual of the initial guess, then after every smoothing iteration and every coarse
+        step: len - 1 gradient evaluations in all.
 
     Raises
     ------
@@ -279,24 +284,18 @@ def solve_contacts_twolevel(
     zx, zy, main = contact_points(c, n)
     p = hat_prolongation(zx, zy, main, coarse_h)
     s, g = contact_operators(c, length, dt)
-    work = [np.empty(n) for _ in range(4)]
-    q = np.empty(m)
-    hist = [np.empty(0)]
-    buf = np.full(smoothing + 1, np.nan)
-    done = 0
     args = (c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length, float(dt),
-            float(lam), bool(growth))
-    alpha, parity = 0.0, 0
+            float(lam), bool(growth), akk, float(tol))
+    q = np.empty(m)
+    buf = np.full(smoothing + 1, np.nan)
+    hist = []
+    alpha, parity, done = 0.0, 0, 0
     while done < maxiter:
         nu = min(smoothing, maxiter - done)
-        it, alpha, parity = bb_smooth(gam, *args, akk, float(tol), nu, alpha, parity, buf)
+        it, alpha, parity = bb_smooth(gam, *args, nu, alpha, parity, buf, q)
         hist.append(buf[: (it if it >= 0 else nu) + 1].copy())
         if it >= 0:
             return gam, np.concatenate(hist)
         done += nu
-        _gradient(gam, *args, *work, q)
         gam = coarse_correction(gam, q, p, s, g, length, dt, lam, growth)
-        if not keep_step:
-            alpha = 0.0
-    allh = np.concatenate(hist)
-    return finish("two-level", gam, allh, -1, tol, n)
+    return finish("two-level", gam, np.concatenate(hist), -1, tol, n)

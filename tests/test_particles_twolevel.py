@@ -7,12 +7,21 @@ from scipy.linalg import solve_banded
 from scipy.optimize import root
 
 from cases.bench_contact_solvers import contacts_of, ring_packing
-from particles.contact_solver import (ContactSolveError, linearised_gap, problem_arrays,
-                                      solve_contacts)
+from particles.contact_solver import (
+    ContactSolveError,
+    linearised_gap,
+    problem_arrays,
+    solve_contacts,
+)
 from particles.geometry import B, find_contacts, loads
 from particles.neighbours import candidate_pairs
-from particles.twolevel import (coarse_correction, contact_operators, contact_points,
-                                hat_prolongation, solve_contacts_twolevel)
+from particles.twolevel import (
+    coarse_correction,
+    contact_operators,
+    contact_points,
+    hat_prolongation,
+    solve_contacts_twolevel,
+)
 
 DT = 0.005
 
