@@ -33,6 +33,28 @@ frictionless contacts is close to isostatic (3022 active contacts for 3N = 3066 
 so its low modes are not smooth and aggregation does not capture them.  SuperLU (MMD) on the
 same H at 4N = 50900 did not factor within 9 minutes.
 
+Second candidate, kept as ``twolevel`` (particles/twolevel.py) but no faster: BBPGD smoothing
+(nu = 200, BB step kept across cycles) + one coarse Newton step on the smooth multiplicative
+correction gamma <- max(0, gamma (1 + P c)), P the bilinear hats of a square grid of spacing h =
+4 (601 nodes at N = 1e4, ~8000 at N = 1e5; sparse Galerkin H_c, SuperLU). Gradient evaluations
+twolevel / BBPGD (cold, warm; measured 2026-11-22, load ~2, repeat 1): tol 1e-3: grownrings1000
+1.00, 1.00; grownrings10000 0.97, 0.92; grownrings100000 0.85, 0.97; grown_R55 0.85, 1.00. tol
+1e-4: grownrings1000 1.12, 0.90; grownrings10000 0.81, 1.19; grownrings100000 1.00, 0.97 (9611
+and 5887 iterations, 56 s and 35 s; BBPGD 9582 and 6048, 48 s and 33 s in an earlier run at load
+~3); grown_R55 0.83, 1.10. Seconds follow (the coarse step costs ~0.3 s at N = 1e5), and APGD
+stays 2x ahead at tol 1e-4; fitted exponents of iterations over grownrings 1e3-1e5, cold: tol
+1e-4 N^0.77 (BBPGD 0.80, APGD 0.58), tol 1e-3 N^0.54 (BBPGD 0.58, APGD 0.66). Why: the coarse
+step does remove energy (N = 1e4, cold, E - E_ref after 200 smoothing iterations 110 with four
+coarse steps vs 251 for plain BBPGD; a 2 x 2-node grid alone gives 135), but the stopping test
+is a max-norm gap residual and what is left is not smooth: after 1500 BBPGD iterations at N =
+1e4 the load error averaged over radial bands is -0.8 while its standard deviation is 10 (mean
+load ~100), and the largest residuals sit on a few contacts; 32077 active contacts for 3N =
+31926 rigid-body freedoms, so self-stress states (forces that open no gap) are held only by the
+weak growth curvature l lam dt exp(r) ~ 5e-5 l. Variants no better: h = 8, nu = 400 (1400 vs
+1425 iterations, N = 1e5, tol 1e-3); a 2 x 2-node grid, nu = 200 (3228 vs 3019, N = 1e4, tol
+1e-4); resetting the BB step at each coarse step (nu = 50: 3485, nu = 20: 4239 vs 3019; keeping
+it, nu = 50: 2904).
+
 The load error column compares sigma = G gamma with the reference solve (``--ref-solver`` at
 tol / ``--ref-factor``); with a small factor, or with the reference computed by one of the
 compared solvers, it is biased towards that solver: use BBPGD and a factor >= 100 for a fair
@@ -60,8 +82,10 @@ from particles.apgd import solve_contacts_apgd
 from particles.contact_solver import linearised_gap, solve_contacts
 from particles.geometry import B, find_contacts, generalised_forces, loads
 from particles.neighbours import candidate_pairs
+from particles.twolevel import solve_contacts_twolevel
 
-SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1)}
+SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1),
+           "twolevel": (solve_contacts_twolevel, 1)}
 """name -> (solver, gradient evaluations per iteration)."""
 
 
