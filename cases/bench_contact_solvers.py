@@ -55,6 +55,15 @@ weak growth curvature l lam dt exp(r) ~ 5e-5 l. Variants no better: h = 8, nu = 
 1e-4); resetting the BB step at each coarse step (nu = 50: 3485, nu = 20: 4239 vs 3019; keeping
 it, nu = 50: 2904).
 
+Third candidate, prototype not kept (runs/fastsolver/blockapgd_prototype.py, untracked): the
+largest late residuals sit on pairs of rods touching twice (91% of the 100 largest at N = 1e4
+after 1500 BBPGD iterations, vs 56% of all contacts), so APGD was run in the exact 2 x 2
+block-Jacobi metric of dt D^T M D per such pair (blockwise exact projection onto gamma >= 0,
+step from power iteration, gradient restart). Cold, tol 1e-4, iterations block / APGD:
+grownrings 1e3, 1e4, 1e5: 258 / 329, 1409 / 1367, 4430 / 4182 (same growth in N); grown_R17 351
+/ 433, grown_R55 1274 / 1936. A constant factor on engine-grown states at best, not an
+N-independent cost; seconds were not better in the prototype.
+
 The load error column compares sigma = G gamma with the reference solve (``--ref-solver`` at
 tol / ``--ref-factor``); with a small factor, or with the reference computed by one of the
 compared solvers, it is biased towards that solver: use BBPGD and a factor >= 100 for a fair
