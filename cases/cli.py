@@ -5,7 +5,7 @@
     colony continuum --lam LAM (--radius R | --time T) [--shape circle|ellipse:A,B|polygon:FILE.csv]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
-                     [--division-noise EPS] [--solver bbpgd|apgd] [--out DIR]
+                     [--division-noise EPS] [--solver bbpgd|apgd|twolevel] [--out DIR]
                      [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
@@ -255,7 +255,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="random seed (division noise)")
     p.add_argument("--dt", type=float, help="time step")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
-    p.add_argument("--solver", help="contact solver: bbpgd (default) or apgd")
+    p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)

@@ -39,8 +39,13 @@ from .geometry import Contacts, find_contacts, generalised_forces, loads
 from .growth import divide, grow
 from .neighbours import candidate_pairs
 from .state import B, ParticleState, colony_radius, hull_radius
+from .twolevel import solve_contacts_twolevel
 
-SOLVERS = {"bbpgd": solve_contacts, "apgd": solve_contacts_apgd}
+SOLVERS = {
+    "bbpgd": solve_contacts,
+    "apgd": solve_contacts_apgd,
+    "twolevel": solve_contacts_twolevel,
+}
 """Contact solvers by name: callables (contacts, length, dt, lam, gamma0, tol, maxiter, growth)
 -> (gamma, residual history)."""
 

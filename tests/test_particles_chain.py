@@ -27,6 +27,7 @@ from particles.apgd import solve_contacts_apgd
 from particles.contact_solver import linearised_gap, solve_contacts
 from particles.geometry import find_contacts, loads
 from particles.neighbours import candidate_pairs
+from particles.twolevel import solve_contacts_twolevel
 
 
 def chain(lengths):
@@ -63,8 +64,9 @@ def test_chain_contacts_are_end_to_end():
 
 
 #: Both contact solvers must reproduce the exact chain answers.
-SOLVERS = pytest.mark.parametrize("solve", [solve_contacts, solve_contacts_apgd],
-                                  ids=["bbpgd", "apgd"])
+SOLVERS = pytest.mark.parametrize(
+    "solve", [solve_contacts, solve_contacts_apgd, solve_contacts_twolevel],
+    ids=["bbpgd", "apgd", "twolevel"])
 
 
 @SOLVERS
