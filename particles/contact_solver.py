@@ -112,8 +112,13 @@ def _residual(gam, grad, akk):
 
 
 @njit(cache=True)
-def _bbpgd(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
-           tol, maxiter, hist):
+def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
+              tol, nu, alpha, parity, hist, qout):
+    """At most nu BBPGD iterations in place on gam (contact_solver's iteration), starting from
+    the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
+    alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1 when tol is
+    not reached.  hist[it] = residual after iteration it (hist[0]: start); qout = q(gam)
+    on return."""
     n = mt.shape[0]
     m = gam.shape[0]
     vx = np.empty(n)
@@ -123,25 +128,21 @@ def _bbpgd(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, gr
     g0 = np.empty(m)
     g1 = np.empty(m)
     x1 = np.empty(m)
-    for k in range(m):
-        if gam[k] < 0.0:
-            gam[k] = 0.0
     _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
               vx, vy, om, sig, g0)
     res = _residual(gam, g0, akk)
     hist[0] = res
+    qout[:] = g0
     if res <= tol:
-        return 0
-    # first step (Dai & Fletcher 2005): 1 / max |projected gradient|
-    pmax = 0.0
-    for k in range(m):
-        v = gam[k] - max(0.0, gam[k] - g0[k])
-        if abs(v) > pmax:
-            pmax = abs(v)
-    alpha = 1.0 / pmax
-    it = 0
-    while it < maxiter:
-        it += 1
+        return 0, alpha, parity
+    if not (alpha > 0.0):
+        pmax = 0.0
+        for k in range(m):
+            v = gam[k] - max(0.0, gam[k] - g0[k])
+            if abs(v) > pmax:
+                pmax = abs(v)
+        alpha = 1.0 / pmax
+    for it in range(1, nu + 1):
         for k in range(m):
             v = gam[k] - alpha * g0[k]
             x1[k] = v if v > 0.0 else 0.0
@@ -161,8 +162,10 @@ def _bbpgd(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, gr
             gam[k] = x1[k]
             g0[k] = g1[k]
         if res <= tol:
-            return it
-        if it % 2 == 0:
+            qout[:] = g0
+            return it, alpha, parity
+        parity = 1 - parity
+        if parity == 0:
             a, bb = ss, sy
         else:
             a, bb = sy, yy
@@ -170,9 +173,22 @@ def _bbpgd(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, gr
             bb = 1e-300
         alpha = a / bb
         if not (alpha > 0.0):
-            # stagnation (s = 0 or non-convex curvature estimate): restart from a safe step
             alpha = 1.0 / max(1e-300, np.max(akk))
-    return -1
+    qout[:] = g0
+    return -1, alpha, parity
+
+
+@njit(cache=True)
+def _bbpgd(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
+           tol, maxiter, hist):
+    """BBPGD from max(0, gam) to the residual tol: :func:`bb_smooth` without an iteration cap
+    short of maxiter, first step 1 / max |projected gradient| (Dai & Fletcher 2005)."""
+    for k in range(gam.shape[0]):
+        if gam[k] < 0.0:
+            gam[k] = 0.0
+    it, _, _ = bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+                         growth, akk, tol, maxiter, 0.0, 0, hist, np.empty(gam.shape[0]))
+    return it
 
 
 def solve_contacts(

@@ -39,78 +39,11 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.sparse.linalg import splu
 
-from .contact_solver import _gradient, _residual, finish, prepare
+from .contact_solver import bb_smooth, finish, prepare
 from .geometry import B, Contacts
 
 NAME = "twolevel"
 """Name under which the engine may register this solver (ParticleConfig.solver)."""
-
-
-@njit(cache=True)
-def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
-              tol, nu, alpha, parity, hist, qout):
-    """At most nu BBPGD iterations in place on gam (contact_solver's iteration), starting from
-    the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
-    alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1 when tol is
-    not reached.  hist[it] = residual after iteration it (hist[0]: start); qout = q(gam)
-    on return."""
-    n = mt.shape[0]
-    m = gam.shape[0]
-    vx = np.empty(n)
-    vy = np.empty(n)
-    om = np.empty(n)
-    sig = np.empty(n)
-    g0 = np.empty(m)
-    g1 = np.empty(m)
-    x1 = np.empty(m)
-    _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-              vx, vy, om, sig, g0)
-    res = _residual(gam, g0, akk)
-    hist[0] = res
-    qout[:] = g0
-    if res <= tol:
-        return 0, alpha, parity
-    if not (alpha > 0.0):
-        pmax = 0.0
-        for k in range(m):
-            v = gam[k] - max(0.0, gam[k] - g0[k])
-            if abs(v) > pmax:
-                pmax = abs(v)
-        alpha = 1.0 / pmax
-    for it in range(1, nu + 1):
-        for k in range(m):
-            v = gam[k] - alpha * g0[k]
-            x1[k] = v if v > 0.0 else 0.0
-        _gradient(x1, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-                  vx, vy, om, sig, g1)
-        res = _residual(x1, g1, akk)
-        hist[it] = res
-        ss = 0.0
-        sy = 0.0
-        yy = 0.0
-        for k in range(m):
-            s = x1[k] - gam[k]
-            y = g1[k] - g0[k]
-            ss += s * s
-            sy += s * y
-            yy += y * y
-            gam[k] = x1[k]
-            g0[k] = g1[k]
-        if res <= tol:
-            qout[:] = g0
-            return it, alpha, parity
-        parity = 1 - parity
-        if parity == 0:
-            a, bb = ss, sy
-        else:
-            a, bb = sy, yy
-        if abs(bb) < 1e-300:
-            bb = 1e-300
-        alpha = a / bb
-        if not (alpha > 0.0):
-            alpha = 1.0 / max(1e-300, np.max(akk))
-    qout[:] = g0
-    return -1, alpha, parity
 
 
 @njit(cache=True)
