@@ -266,8 +266,9 @@ def parser() -> argparse.ArgumentParser:
     k.add_argument("--data-set", choices=DATA_SETS, default="medium",
                    help="committed data to redraw: medium (radius 40, both engines, default) or "
                    "paper_continuum (radius 150, continuum only)")
-    k.add_argument("--engines", choices=("both", "continuum"), default="both",
-                   help="compute both engines (default) or the continuum only")
+    k.add_argument("--engines", choices=("both", "continuum", "finished"), default="both",
+                   help="compute both engines (default), the continuum only, or the continuum "
+                   "plus the particle runs already finished under --runs (none started)")
     k.add_argument("--runs", help="folder of the engine runs, shared between cases "
                    "(default OUT/runs); finished runs in it are reused")
     k.add_argument("--scheduler", help="address of an existing dask scheduler for sweeps")
@@ -317,9 +318,11 @@ def _dispatch(args) -> int:
         else:
             if args.workers < 1:
                 raise UsageError(f"--workers must be >= 1, got {args.workers}")
-            engines = ("continuum", "particles") if args.engines == "both" else ("continuum",)
+            engines = ("continuum",) if args.engines == "continuum" else ("continuum", "particles")
+            finished_only = ("particles",) if args.engines == "finished" else ()
             data = module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
-                                  n_workers=args.workers, runs=args.runs, engines=engines)
+                                  n_workers=args.workers, runs=args.runs, engines=engines,
+                                  finished_only=finished_only)
         module.plot(data, out)
         print(f"case {args.name} written to {out}")
     return 0

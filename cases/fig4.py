@@ -50,14 +50,16 @@ def exact_wavelength(lam: float, radius: float, n: int = 8001) -> float:
 
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig4-smoke",
             scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES) -> Path:
+            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES,
+            finished_only: tuple[str, ...] = ()) -> Path:
     """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
 
     ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
+    ``finished_only``: engines whose runs are only reused where finished (sweep.case_runs).
     """
     _, needed = runs_needed(scale, engines)
     folders = case_runs("fig4", needed, scale, out, runs, scheduler, n_workers, engines,
-                        needs_continuum=True)
+                        needs_continuum=True, finished_only=finished_only)
     return reduce(folders, Path(out) / "data", list(scale_config(scale)["lams"]))
 
 

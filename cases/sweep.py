@@ -5,7 +5,8 @@ sweep gives every run its own folder under ``root``, named from its parameters
 (``lam=0.01_seed=3``); a run is staged in ``<name>.partial/`` and, when ``run_fn`` returns, marked
 finished by a ``DONE`` file and renamed to ``<name>/``. A folder holding ``DONE`` is skipped, so a
 stopped sweep (killed job, lost node, walltime) resumes where it stopped; a left-over
-``.partial`` folder is removed and its run redone.
+``.partial`` folder is handed to the run again, so a particle run resumes from the checkpoint it
+left there (the continuum, minutes per run, has none and simply rewrites its files).
 
 Any parameter can be swept, e.g. an ensemble of particle colonies over lam and seeds::
 
@@ -42,7 +43,8 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["SweepError", "run_name", "is_done", "run_one", "sweep", "DONE", "run_engine",
-           "engine_runs", "engine_pairs", "ENGINES", "SCALES", "scale_config"]
+           "engine_runs", "finished_runs", "case_runs", "engine_pairs", "ENGINES", "SCALES",
+           "scale_config"]
 
 DONE = "DONE"
 
@@ -89,15 +91,15 @@ def is_done(folder: Path) -> bool:
 def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path) -> Path:
     """Run one point of a sweep into ``folder`` (staged in ``folder.partial``); skip if done.
 
-    ``params.json`` is written next to the results; ``DONE`` marks success. Returns ``folder``.
+    ``params.json`` is written next to the results; ``DONE`` marks success. A ``.partial``
+    stage left by a stopped run is reused as it is (``run_fn`` resumes from what it holds).
+    Returns ``folder``.
     """
     folder = Path(folder)
     if is_done(folder):
         return folder
     stage = folder.with_name(folder.name + ".partial")
-    if stage.exists():
-        shutil.rmtree(stage)
-    stage.mkdir(parents=True)
+    stage.mkdir(parents=True, exist_ok=True)  # a left-over stage keeps its checkpoint
     (stage / "params.json").write_text(json.dumps(params, indent=2, default=str))
     run_fn(dict(params), stage)
     (stage / DONE).write_text("")
@@ -262,6 +264,13 @@ def scale_config(scale: str) -> dict[str, Any]:
     return SCALES[scale]
 
 
+def _engine_params(engine: str, lam: float, cfg: Mapping[str, Any]) -> dict[str, Any]:
+    """The sweep parameters of run (engine, lam) at the run sizes ``cfg`` of SCALES."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
+    return {"engine": engine, "lam": float(lam), "radius": cfg["radius"], **cfg[engine]}
+
+
 def engine_runs(
     runs: Sequence[tuple[str, float]],
     scale: str,
@@ -275,26 +284,39 @@ def engine_runs(
     Returns {(engine, lam): run folder}.
     """
     cfg = scale_config(scale)
-    params = []
-    for engine, lam in runs:
-        if engine not in ENGINES:
-            raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
-        params.append({"engine": engine, "lam": float(lam), "radius": cfg["radius"],
-                       **cfg[engine]})
+    params = [_engine_params(engine, lam, cfg) for engine, lam in runs]
     folders = sweep(run_engine, params, root, scheduler=scheduler, n_workers=n_workers)
     return {(e, float(lam)): f for (e, lam), f in zip(runs, folders, strict=True)}
+
+
+def finished_runs(runs: Sequence[tuple[str, float]], scale: str, root: str | Path
+                  ) -> dict[tuple[str, float], Path]:
+    """The runs of ``runs`` already finished under ``root`` at ``scale`` (none is started)."""
+    cfg = scale_config(scale)
+    folders = {(e, float(lam)): Path(root) / run_name(_engine_params(e, lam, cfg))
+               for e, lam in runs}
+    return {k: f for k, f in folders.items() if is_done(f)}
 
 
 def case_runs(case: str, needed: Sequence[tuple[str, float]], scale: str, out: str | Path,
               runs: str | Path | None = None, scheduler: str | None = None, n_workers: int = 2,
               engines: Sequence[str] = ENGINES, needs_continuum: bool = True,
+              finished_only: Sequence[str] = (),
               ) -> dict[tuple[str, float], Path]:
     """The engine runs of a figure case (run or reused under ``runs``, default ``out/runs``).
 
     ``needs_continuum``: the case measures against the continuum (its radius is the reference),
-    so ``engines`` must include it.
+    so ``engines`` must include it. ``finished_only``: engines whose runs are taken only where
+    already finished under ``runs`` and never started (e.g. the paper-scale particle colonies,
+    hours each, made one by one with ``colony particles``); the others are run as needed.
     """
     if needs_continuum and "continuum" not in engines:
         raise ValueError(f"{case} needs the continuum runs (engines must include 'continuum')")
+    bad = [e for e in finished_only if e not in ENGINES]
+    if bad:
+        raise ValueError(f"finished_only must be a subset of {ENGINES}, got {bad!r}")
     root = Path(runs) if runs else Path(out) / "runs"
-    return engine_runs(needed, scale, root, scheduler=scheduler, n_workers=n_workers)
+    reused = finished_runs([r for r in needed if r[0] in finished_only], scale, root)
+    started = engine_runs([r for r in needed if r[0] not in finished_only], scale, root,
+                          scheduler=scheduler, n_workers=n_workers)
+    return started | reused

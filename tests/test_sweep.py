@@ -31,12 +31,20 @@ def test_run_name():
         run_name({})
 
 
-def test_run_one_stages_and_skips(tmp_path):
+def resuming_run(params: dict, folder: Path) -> None:
+    """A run that continues from the 'checkpoint' a stopped run left in its folder."""
+    ckpt = folder / "checkpoint.txt"
+    done = int(ckpt.read_text()) if ckpt.exists() else 0
+    (folder / "result.json").write_text(json.dumps({"resumed_from": done}))
+
+
+def test_run_one_stages_resumes_and_skips(tmp_path):
     folder = tmp_path / "lam=1"
-    (tmp_path / "lam=1.partial").mkdir()  # left over from a killed run
-    (tmp_path / "lam=1.partial" / "junk").write_text("x")
-    assert run_one(fixed_run, {"lam": 1.0}, folder) == folder
-    assert (folder / DONE).is_file() and not (folder / "junk").exists()
+    (tmp_path / "lam=1.partial").mkdir()  # left over from a killed run, with its checkpoint
+    (tmp_path / "lam=1.partial" / "checkpoint.txt").write_text("7")
+    assert run_one(resuming_run, {"lam": 1.0}, folder) == folder
+    assert (folder / DONE).is_file()
+    assert json.loads((folder / "result.json").read_text()) == {"resumed_from": 7}
     assert not (tmp_path / "lam=1.partial").exists()
     assert json.loads((folder / "params.json").read_text()) == {"lam": 1.0}
     stamp = (folder / "result.json").stat().st_mtime_ns
@@ -73,3 +81,24 @@ def test_sweep_local_cluster_then_resume_on_existing_scheduler(tmp_path):
 
     # 3) everything done: returns at once without starting a cluster
     assert sweep(square_run, params, tmp_path, scheduler="tcp://nowhere:1") == folders
+
+
+def test_case_runs_finished_only_reuses_and_never_starts(tmp_path):
+    """`colony case NAME --engines finished`: particle runs taken only where finished."""
+    from cases.sweep import case_runs, finished_runs, run_name
+
+    done = tmp_path / run_name({"engine": "particles", "lam": 0.1, "radius": 15.0,
+                                "output_every": 20})
+    done.mkdir()
+    (done / DONE).write_text("")
+    (tmp_path / run_name({"engine": "particles", "lam": 0.3, "radius": 15.0,
+                          "output_every": 20})).mkdir()  # unfinished: not taken
+    needed = [("particles", 0.03), ("particles", 0.1), ("particles", 0.3)]
+    assert finished_runs(needed, "smoke", tmp_path) == {("particles", 0.1): done}
+    got = case_runs("fig2", needed, "smoke", tmp_path / "out", runs=tmp_path,
+                    scheduler="tcp://nowhere:1", needs_continuum=False,
+                    finished_only=("particles",))
+    assert got == {("particles", 0.1): done}  # nothing to run: no scheduler contacted
+    with pytest.raises(ValueError, match="finished_only"):
+        case_runs("fig2", needed, "smoke", tmp_path, finished_only=("fluid",),
+                  needs_continuum=False)
