@@ -1,13 +1,20 @@
-"""Benchmark of the particle engine: cost per step against colony size.
+"""Benchmark of the particle engine: cost per step against colony size, for each contact solver.
 
 Grows one colony at lam = 1e-2 from one cell and saves its state (npz, not committed) when it
-first reaches each target size N (default 1e3, 3e3, 1e4; larger sizes continue from the largest
-saved state instead of regrowing).  From each saved state it then times ``--steps`` steps of
-``particles.simulation.step`` and reports medians of seconds per step, solver iterations per step
-(re-solve passes included), contacts, the split of the time between neighbour search, geometry,
-solver and update, and the exponents fitted to them (np.polyfit of log y against log N).
+first reaches each target size N (default 1e3, 1e4; larger sizes continue from the largest
+saved state instead of regrowing).  ``--state FILE.csv`` adds colonies written by ``colony
+particles`` (``particles.csv``: x, y, theta, length), e.g. the ~1e5-particle colony of a radius-150
+run, which is far cheaper to reuse than to regrow; such a state starts with zero loads and
+no warm start, so its first step is a cold solve (the medians hide it).
 
-    python -m cases.bench_particles [--sizes 1000 3000 10000] [--solver bbpgd] [--steps 10]
+From each state every solver of ``--solvers`` (default bbpgd and apgd: the same states, the same
+tolerance) times ``--steps`` steps of ``particles.simulation.step`` and reports medians of
+seconds per step, solver iterations per step (re-solve passes included), contacts, the split of
+the time between neighbour search, geometry, solver and update, and the exponents fitted to them
+(np.polyfit of log y against log N).
+
+    python -m cases.bench_particles [--sizes 1000 10000] [--state particles.csv]
+                                    [--solvers bbpgd apgd] [--steps 10]
 """
 
 from __future__ import annotations
@@ -15,11 +22,13 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from particles.growth import divide
+from particles.output import read_init
 from particles.simulation import SOLVERS, ParticleConfig, step
 from particles.state import ParticleState, colony_radius
 
@@ -32,7 +41,10 @@ def _save(path: Path, state: ParticleState, t: float, warm, rng) -> None:
 
 
 def load_state(path: Path):
-    """(state, t, warm, rng) saved by :func:`grow_states`."""
+    """(state, t, warm, rng) saved by :func:`grow_states`, or of a ``particles.csv`` colony."""
+    if path.suffix == ".csv":
+        state = ParticleState.from_arrays(*read_init(path))
+        return state, 0.0, (np.zeros(0, dtype=np.int64), np.zeros(0)), np.random.default_rng(0)
     with np.load(path) as z:
         st = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
                            int(z["next_id"]))
@@ -99,23 +111,7 @@ def fit_exponent(ns, ys) -> float:
     return float(np.polyfit(np.log(ns), np.log(ys), 1)[0])
 
 
-def main(argv: list[str] | None = None) -> list[dict]:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[1000, 3000, 10000])
-    ap.add_argument("--lam", type=float, default=1e-2)
-    ap.add_argument("--dt", type=float, default=None)
-    ap.add_argument("--solver", default="bbpgd", choices=sorted(SOLVERS))
-    ap.add_argument("--steps", type=int, default=10)
-    ap.add_argument("--folder", type=Path, default=DEFAULT_FOLDER)
-    a = ap.parse_args(argv)
-    cfg = ParticleConfig(lam=a.lam, time=1e9, solver=a.solver)
-    if a.dt is not None:
-        cfg.dt = a.dt
-    cfg.validate()
-    paths = grow_states(cfg, sorted(a.sizes), a.folder)
-    res = [measure(p, cfg, a.steps) for p in paths]
-    print(f"\nsolver={a.solver} lam={a.lam:g} dt={cfg.dt:g} tol={cfg.tol:g} "
-          f"(medians over {a.steps} steps)")
+def _table(res: list[dict]) -> None:
     print("| N | contacts | iterations/step | s/step | ns/(contact*it) | neighbours | geometry "
           "| solver | update |")
     print("|---|---|---|---|---|---|---|---|---|")
@@ -124,14 +120,50 @@ def main(argv: list[str] | None = None) -> list[dict]:
               f"| {r['ns_per_contact_iteration']:.1f} | {100 * r['neighbours_frac']:.1f}% "
               f"| {100 * r['geometry_frac']:.1f}% | {100 * r['solver_frac']:.1f}% "
               f"| {100 * r['update_frac']:.1f}% |")
-    if len(res) >= 2:
-        ns = [r["N"] for r in res]
+    ns = [r["N"] for r in res]
+    if len(set(ns)) >= 2:
         print("fitted exponents vs N: " + ", ".join(
             f"{k} {fit_exponent(ns, [max(r[k], 1e-12) for r in res]):.2f}"
             for k in ("contacts", "iterations", "seconds", "neighbours", "geometry")))
-    out = a.folder / f"bench_{a.solver}_lam{a.lam:g}.json"
-    out.write_text(json.dumps(res, indent=1))
-    return res
+
+
+def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000])
+    ap.add_argument("--state", type=Path, action="append", default=[],
+                    help="a colony CSV (x, y, theta, length) to measure as well (repeatable)")
+    ap.add_argument("--lam", type=float, default=1e-2)
+    ap.add_argument("--dt", type=float, default=None)
+    ap.add_argument("--solvers", nargs="+", default=["bbpgd", "apgd"], choices=sorted(SOLVERS))
+    ap.add_argument("--steps", type=int, default=10)
+    ap.add_argument("--folder", type=Path, default=DEFAULT_FOLDER)
+    a = ap.parse_args(argv)
+    for path in a.state:
+        if not path.is_file():
+            ap.error(f"state file not found: {path}")
+    base = ParticleConfig(lam=a.lam, time=1e9)
+    if a.dt is not None:
+        base.dt = a.dt
+    base.validate()
+    paths = grow_states(base, sorted(a.sizes), a.folder) + list(a.state)
+    results = {}
+    for solver in a.solvers:
+        cfg = replace(base, solver=solver)
+        res = sorted((measure(p, cfg, a.steps) for p in paths), key=lambda r: r["N"])
+        print(f"\nsolver={solver} lam={a.lam:g} dt={cfg.dt:g} tol={cfg.tol:g} "
+              f"(medians over {a.steps} steps)", flush=True)
+        _table(res)
+        results[solver] = res
+        out = a.folder / f"bench_{solver}_lam{a.lam:g}.json"
+        out.write_text(json.dumps(res, indent=1))
+    if len(results) >= 2:
+        ref, *others = a.solvers
+        for other in others:
+            print(f"\n{other} / {ref} (same states, same tolerance): " + ", ".join(
+                f"N={r['N']}: iterations {o['iterations'] / r['iterations']:.2f}, "
+                f"seconds {o['seconds'] / r['seconds']:.2f}"
+                for r, o in zip(results[ref], results[other], strict=True)))
+    return results
 
 
 if __name__ == "__main__":

@@ -166,3 +166,23 @@ def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
     # same law: total length and number agree to the tolerance-driven scatter
     assert abs(ca.length.sum() / cb.length.sum() - 1) < 0.02
     assert abs(ca.n - cb.n) <= 0.1 * cb.n
+
+
+def test_bench_particles_both_solvers_same_states(tmp_path):
+    """cases.bench_particles (issue 4): both solvers on the same grown and CSV states."""
+    from cases import bench_particles
+
+    grown = bench_particles.grow_states(simulation.ParticleConfig(lam=1e-2, time=1e9), [60],
+                                        tmp_path)
+    state, *_ = bench_particles.load_state(grown[0])
+    csv = tmp_path / "colony.csv"
+    np.savetxt(csv, np.c_[state.x, state.y, state.theta, state.length], delimiter=",",
+               header="x,y,theta,length", comments="")
+    res = bench_particles.main(["--sizes", "60", "--state", str(csv), "--steps", "2",
+                                "--folder", str(tmp_path)])
+    assert sorted(res) == ["apgd", "bbpgd"]
+    for rows in res.values():
+        assert [r["N"] for r in rows] == [state.n, state.n]  # the same two states, both solvers
+        assert all(r["iterations"] > 0 and r["contacts"] > 0 for r in rows)
+    with pytest.raises(SystemExit):
+        bench_particles.main(["--state", str(tmp_path / "missing.csv")])
