@@ -133,6 +133,17 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     mappable = None
     for row, (engine, lam) in enumerate(rows):
         sel = (idx["engine"] == engine) & (idx["lam"] == lam)
+        label = chr(ord("A") + row + (len(lams) if 1 not in present else 0))  # continuum D-F
+        axes[row, 0].set_ylabel(f"({label}) {'particles' if engine else 'continuum'}\n"
+                                rf"$\lambda$ = {lam:g}", fontsize=8)
+        if not sel.any():  # e.g. a paper-scale particle colony not computed
+            for ax in axes[row]:
+                ax.set_xticks([])
+                ax.set_yticks([])
+            axes[row, N_SNAPSHOTS // 2].text(0.5, 0.5, "not computed at this scale",
+                                             ha="center", va="center", fontsize=8,
+                                             transform=axes[row, N_SNAPSHOTS // 2].transAxes)
+            continue
         R = float(idx["radius"][sel].max())
         for col in range(N_SNAPSHOTS):
             ax = axes[row, col]
@@ -152,9 +163,6 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             ax.set_yticks([])
             if hit.any():
                 ax.set_title(f"t = {float(idx['t'][hit][0]):.3g}", fontsize=8)
-        label = chr(ord("A") + row + (len(lams) if 1 not in present else 0))  # continuum D-F
-        axes[row, 0].set_ylabel(f"({label}) {'particles' if engine else 'continuum'}\n"
-                                rf"$\lambda$ = {lam:g}", fontsize=8)
     if mappable is not None:
         colorbar(fig, mappable, axes.ravel().tolist())
     note_missing_engines(fig, {ENGINES[e] for e in present})  # codes 0, 1 as in ENGINES

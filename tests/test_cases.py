@@ -329,3 +329,19 @@ def test_continuum_only_reduce_and_plot(case, fake_runs, tmp_path):
             np.testing.assert_array_equal(s2[col], s1[col], err_msg=col)
     paths = case.plot(d2, tmp_path / "fig")
     assert paths and all(p.stat().st_size > 1000 for p in paths)
+
+
+def test_fig2_draws_with_a_particle_colony_missing(tmp_path):
+    """Paper scale has particle colonies for some lam only: the others are left blank."""
+    import shutil
+
+    data = tmp_path / "data"
+    shutil.copytree(Path(fig2.__file__).parent / "data" / "fig2", data)
+    idx = A.read_csv(data / "snapshots.csv")
+    lam0 = float(np.min(idx["lam"]))
+    keep = ~((idx["engine"] == 1) & (idx["lam"] == lam0))
+    A.write_csv(data / "snapshots.csv", {k: v[keep] for k, v in idx.items()})
+    for f in data.glob(f"particles_lam={lam0:g}_k=*"):
+        f.unlink()
+    paths = fig2.plot(data, tmp_path)
+    assert paths and all(p.stat().st_size > 1000 for p in paths)
