@@ -9,7 +9,7 @@
                      [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
-    colony case NAME --from-data [--data-set medium|paper_continuum] [--out DIR]
+    colony case NAME --from-data [--data-set medium|paper] [--out DIR]
 
 Every run is configured by one dataclass (``ContinuumConfig`` / ``ParticleConfig``), built from
 the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
@@ -42,8 +42,8 @@ CONTINUUM_EDGE_WIDTH = 0.05
 PARTICLE_EDGE_WIDTH = 0.5
 
 CASES = ("fig2", "fig3", "fig4", "crosscheck")
-#: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper_continuum.
-DATA_SETS = ("medium", "paper_continuum")
+#: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
+DATA_SETS = ("medium", "paper")
 
 
 class UsageError(ValueError):
@@ -265,7 +265,7 @@ def parser() -> argparse.ArgumentParser:
                    help="redraw from the data committed in cases/data (no computation)")
     k.add_argument("--data-set", choices=DATA_SETS, default="medium",
                    help="committed data to redraw: medium (radius 40, both engines, default) or "
-                   "paper_continuum (radius 150, continuum only)")
+                   "paper (radius 150; particles for the lam computed so far)")
     k.add_argument("--engines", choices=("both", "continuum", "finished"), default="both",
                    help="compute both engines (default), the continuum only, or the continuum "
                    "plus the particle runs already finished under --runs (none started)")

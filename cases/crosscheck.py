@@ -21,9 +21,12 @@ R(t) difference against t, for both particle radii) from those CSVs only. Scales
 cases.sweep.SCALES (smoke: about a minute on 2 cores; paper: hours).
 
 Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
-(particle columns nan, particle panels omitted and the figure says so). Committed data
-(cases/data): crosscheck at scale "medium" (radius 40, both engines; reduction < 10 s) and
-crosscheck_paper_continuum at scale "paper", continuum only (reduction under ~5 min).
+(particle columns nan, particle panels omitted and the figure says so).
+``finished_only=("particles",)`` (`--engines finished`) takes the particle runs already finished
+under ``runs`` and starts none. Committed data (cases/data): crosscheck at scale "medium"
+(radius 40, both engines; reduction < 10 s) and crosscheck_paper at scale "paper": the continuum
+at every lam, particles where a paper-scale colony was computed (cases/data/particles_paper;
+reduction under ~5 min).
 """
 
 from __future__ import annotations

@@ -17,9 +17,12 @@ writes the small CSVs behind every curve to ``out/data``; ``plot`` draws the fig
 CSVs only (``colony case fig3 --from-data`` redraws from cases/data/fig3).
 
 Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
-(particle columns nan, particle panels omitted and the figure says so). Committed data
-(cases/data): fig3 at scale "medium" (radius 40, both engines; reduction < 10 s) and
-fig3_paper_continuum at scale "paper", continuum only (reduction under ~5 min).
+(particle columns nan, particle panels omitted and the figure says so).
+``finished_only=("particles",)`` (`--engines finished`) takes the particle runs already finished
+under ``runs`` and starts none. Committed data (cases/data): fig3 at scale "medium" (radius 40,
+both engines; reduction < 10 s) and fig3_paper at scale "paper": the continuum at every lam,
+particles where a paper-scale colony was computed (cases/data/particles_paper; reduction under
+~5 min).
 """
 
 from __future__ import annotations

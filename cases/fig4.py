@@ -14,9 +14,12 @@ the other cases through a common ``runs`` folder) or "paper" (radius 150, lam in
 CSVs behind every curve to ``out/data``; ``plot`` draws from those CSVs only.
 
 Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
-(particle columns nan, particle panels omitted and the figure says so). Committed data
-(cases/data): fig4 at scale "medium" (radius 40, both engines; reduction < 10 s) and
-fig4_paper_continuum at scale "paper", continuum only (reduction under ~5 min).
+(particle columns nan, particle panels omitted and the figure says so).
+``finished_only=("particles",)`` (`--engines finished`) takes the particle runs already finished
+under ``runs`` and starts none. Committed data (cases/data): fig4 at scale "medium" (radius 40,
+both engines; reduction < 10 s) and fig4_paper at scale "paper": the continuum at every lam,
+particles where a paper-scale colony was computed (cases/data/particles_paper; reduction under
+~5 min).
 """
 
 from __future__ import annotations

@@ -267,7 +267,7 @@ def test_smoke_case(case, smoke_runs, tmp_path):
 def test_plot_from_committed_data(case, tmp_path):
     """`colony case NAME --from-data`: every figure redraws from cases/data/NAME alone.
 
-    Also the other committed data sets of the case (cases/data/NAME_paper_continuum).
+    Also the other committed data sets of the case (cases/data/NAME_paper).
     """
     name = case.__name__.split(".")[-1]
     root = Path(case.__file__).parent / "data"

@@ -142,7 +142,7 @@ def test_mean_length_image_applies_the_sawtooth_per_pixel():
     assert extent == (0.0, 1.0, 0.0, 1.0)
 
 
-@pytest.mark.parametrize("data_set", ["medium", "paper_continuum"])
+@pytest.mark.parametrize("data_set", ["medium", "paper"])
 def test_case_from_committed_data(tmp_path, data_set):
     res = _colony("case", "fig3", "--from-data", "--data-set", data_set,
                   "--out", str(tmp_path / "f"))
