@@ -192,8 +192,8 @@ def engine_pairs(lams: Sequence[float], engines: Sequence[str] = ENGINES
                  ) -> list[tuple[str, float]]:
     """The runs (engine, lam) of every lam for each of ``engines`` (a subset of ENGINES).
 
-    A figure case given ``engines=("continuum",)`` reduces and draws the continuum only (the
-    paper-scale particle runs need a faster contact solver than this session has).
+    A figure case given ``engines=("continuum",)`` reduces and draws the continuum only; see
+    :func:`case_runs` for taking only the particle runs already finished.
     """
     engines = tuple(engines)
     bad = [e for e in engines if e not in ENGINES]
