@@ -24,7 +24,9 @@ from __future__ import annotations
 import json
 import math
 import os
+import signal
 import sys
+import threading
 import time as _time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -368,6 +370,35 @@ def _load_checkpoint(path: Path, config):
     return st, meta["t"], meta["step"], rng, warm, meta["history"], meta["frames"]
 
 
+class _StopRequest:
+    """SIGINT / SIGTERM deferred to the end of the current step (main thread only).
+
+    The first signal sets ``signum`` and restores the previous handler, so the run can write a
+    checkpoint of a whole step before stopping; a second signal acts at once as before.
+    """
+
+    def __init__(self):
+        self.signum = None
+        self._previous = {}
+
+    def __enter__(self):
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._previous[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def _handle(self, signum, frame):
+        self.signum = signum
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+
+    def __exit__(self, *exc):
+        if self.signum is None:
+            for sig, handler in self._previous.items():
+                signal.signal(sig, handler)
+        return False
+
+
 def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
         stop_after: int | None = None) -> Colony:
     """Grow a colony until ``config.radius`` or ``config.time``.
@@ -384,6 +415,10 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
     stop_after : int, optional
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
         the returned Colony has ``finished = False``.
+
+    SIGINT (Ctrl-C) or SIGTERM (e.g. a batch system's time limit) in the main thread ends the
+    run after the current step, with a checkpoint of that step written (then KeyboardInterrupt,
+    or SystemExit(128 + signal) for SIGTERM); a second signal interrupts at once.
 
     Raises
     ------
@@ -420,7 +455,9 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
     last_ckpt = _time.monotonic()
     steps_here = 0
     finished = True
+    stop = _StopRequest()
     try:
+        stop.__enter__()
         while not _done(config, state, t):
             dt = config.dt
             if config.time is not None and config.time - t < dt * (1 + 1e-9):
@@ -454,10 +491,14 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
                     _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames)
                     output.write_history(out, history)
                     last_ckpt = now
+            if stop.signum is not None and not _done(config, state, t):
+                finished = False
+                break
             if stop_after is not None and steps_here >= stop_after and not _done(config, state, t):
                 finished = False
                 break
     finally:
+        stop.__exit__()
         bar.close()
     if out is not None:
         if finished and frames[1] != nstep:
@@ -466,5 +507,9 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
         _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames)
         output.write_history(out, history)
         output.write_particles(out, state)
+    if stop.signum == signal.SIGINT:
+        raise KeyboardInterrupt  # after the checkpoint of the last whole step
+    if stop.signum is not None:
+        raise SystemExit(128 + stop.signum)
     return Colony(state.x, state.y, state.theta, state.length, state.stress, state.ids, t,
                   history, finished)
