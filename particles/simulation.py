@@ -373,15 +373,16 @@ def _load_checkpoint(path: Path, config):
 class _StopRequest:
     """SIGINT / SIGTERM deferred to the end of the current step (main thread only).
 
-    The first signal sets ``signum`` and restores the previous handler, so the run can write a
-    checkpoint of a whole step before stopping; a second signal acts at once as before.
+    ``install`` replaces the handlers; the first signal sets ``signum`` and puts the previous
+    handlers back, so the run can write a checkpoint of a whole step before stopping, while a
+    second signal acts at once. ``restore`` puts them back when no signal came.
     """
 
     def __init__(self):
         self.signum = None
         self._previous = {}
 
-    def __enter__(self):
+    def install(self) -> "_StopRequest":
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
                 self._previous[sig] = signal.signal(sig, self._handle)
@@ -389,14 +390,12 @@ class _StopRequest:
 
     def _handle(self, signum, frame):
         self.signum = signum
+        self.restore()
+
+    def restore(self) -> None:
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
-
-    def __exit__(self, *exc):
-        if self.signum is None:
-            for sig, handler in self._previous.items():
-                signal.signal(sig, handler)
-        return False
+        self._previous = {}
 
 
 def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
@@ -455,9 +454,8 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
     last_ckpt = _time.monotonic()
     steps_here = 0
     finished = True
-    stop = _StopRequest()
+    stop = _StopRequest().install()
     try:
-        stop.__enter__()
         while not _done(config, state, t):
             dt = config.dt
             if config.time is not None and config.time - t < dt * (1 + 1e-9):
@@ -498,7 +496,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
                 finished = False
                 break
     finally:
-        stop.__exit__()
+        stop.restore()
         bar.close()
     if out is not None:
         if finished and frames[1] != nstep:
