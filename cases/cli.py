@@ -5,7 +5,7 @@
     colony continuum --lam LAM (--radius R | --time T) [--shape circle|ellipse:A,B|polygon:FILE.csv]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
-                     [--division-noise EPS] [--solver bbpgd|apgd|twolevel] [--out DIR]
+                     [--adaptive-dt] [--division-noise EPS] [--solver bbpgd|apgd|twolevel] [--out DIR]
                      [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
@@ -253,7 +253,9 @@ def parser() -> argparse.ArgumentParser:
     _common(p, "runs/particles")
     p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length")
     p.add_argument("--seed", type=int, help="random seed (division noise)")
-    p.add_argument("--dt", type=float, help="time step")
+    p.add_argument("--dt", type=float, help="time step (with --adaptive-dt the largest)")
+    p.add_argument("--adaptive-dt", action="store_const", const=True, default=None,
+                   help="adapt the step to the cost of the re-solve passes")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
 
@@ -300,7 +302,7 @@ def _dispatch(args) -> int:
 
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
-                 "dt": _finite("dt", args.dt),
+                 "dt": _finite("dt", args.dt), "adaptive_dt": args.adaptive_dt,
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver}
         config = build_config(ParticleConfig, args.config, args.set, flags)

@@ -23,7 +23,8 @@ from .state import B, ParticleState
 
 HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "max_stress",
                    "mean_stress", "max_overlap", "iterations", "passes", "n_contacts",
-                   "residual", "total_length", "divisions", "substeps")
+                   "residual", "total_length", "divisions", "substeps", "pass_iterations",
+                   "failed_iterations")
 
 
 def write_config(out: Path, config) -> None:
@@ -38,8 +39,8 @@ def write_history(out: Path, history: list[dict]) -> None:
         w = csv.writer(f)
         w.writerow(HISTORY_COLUMNS)
         for row in history:
-            w.writerow([repr(row[c]) if isinstance(row[c], float) else row[c]
-                        for c in HISTORY_COLUMNS])
+            values = [row.get(c, "") for c in HISTORY_COLUMNS]  # "": not recorded then
+            w.writerow([repr(v) if isinstance(v, float) else v for v in values])
     os.replace(tmp, out / "history.csv")
 
 

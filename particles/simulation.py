@@ -10,13 +10,19 @@ One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
 4. re-detect contacts on the new configuration; while the real overlap max(b - d) exceeds
    ``tol``, solve the overlap-removal problem (the same E without growth, Phi = the new gaps,
    mobility at the new lengths) and move by dt M D gamma'; those forces act over the same step and
-   are added to the loads sigma.  At most ``max_passes`` passes, else OverlapError, upon which
-   the step is redone from the same state as two steps of dt/2 (``robust_step``, nested up to
-   dt/16);
+   are added to the loads sigma.  At most ``max_passes`` passes, each of at most
+   max(PASS_ITERATION_FLOOR, iterations of step 2) iterations, else OverlapError or
+   ContactSolveError, upon which the step is redone from the same state as two steps of dt/2
+   (``robust_step``, nested up to dt/16);
 5. divide particles with l >= 2 (growth.py).
 
+With ``adaptive_dt`` the next step's length follows the cost of this step's passes
+(:func:`next_dt`); ``dt`` is then the first and the largest step.
+
 The history row of a step records the real overlap after step 4, the solver iterations of
-steps 2 and 4 together, and the loads sigma.
+steps 2 and 4 together (``iterations``), those of step 4 alone (``pass_iterations``), the
+iterations of attempts that failed and were redone as half steps (``failed_iterations``), and
+the loads sigma.
 """
 
 from __future__ import annotations
@@ -71,10 +77,14 @@ class ParticleConfig:
     radius, time : float or None
         Stop when the colony radius reaches ``radius`` or when t reaches ``time`` (exactly one).
     dt : float
-        Time step (fixed; the last step of a ``time`` run is shortened to land on it).
+        Time step (the last step of a ``time`` run is shortened to land on it); with
+        ``adaptive_dt`` the first and largest step.
         Default 0.01, measured: lam = 1e-2 to radius 40 (about 6600 particles) took 58 s,
         53 s and 44 s of wall time at dt = 0.005, 0.01, 0.02 with 0.39, 0.56 and 0.98 re-solve
         passes per step, reaching radius 40 at t = 10.52, 10.48, 10.52.
+    adaptive_dt : bool
+        Adapt the step to the cost of the re-solve passes (:func:`next_dt`); default False
+        (fixed dt).
     tol : float
         Largest admitted real overlap b - d after each step (default b/500).
     seed : int
@@ -117,6 +127,7 @@ class ParticleConfig:
     contact_margin: float = 0.1
     max_passes: int = 20
     max_iterations: int = 200_000
+    adaptive_dt: bool = False
 
     def validate(self) -> None:
         """Raise ValueError with a one-line message on an inconsistent configuration."""
@@ -156,6 +167,8 @@ class ParticleConfig:
         if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
             raise ValueError(
                 f"max_iterations must be a positive integer, got {self.max_iterations}")
+        if not isinstance(self.adaptive_dt, bool):
+            raise ValueError(f"adaptive_dt must be true or false, got {self.adaptive_dt!r}")
         if self.init is not None and not Path(self.init).is_file():
             raise ValueError(f"init file not found: {self.init}")
 
@@ -249,35 +262,59 @@ def _move(state: ParticleState, c: Contacts, gamma: np.ndarray, dt: float,
     state.theta += dt * 12.0 * tz / length**3
 
 
+PASS_ITERATION_FLOOR = 1000
+"""A re-solve pass may take max(PASS_ITERATION_FLOOR, the step's main-solve iterations)
+iterations; beyond, the step is redone as half steps.  Measured (lam = 1e-3 and 1e-4 to radius
+40, dt = 0.0025-0.01, 2,600 passes): a pass that converges takes at most 0.3 of the main solve's
+iterations in 99 % of cases and never more than 190 iterations where the step size is right;
+at dt = 0.01 and lam = 1e-3 a few passes took 22,000 to 200,000 (the cap) before the step was
+halved anyway."""
+
+
+def _solve(solver, spent: list, *args):
+    """solver(*args), adding its iterations to spent[0] whether or not it converges."""
+    try:
+        gamma, hist = solver(*args)
+    except ContactSolveError as e:
+        spent[0] += len(e.residuals) - 1
+        raise
+    spent[0] += len(hist) - 1
+    return gamma, hist
+
+
 def step(state: ParticleState, config: ParticleConfig, dt: float,
-         warm: tuple[np.ndarray, np.ndarray],
-         timers: dict | None = None) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
+         warm: tuple[np.ndarray, np.ndarray], timers: dict | None = None,
+         spent: list | None = None) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
     """Advance the state by one step in place (module docstring, items 1-4; no division).
 
-    Returns the step's diagnostics (iterations, passes, n_contacts, residual, max_overlap, and
-    the contacts and forces of the main solve) and the (keys, gamma) of the solve for the next
-    warm start.  ``timers`` (optional dict) accumulates wall seconds per phase: neighbours,
-    geometry, solver, update.
+    Returns the step's diagnostics (iterations, pass_iterations, passes, n_contacts, residual,
+    max_overlap, and the contacts and forces of the main solve) and the (keys, gamma) of the
+    solve for the next warm start.  ``timers`` (optional dict) accumulates wall seconds per
+    phase: neighbours, geometry, solver, update; ``spent`` (optional one-element list)
+    accumulates the solver iterations, also of a step that raises.
     """
     solver = SOLVERS[config.solver]
     stol = config.effective_solver_tol
     margin = config.contact_margin
+    spent = [0] if spent is None else spent
     n = state.n
     c = detect(state, margin, timers)
     t0 = _time.perf_counter()
     keys = c.keys(state.ids)
     gamma0 = _warm_start(keys, *warm)
     t0 = _tick(timers, "update", t0)
-    gamma, hist = solver(c, state.length, dt, config.lam, gamma0, stol, config.max_iterations,
-                         True)
+    gamma, hist = _solve(solver, spent, c, state.length, dt, config.lam, gamma0, stol,
+                         config.max_iterations, True)
     t0 = _tick(timers, "solver", t0)
-    iterations = len(hist) - 1
+    main_iterations = len(hist) - 1
+    pass_cap = min(config.max_iterations, max(PASS_ITERATION_FLOOR, main_iterations))
     sigma = loads(c, gamma, n)
     l0 = state.length
     _move(state, c, gamma, dt, l0)
     state.length = grow(l0, sigma, config.lam, dt)
     _tick(timers, "update", t0)
     passes = 0
+    pass_iterations = 0
     while True:
         c2 = detect(state, margin, timers)
         overlap = max(0.0, -float(c2.gap.min())) if len(c2) else 0.0
@@ -288,16 +325,17 @@ def step(state: ParticleState, config: ParticleConfig, dt: float,
                 f"overlap {overlap:.3g} > tol {config.tol:g} after {passes} re-solve passes "
                 f"(N={n}, dt={dt:g}); decrease dt")
         t0 = _time.perf_counter()
-        g2, h2 = solver(c2, state.length, dt, config.lam, None, stol, config.max_iterations,
+        g2, h2 = _solve(solver, spent, c2, state.length, dt, config.lam, None, stol, pass_cap,
                         False)
         t0 = _tick(timers, "solver", t0)
-        iterations += len(h2) - 1
+        pass_iterations += len(h2) - 1
         _move(state, c2, g2, dt, state.length)
         sigma = sigma + loads(c2, g2, n)
         _tick(timers, "update", t0)
         passes += 1
     state.stress = sigma
-    info = {"iterations": iterations, "passes": passes, "n_contacts": len(c),
+    info = {"iterations": main_iterations + pass_iterations, "pass_iterations": pass_iterations,
+            "failed_iterations": 0, "passes": passes, "n_contacts": len(c),
             "residual": float(hist[-1]), "max_overlap": overlap, "contacts": c, "gamma": gamma}
     return info, (keys, gamma)
 
@@ -312,12 +350,14 @@ def robust_step(state: ParticleState, config: ParticleConfig, dt: float,
                 depth: int = 0) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
     """:func:`step`, retried from the same state as two steps of dt/2 when it fails.
 
-    The returned info sums iterations and passes over the sub-steps, reports the largest
-    overlap and residual, and counts the sub-steps (``substeps``).  Deterministic.
+    The returned info sums the iteration counts and passes over the sub-steps (the failed
+    attempts' iterations under ``failed_iterations``), reports the largest overlap and residual,
+    and counts the sub-steps (``substeps``).  Deterministic.
     """
     backup = state.copy()
+    spent = [0]
     try:
-        info, warm2 = step(state, config, dt, warm, timers)
+        info, warm2 = step(state, config, dt, warm, timers, spent)
         info["substeps"] = 1
         return info, warm2
     except (OverlapError, ContactSolveError):
@@ -328,11 +368,45 @@ def robust_step(state: ParticleState, config: ParticleConfig, dt: float,
     a, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1)
     b, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1)
     info = dict(b)
-    for k in ("iterations", "passes", "substeps"):
+    for k in ("iterations", "pass_iterations", "failed_iterations", "passes", "substeps"):
         info[k] = a[k] + b[k]
+    info["failed_iterations"] += spent[0]
     info["max_overlap"] = max(a["max_overlap"], b["max_overlap"])
     info["residual"] = max(a["residual"], b["residual"])
     return info, warm
+
+
+DT_GROWTH, DT_SHRINK = 1.02, 0.7
+"""Factors of :func:`next_dt`."""
+
+
+def next_dt(dt: float, info: dict, dt_max: float) -> float:
+    """Length of the next step after a step of length dt with diagnostics ``info``.
+
+    The main solve's work is nearly independent of dt (its iterations scale with dt), while
+    the re-solve passes grow from a few percent of it to more than all of it, with failed
+    attempts, once dt is too long for the colony's speeds (measured, lam = 1e-3 to radius 40:
+    187,000 main iterations at dt = 0.005 and at 0.01; pass iterations 15,000 and 395,000).
+    So, with r = pass_iterations / (main iterations):
+
+        halved step (substeps > 1)  ->  dt / 2,
+        r > 1/2                     ->  DT_SHRINK dt,
+        r < 1/4                     ->  min(DT_GROWTH dt, dt_max),
+        otherwise                   ->  dt,
+
+    never below dt_max / 2^(MAX_HALVINGS + 2).
+    """
+    main = info["iterations"] - info["pass_iterations"]
+    r = info["pass_iterations"] / max(main, 1)
+    if info["substeps"] > 1:
+        new = dt / 2
+    elif r > 0.5:
+        new = DT_SHRINK * dt
+    elif r < 0.25:
+        new = min(DT_GROWTH * dt, dt_max)
+    else:
+        new = dt
+    return max(new, dt_max / 2 ** (MAX_HALVINGS + 2))
 
 
 def initial_state(config: ParticleConfig) -> ParticleState:
@@ -348,9 +422,15 @@ def _done(config: ParticleConfig, state: ParticleState, t: float) -> bool:
     return colony_radius(state) >= config.radius
 
 
-def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames) -> None:
+LEGACY_CONFIG = {"adaptive_dt": False}
+"""Values of the configuration fields added after a checkpoint was written, as it ran."""
+
+
+def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames,
+                     dt_next) -> None:
     meta = {"config": asdict(config), "t": t, "step": nstep, "next_id": state.next_id,
-            "rng": rng.bit_generator.state, "history": history, "frames": frames}
+            "rng": rng.bit_generator.state, "history": history, "frames": frames,
+            "dt_next": dt_next}
     tmp = path.with_name(path.name + ".tmp.npz")
     np.savez(tmp, meta=np.array(json.dumps(meta)), warm_keys=warm[0], warm_gamma=warm[1],
              **state.arrays())
@@ -360,14 +440,15 @@ def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, fr
 def _load_checkpoint(path: Path, config):
     with np.load(path) as z:
         meta = json.loads(str(z["meta"]))
-        if meta["config"] != json.loads(json.dumps(asdict(config))):
+        if {**LEGACY_CONFIG, **meta["config"]} != json.loads(json.dumps(asdict(config))):
             raise ValueError(f"checkpoint {path} belongs to a different configuration")
         st = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
                            int(meta["next_id"]))
         warm = (z["warm_keys"], z["warm_gamma"])
     rng = np.random.default_rng(config.seed)
     rng.bit_generator.state = meta["rng"]
-    return st, meta["t"], meta["step"], rng, warm, meta["history"], meta["frames"]
+    return (st, meta["t"], meta["step"], rng, warm, meta["history"], meta["frames"],
+            meta.get("dt_next", config.dt))
 
 
 class _StopRequest:
@@ -434,7 +515,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
     ckpt = None if out is None else out / "checkpoint.npz"
     traj = None if out is None else out / "trajectory.gsd"
     if ckpt is not None and ckpt.exists():
-        state, t, nstep, rng, warm, history, frames = _load_checkpoint(ckpt, config)
+        state, t, nstep, rng, warm, history, frames, dt_next = _load_checkpoint(ckpt, config)
         output.truncate_trajectory(traj, frames[0])
     else:
         state = initial_state(config)
@@ -442,6 +523,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
         rng = np.random.default_rng(config.seed)
         warm = (np.zeros(0, dtype=np.int64), np.zeros(0))
         frames = [0, -1]  # [frames written, step of the last frame]
+        dt_next = config.dt
         if out is not None:
             output.write_config(out, config)
             if traj.exists():
@@ -457,10 +539,11 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
     stop = _StopRequest().install()
     try:
         while not _done(config, state, t):
-            dt = config.dt
+            dt = dt_next
             if config.time is not None and config.time - t < dt * (1 + 1e-9):
                 dt = config.time - t
             info, warm = robust_step(state, config, dt, warm)
+            dt_next = next_dt(dt, info, config.dt) if config.adaptive_dt else config.dt
             ndiv = divide(state, rng, config.division_noise)
             t += dt
             nstep += 1
@@ -471,6 +554,8 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
                    "max_stress": float(state.stress.max()),
                    "mean_stress": float(state.stress.mean()),
                    "max_overlap": info["max_overlap"], "iterations": int(info["iterations"]),
+                   "pass_iterations": int(info["pass_iterations"]),
+                   "failed_iterations": int(info["failed_iterations"]),
                    "passes": int(info["passes"]), "n_contacts": int(info["n_contacts"]),
                    "residual": info["residual"], "total_length": float(state.length.sum()),
                    "divisions": int(ndiv), "substeps": int(info["substeps"])}
@@ -486,7 +571,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
                     frames = [frames[0] + 1, nstep]
                 now = _time.monotonic()
                 if now - last_ckpt >= config.checkpoint_seconds:
-                    _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames)
+                    _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames, dt_next)
                     output.write_history(out, history)
                     last_ckpt = now
             if stop.signum is not None and not _done(config, state, t):
@@ -502,7 +587,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
         if finished and frames[1] != nstep:
             output.append_frame(traj, state, nstep)
             frames = [frames[0] + 1, nstep]
-        _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames)
+        _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames, dt_next)
         output.write_history(out, history)
         output.write_particles(out, state)
     if stop.signum == signal.SIGINT:

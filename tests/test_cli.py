@@ -1,6 +1,7 @@
 """The ``colony`` command: configuration layering, staging, bad input, end-to-end runs."""
 
 import dataclasses
+import json
 import subprocess
 import sys
 
@@ -110,9 +111,11 @@ def test_continuum_end_to_end(tmp_path):
 def test_particles_end_to_end(tmp_path):
     out = tmp_path / "p"
     res = _colony(
-        "particles", "--lam", "1e-2", "--radius", "3", "--seed", "3", "--out", str(out), "--quiet"
+        "particles", "--lam", "1e-2", "--radius", "3", "--seed", "3", "--out", str(out), "--quiet",
+        "--adaptive-dt",
     )
     assert res.returncode == 0, res.stderr
+    assert json.loads((out / "config.json").read_text())["adaptive_dt"] is True
     for name in (
         "history.csv",
         "profile.csv",
