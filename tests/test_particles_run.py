@@ -228,3 +228,21 @@ def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
     with pytest.raises(ContactSolveError, match="in 2 iterations"):
         step(state.copy(), cfg, cfg.dt, warm, spent=spent)
     assert spent[0] >= 2
+
+
+def test_bench_timestep_small(tmp_path, capsys):
+    """cases.bench_timestep (issue 4): every run reaches the radius, the work adds up, the
+    uncapped variant runs, a bad policy is a usage error."""
+    from cases import bench_timestep
+    out = tmp_path / "b.csv"
+    rows = bench_timestep.main(["--radius", "4", "--lams", "1e-2", "--policies", "fixed:0.02",
+                                "adaptive:0.08", "--uncapped", "--out", str(out)])
+    assert [(r["policy"], r["uncapped"]) for r in rows] == [
+        ("fixed:0.02", False), ("fixed:0.02", True), ("adaptive:0.08", False)]
+    for r in rows:
+        assert r["main_iterations"] > 0 and r["steps"] > 10 and r["n_particles"] > 4
+    assert rows[0]["t_at_radius"] == pytest.approx(rows[2]["t_at_radius"], rel=0.05)
+    assert len(np.genfromtxt(out, delimiter=",", names=True, dtype=None)) == 3
+    assert "| 0.01 | adaptive:0.08 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench_timestep.main(["--policies", "fixed:abc"])
