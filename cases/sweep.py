@@ -253,6 +253,11 @@ SCALES: dict[str, dict[str, Any]] = {
         # lam = 5e-2 the run lasts t = 32, i.e. ~65 frames (continuum ~20 MB each at R = 150)
         "continuum": {"output_every": 0.5},
         "particles": {"output_every": 50},
+        # below lam = 1e-2 the colony's speeds (dR/dt -> sqrt(2 / lam)) make dt = 0.01 costly in
+        # re-solve passes and halved steps: measured at lam = 1e-3 from 1.4e4 particles, dt =
+        # 0.01 took median 6,761 solver iterations per step with 8.4 passes, dt = 0.005 2,289
+        # with 2.6 (runs/paper_logs in the closing notes of issue 5)
+        "particles_small_lam": {"below": 1e-2, "dt": 0.005, "output_every": 100},
     },
 }
 
@@ -265,10 +270,15 @@ def scale_config(scale: str) -> dict[str, Any]:
 
 
 def _engine_params(engine: str, lam: float, cfg: Mapping[str, Any]) -> dict[str, Any]:
-    """The sweep parameters of run (engine, lam) at the run sizes ``cfg`` of SCALES."""
+    """The sweep parameters of run (engine, lam) at the run sizes ``cfg`` of SCALES: the engine's
+    settings, overridden for lam < below by those of ``ENGINE_small_lam`` where present."""
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
-    return {"engine": engine, "lam": float(lam), "radius": cfg["radius"], **cfg[engine]}
+    settings = dict(cfg[engine])
+    small = dict(cfg.get(f"{engine}_small_lam", {}))
+    if small and lam < small.pop("below"):
+        settings.update(small)
+    return {"engine": engine, "lam": float(lam), "radius": cfg["radius"], **settings}
 
 
 def engine_runs(
