@@ -248,9 +248,9 @@ SCALES: dict[str, dict[str, Any]] = {
     "paper": {
         "radius": 150.0,
         "lams": (1e-4, 1e-3, 1e-2),
-        "scaling_lams": (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2),
+        "scaling_lams": (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2, 1e-1),
         # frames every 0.5 time units (particles: 50 steps of the default dt = 0.01); at
-        # lam = 5e-2 the run lasts t = 32, i.e. ~65 frames (continuum ~20 MB each at R = 150)
+        # lam = 1e-1 the run lasts t ~ 45, i.e. ~90 frames (continuum ~20 MB each at R = 150)
         "continuum": {"output_every": 0.5},
         "particles": {"output_every": 50},
         # below lam = 1e-2 the colony's speeds (dR/dt -> sqrt(2 / lam)) make dt = 0.01 costly in

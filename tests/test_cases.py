@@ -286,7 +286,7 @@ def test_engine_pairs():
 
     assert engine_pairs([0.1, 0.2], ("continuum",)) == [("continuum", 0.1), ("continuum", 0.2)]
     assert fig3.runs_needed("paper", ("continuum",))[1] == [
-        ("continuum", lam) for lam in (0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2)]
+        ("continuum", lam) for lam in (0.0, 1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2, 1e-1)]
     for bad in ((), ("fluid",), ("continuum", "particle")):
         with pytest.raises(ValueError, match="subset"):
             engine_pairs([0.1], bad)
