@@ -254,9 +254,9 @@ SCALES: dict[str, dict[str, Any]] = {
         "continuum": {"output_every": 0.5},
         "particles": {"output_every": 50},
         # below lam = 1e-2 the colony's speeds (dR/dt -> sqrt(2 / lam)) make dt = 0.01 costly in
-        # re-solve passes and halved steps: measured at lam = 1e-3 from 1.4e4 particles, dt =
-        # 0.01 took median 6,761 solver iterations per step with 8.4 passes, dt = 0.005 2,289
-        # with 2.6 (runs/paper_logs in the closing notes of issue 5)
+        # re-solve passes and halved steps: measured at lam = 1e-3 near 1.4e4 particles (engine
+        # before the pass cap), dt = 0.01 took median 6,761 solver iterations per step with 8.4
+        # passes, dt = 0.005 2,289 with 2.6
         "particles_small_lam": {"below": 1e-2, "dt": 0.005, "output_every": 100},
     },
 }
