@@ -435,7 +435,8 @@ def read_csv(path: str | os.PathLike) -> dict[str, np.ndarray]:
 def write_csv(path: str | os.PathLike, columns: Mapping[str, np.ndarray], fmt: str = "%.8g"):
     """Write equal-length 1D columns as a CSV with a header row (parent folder created).
 
-    A path ending in ``.gz`` is gzip-compressed (numpy.savetxt).
+    A path ending in ``.gz`` is gzip-compressed with no time stamp, so equal data give equal
+    bytes.
     """
     path = Path(path)
     names = list(columns)
@@ -444,7 +445,11 @@ def write_csv(path: str | os.PathLike, columns: Mapping[str, np.ndarray], fmt: s
         raise ValueError(f"{path.name}: columns differ in length")
     path.parent.mkdir(parents=True, exist_ok=True)
     data = np.column_stack(cols) if cols else np.empty((0, 0))
-    np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
+    if path.suffix == ".gz":
+        with open(path, "wb") as raw, gzip.GzipFile(fileobj=raw, mode="wb", mtime=0) as f:
+            np.savetxt(f, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
+    else:
+        np.savetxt(path, data, delimiter=",", header=",".join(names), comments="", fmt=fmt)
     return path
 
 
