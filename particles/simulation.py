@@ -571,7 +571,8 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
                     frames = [frames[0] + 1, nstep]
                 now = _time.monotonic()
                 if now - last_ckpt >= config.checkpoint_seconds:
-                    _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames, dt_next)
+                    _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames,
+                                     dt_next)
                     output.write_history(out, history)
                     last_ckpt = now
             if stop.signum is not None and not _done(config, state, t):

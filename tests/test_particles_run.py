@@ -6,12 +6,11 @@ import gsd.hoomd
 import numpy as np
 import pytest
 
-from particles.geometry import generalised_forces, max_overlap
-from particles.growth import divide
 import particles.simulation as simulation
 from particles.contact_solver import ContactSolveError
-from particles.simulation import (MAX_HALVINGS, ParticleConfig, initial_state, next_dt, run,
-                                  step)
+from particles.geometry import generalised_forces, max_overlap
+from particles.growth import divide
+from particles.simulation import MAX_HALVINGS, ParticleConfig, initial_state, next_dt, run, step
 from particles.state import colony_radius
 
 
