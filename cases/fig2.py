@@ -15,13 +15,9 @@ length at 4 significant digits): at paper scale about 2 MB in all.
 Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3}; about a minute on 2 cores, runs shared with
 the other cases through a common ``runs`` folder) or "paper" (radius 150; hours).
 
-Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
-(particle columns nan, particle panels omitted and the figure says so).
-``finished_only=("particles",)`` (`--engines finished`) takes the particle runs already finished
-under ``runs`` and starts none. Committed data (cases/data): fig2 at scale "medium" (radius 40,
-both engines; reduction < 10 s) and fig2_paper at scale "paper": the continuum at every lam,
-particles where a paper-scale colony was computed (cases/data/particles_paper; reduction under
-~5 min).
+Engines and committed data as for every figure case (``cases.sweep.case_runs``, docs/DESIGN.md):
+``engines=("continuum",)`` draws the continuum alone, ``--engines finished`` reuses finished
+particle runs only; data in cases/data/fig2 (radius 40) and fig2_paper (radius 150).
 """
 
 from __future__ import annotations

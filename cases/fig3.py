@@ -16,13 +16,9 @@ cases.sweep.SCALES; hours per particle run). ``compute`` runs (or reuses) the en
 writes the small CSVs behind every curve to ``out/data``; ``plot`` draws the figure from those
 CSVs only (``colony case fig3 --from-data`` redraws from cases/data/fig3).
 
-Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
-(particle columns nan, particle panels omitted and the figure says so).
-``finished_only=("particles",)`` (`--engines finished`) takes the particle runs already finished
-under ``runs`` and starts none. Committed data (cases/data): fig3 at scale "medium" (radius 40,
-both engines; reduction < 10 s) and fig3_paper at scale "paper": the continuum at every lam,
-particles where a paper-scale colony was computed (cases/data/particles_paper; reduction under
-~5 min).
+Engines and committed data as for every figure case (``cases.sweep.case_runs``, docs/DESIGN.md):
+``engines=("continuum",)`` draws the continuum alone, ``--engines finished`` reuses finished
+particle runs only; data in cases/data/fig3 (radius 40) and fig3_paper (radius 150).
 """
 
 from __future__ import annotations

@@ -13,13 +13,9 @@ the other cases through a common ``runs`` folder) or "paper" (radius 150, lam in
 {1e-4, 1e-3, 1e-2} and the scaling values of cases.sweep.SCALES; hours). ``compute`` writes the
 CSVs behind every curve to ``out/data``; ``plot`` draws from those CSVs only.
 
-Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
-(particle columns nan, particle panels omitted and the figure says so).
-``finished_only=("particles",)`` (`--engines finished`) takes the particle runs already finished
-under ``runs`` and starts none. Committed data (cases/data): fig4 at scale "medium" (radius 40,
-both engines; reduction < 10 s) and fig4_paper at scale "paper": the continuum at every lam,
-particles where a paper-scale colony was computed (cases/data/particles_paper; reduction under
-~5 min).
+Engines and committed data as for every figure case (``cases.sweep.case_runs``, docs/DESIGN.md):
+``engines=("continuum",)`` draws the continuum alone, ``--engines finished`` reuses finished
+particle runs only; data in cases/data/fig4 (radius 40) and fig4_paper (radius 150).
 """
 
 from __future__ import annotations

@@ -315,6 +315,10 @@ def case_runs(case: str, needed: Sequence[tuple[str, float]], scale: str, out: s
               ) -> dict[tuple[str, float], Path]:
     """The engine runs of a figure case (run or reused under ``runs``, default ``out/runs``).
 
+    Every figure case (fig2, fig3, fig4, crosscheck) gets its runs here. ``engines =
+    ("continuum",)``: the case reduces and draws the continuum alone (particle columns nan,
+    particle panels omitted and the figure says so).
+
     ``needs_continuum``: the case measures against the continuum (its radius is the reference),
     so ``engines`` must include it. ``finished_only``: engines whose runs are taken only where
     already finished under ``runs`` and never started (e.g. the paper-scale particle colonies,
