@@ -20,13 +20,9 @@ of the runs.
 R(t) difference against t, for both particle radii) from those CSVs only. Scales as in
 cases.sweep.SCALES (smoke: about a minute on 2 cores; paper: hours).
 
-Engines: ``compute(..., engines=("continuum",))`` runs, reduces and draws the continuum alone
-(particle columns nan, particle panels omitted and the figure says so).
-``finished_only=("particles",)`` (`--engines finished`) takes the particle runs already finished
-under ``runs`` and starts none. Committed data (cases/data): crosscheck at scale "medium"
-(radius 40, both engines; reduction < 10 s) and crosscheck_paper at scale "paper": the continuum
-at every lam, particles where a paper-scale colony was computed (cases/data/particles_paper;
-reduction under ~5 min).
+Engines and committed data as for every figure case (``cases.sweep.case_runs``, docs/DESIGN.md):
+``engines=("continuum",)`` draws the continuum alone, ``--engines finished`` reuses finished
+particle runs only; data in cases/data/crosscheck (radius 40) and crosscheck_paper (radius 150).
 """
 
 from __future__ import annotations
