@@ -11,10 +11,12 @@ From each state every solver of ``--solvers`` (default bbpgd and apgd: the same 
 tolerance) times ``--steps`` steps of ``particles.simulation.step`` and reports medians of
 seconds per step, solver iterations per step (re-solve passes included), contacts, the split of
 the time between neighbour search, geometry, solver and update, and the exponents fitted to them
-(np.polyfit of log y against log N).
+(np.polyfit of log y against log N).  ``--threads 1 2`` repeats every measurement on each
+number of Numba threads (``ParticleConfig.threads``; the iterates do not depend on it, so the
+iteration counts must agree) and reports the speed-up.
 
     python -m cases.bench_particles [--sizes 1000 10000] [--state particles.csv]
-                                    [--solvers bbpgd apgd] [--steps 10]
+                                    [--solvers bbpgd apgd] [--steps 10] [--threads 1 2]
 """
 
 from __future__ import annotations
@@ -136,6 +138,8 @@ def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
     ap.add_argument("--dt", type=float, default=None)
     ap.add_argument("--solvers", nargs="+", default=["bbpgd", "apgd"], choices=sorted(SOLVERS))
     ap.add_argument("--steps", type=int, default=10)
+    ap.add_argument("--threads", type=int, nargs="+", default=[1],
+                    help="numbers of Numba threads to measure (default 1)")
     ap.add_argument("--folder", type=Path, default=DEFAULT_FOLDER)
     a = ap.parse_args(argv)
     for path in a.state:
@@ -148,15 +152,24 @@ def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
     paths = grow_states(base, sorted(a.sizes), a.folder) + list(a.state)
     results = {}
     for solver in a.solvers:
-        cfg = replace(base, solver=solver)
-        res = sorted((measure(p, cfg, a.steps) for p in paths), key=lambda r: r["N"])
-        print(f"\nsolver={solver} lam={a.lam:g} dt={cfg.dt:g} tol={cfg.tol:g} "
-              f"(medians over {a.steps} steps)", flush=True)
-        _table(res)
-        results[solver] = res
-        out = a.folder / f"bench_{solver}_lam{a.lam:g}.json"
-        out.write_text(json.dumps(res, indent=1))
-    if len(results) >= 2:
+        for threads in a.threads:
+            cfg = replace(base, solver=solver, threads=threads)
+            cfg.validate()
+            res = sorted((measure(p, cfg, a.steps) for p in paths), key=lambda r: r["N"])
+            print(f"\nsolver={solver} threads={threads} lam={a.lam:g} dt={cfg.dt:g} "
+                  f"tol={cfg.tol:g} (medians over {a.steps} steps)", flush=True)
+            _table(res)
+            key = solver if threads == a.threads[0] else f"{solver}@{threads}"
+            results[key] = res
+            out = a.folder / f"bench_{key}_lam{a.lam:g}.json"
+            out.write_text(json.dumps(res, indent=1))
+        for threads in a.threads[1:]:
+            ref, other = results[solver], results[f"{solver}@{threads}"]
+            print(f"\n{solver}: {threads} threads / {a.threads[0]} (same states): " + ", ".join(
+                f"N={r['N']}: iterations {o['iterations'] / r['iterations']:.2f}, "
+                f"seconds {o['seconds'] / r['seconds']:.2f}"
+                for r, o in zip(ref, other, strict=True)))
+    if len(a.solvers) >= 2:
         ref, *others = a.solvers
         for other in others:
             print(f"\n{other} / {ref} (same states, same tolerance): " + ", ".join(

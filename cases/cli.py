@@ -6,6 +6,7 @@
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
                      [--adaptive-dt] [--division-noise EPS] [--solver bbpgd|apgd|twolevel]
+                     [--threads N]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
@@ -258,6 +259,8 @@ def parser() -> argparse.ArgumentParser:
                    help="adapt the step to the cost of the re-solve passes")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
+    p.add_argument("--threads", type=int,
+                   help="threads of the contact solver (default 1; same result for any number)")
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)
@@ -304,7 +307,7 @@ def _dispatch(args) -> int:
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
                  "dt": _finite("dt", args.dt), "adaptive_dt": args.adaptive_dt,
                  "division_noise": _finite("division-noise", args.division_noise),
-                 "solver": args.solver}
+                 "solver": args.solver, "threads": args.threads}
         config = build_config(ParticleConfig, args.config, args.set, flags)
         run_particles(config, Path(args.out), args.overwrite, progress)
         print(f"particle run written to {args.out}")

@@ -30,7 +30,7 @@ so tol is a length: every linearised gap is >= -tol and every loaded contact clo
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .geometry import Contacts
 
@@ -54,37 +54,67 @@ class ContactSolveError(RuntimeError):
 
 
 @njit(cache=True)
-def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
+def incidence(ci, cj, n):
+    """Contacts by particle (CSR): the contacts of particle p are idx[start[p]:start[p + 1]],
+    in increasing order (a counting sort of the pairs (ci, cj))."""
+    start = np.zeros(n + 1, dtype=np.int64)
+    m = ci.shape[0]
+    for k in range(m):
+        start[ci[k] + 1] += 1
+        start[cj[k] + 1] += 1
+    for p in range(n):
+        start[p + 1] += start[p]
+    fill = start[:-1].copy()
+    idx = np.empty(2 * m, dtype=np.int64)
+    for k in range(m):
+        idx[fill[ci[k]]] = k
+        fill[ci[k]] += 1
+        idx[fill[cj[k]]] = k
+        fill[cj[k]] += 1
+    return start, idx
+
+
+@njit(cache=True, parallel=True)
+def scatter(gam, start, idx, ci, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
     """Per-particle force, torque and load of contact forces gam: (vx, vy, om) = D gam,
-    sig = G gam (written into the four work arrays of shape (N,))."""
-    for p in range(vx.shape[0]):
-        vx[p] = 0.0
-        vy[p] = 0.0
-        om[p] = 0.0
-        sig[p] = 0.0
-    for k in range(gam.shape[0]):
-        g = gam[k]
-        if g == 0.0:
-            continue
-        i = ci[k]
-        j = cj[k]
-        vx[j] += g * nx[k]
-        vy[j] += g * ny[k]
-        om[j] += g * tj[k]
-        vx[i] -= g * nx[k]
-        vy[i] -= g * ny[k]
-        om[i] -= g * ti[k]
-        sig[i] += gi[k] * g
-        sig[j] += gj[k] * g
+    sig = G gam (written into the four work arrays of shape (N,)).
+
+    Gathered particle by particle over the incidence lists (:func:`incidence`), in parallel
+    over particles; each particle sums its contacts in increasing order, so the sums do not
+    depend on the number of threads."""
+    for p in prange(vx.shape[0]):
+        fx = 0.0
+        fy = 0.0
+        tq = 0.0
+        s = 0.0
+        for e in range(start[p], start[p + 1]):
+            k = idx[e]
+            g = gam[k]
+            if g == 0.0:
+                continue
+            if ci[k] == p:
+                fx -= g * nx[k]
+                fy -= g * ny[k]
+                tq -= g * ti[k]
+                s += gi[k] * g
+            else:
+                fx += g * nx[k]
+                fy += g * ny[k]
+                tq += g * tj[k]
+                s += gj[k] * g
+        vx[p] = fx
+        vy[p] = fy
+        om[p] = tq
+        sig[p] = s
 
 
-@njit(cache=True)
-def _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-              vx, vy, om, sig, out):
+@njit(cache=True, parallel=True)
+def _gradient(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+              growth, vx, vy, om, sig, out):
     """out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
     n = mt.shape[0]
-    scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
-    for p in range(n):
+    scatter(gam, start, idx, ci, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
+    for p in prange(n):
         vx[p] *= mt[p]
         vy[p] *= mt[p]
         om[p] *= mr[p]
@@ -92,33 +122,81 @@ def _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
             sig[p] = length[p] * np.expm1(dt * np.exp(-lam * sig[p]))
         else:
             sig[p] = 0.0
-    for k in range(gam.shape[0]):
+    for k in prange(gam.shape[0]):
         i = ci[k]
         j = cj[k]
         rel = (nx[k] * (vx[j] - vx[i]) + ny[k] * (vy[j] - vy[i]) + om[j] * tj[k] - om[i] * ti[k])
         out[k] = phi[k] + dt * rel - (gi[k] * sig[i] + gj[k] * sig[j])
 
 
-@njit(cache=True)
+@njit(cache=True, parallel=True)
 def _residual(gam, grad, akk):
+    """max_k |min(a_kk gam_k, grad_k)| (a max: independent of the order, so of threads)."""
     r = 0.0
-    for k in range(gam.shape[0]):
+    for k in prange(gam.shape[0]):
         a = akk[k] * gam[k]
         v = grad[k] if grad[k] < a else a
-        v = abs(v)
-        if v > r:
-            r = v
+        r = max(r, abs(v))
+    return r
+
+
+BLOCK = 4096
+"""Block length of the solver's sums: each block is summed in order, then the blocks in order,
+so the sums, hence the iterates, are the same for any number of threads."""
+
+
+@njit(cache=True, parallel=True)
+def _bb_update(gam, x1, g0, g1, part):
+    """gam <- x1, g0 <- g1; returns (s.s, s.y, y.y) for s = x1 - gam, y = g1 - g0, summed
+    by blocks of BLOCK (part: work array of shape (nblocks, 3))."""
+    m = gam.shape[0]
+    nb = part.shape[0]
+    for b in prange(nb):
+        ss = 0.0
+        sy = 0.0
+        yy = 0.0
+        for k in range(b * BLOCK, min(m, (b + 1) * BLOCK)):
+            s = x1[k] - gam[k]
+            y = g1[k] - g0[k]
+            ss += s * s
+            sy += s * y
+            yy += y * y
+            gam[k] = x1[k]
+            g0[k] = g1[k]
+        part[b, 0] = ss
+        part[b, 1] = sy
+        part[b, 2] = yy
+    ss = 0.0
+    sy = 0.0
+    yy = 0.0
+    for b in range(nb):
+        ss += part[b, 0]
+        sy += part[b, 1]
+        yy += part[b, 2]
+    return ss, sy, yy
+
+
+@njit(cache=True, parallel=True)
+def _projected_step(gam, g, alpha, out):
+    """out = max(0, gam - alpha g); returns max_k |gam_k - out_k| (alpha = 1: the largest
+    projected gradient)."""
+    r = 0.0
+    for k in prange(gam.shape[0]):
+        v = gam[k] - alpha * g[k]
+        v = v if v > 0.0 else 0.0
+        out[k] = v
+        r = max(r, abs(gam[k] - v))
     return r
 
 
 @njit(cache=True)
-def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
-              tol, nu, alpha, parity, hist, qout):
+def bb_smooth(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+              growth, akk, tol, nu, alpha, parity, hist, qout):
     """At most nu BBPGD iterations in place on gam (contact_solver's iteration), starting from
     the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
     alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1 when tol is
     not reached.  hist[it] = residual after iteration it (hist[0]: start); qout = q(gam)
-    on return."""
+    on return.  (start, idx): :func:`incidence` of (ci, cj)."""
     n = mt.shape[0]
     m = gam.shape[0]
     vx = np.empty(n)
@@ -128,39 +206,23 @@ def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
     g0 = np.empty(m)
     g1 = np.empty(m)
     x1 = np.empty(m)
-    _gradient(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-              vx, vy, om, sig, g0)
+    part = np.empty(((m + BLOCK - 1) // BLOCK, 3))
+    args = (start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+            vx, vy, om, sig)
+    _gradient(gam, *args, g0)
     res = _residual(gam, g0, akk)
     hist[0] = res
     qout[:] = g0
     if res <= tol:
         return 0, alpha, parity
     if not (alpha > 0.0):
-        pmax = 0.0
-        for k in range(m):
-            v = gam[k] - max(0.0, gam[k] - g0[k])
-            if abs(v) > pmax:
-                pmax = abs(v)
-        alpha = 1.0 / pmax
+        alpha = 1.0 / _projected_step(gam, g0, 1.0, x1)
     for it in range(1, nu + 1):
-        for k in range(m):
-            v = gam[k] - alpha * g0[k]
-            x1[k] = v if v > 0.0 else 0.0
-        _gradient(x1, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-                  vx, vy, om, sig, g1)
+        _projected_step(gam, g0, alpha, x1)
+        _gradient(x1, *args, g1)
         res = _residual(x1, g1, akk)
         hist[it] = res
-        ss = 0.0
-        sy = 0.0
-        yy = 0.0
-        for k in range(m):
-            s = x1[k] - gam[k]
-            y = g1[k] - g0[k]
-            ss += s * s
-            sy += s * y
-            yy += y * y
-            gam[k] = x1[k]
-            g0[k] = g1[k]
+        ss, sy, yy = _bb_update(gam, x1, g0, g1, part)
         if res <= tol:
             qout[:] = g0
             return it, alpha, parity
@@ -179,15 +241,16 @@ def bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
 
 
 @njit(cache=True)
-def _bbpgd(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth, akk,
-           tol, maxiter, hist):
+def _bbpgd(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+           growth, akk, tol, maxiter, hist):
     """BBPGD from max(0, gam) to the residual tol: :func:`bb_smooth` without an iteration cap
     short of maxiter, first step 1 / max |projected gradient| (Dai & Fletcher 2005)."""
     for k in range(gam.shape[0]):
         if gam[k] < 0.0:
             gam[k] = 0.0
-    it, _, _ = bb_smooth(gam, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
-                         growth, akk, tol, maxiter, 0.0, 0, hist, np.empty(gam.shape[0]))
+    it, _, _ = bb_smooth(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length,
+                         dt, lam, growth, akk, tol, maxiter, 0.0, 0, hist,
+                         np.empty(gam.shape[0]))
     return it
 
 
@@ -234,7 +297,8 @@ def solve_contacts(
     if m == 0:
         return gam, np.zeros(1)
     hist = np.full(maxiter + 1, np.nan)
-    it = _bbpgd(gam, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
+    start, idx = incidence(c.i, c.j, n)
+    it = _bbpgd(gam, start, idx, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
                 float(dt), float(lam), bool(growth), akk, float(tol), int(maxiter), hist)
     return finish("BBPGD", gam, hist, it, tol, n)
 
@@ -287,7 +351,8 @@ def linearised_gap(
     out = np.empty(m)
     ti = c.rix * c.ny - c.riy * c.nx
     tj = c.rjx * c.ny - c.rjy * c.nx
-    _gradient(np.ascontiguousarray(gamma, dtype=np.float64), c.i, c.j, c.nx, c.ny, ti, tj,
-              c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt), float(lam),
-              bool(growth), np.empty(n), np.empty(n), np.empty(n), np.empty(n), out)
+    start, idx = incidence(c.i, c.j, n)
+    _gradient(np.ascontiguousarray(gamma, dtype=np.float64), start, idx, c.i, c.j, c.nx, c.ny,
+              ti, tj, c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt),
+              float(lam), bool(growth), np.empty(n), np.empty(n), np.empty(n), np.empty(n), out)
     return out

@@ -37,6 +37,7 @@ import time as _time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import numba
 import numpy as np
 from tqdm import tqdm
 
@@ -109,6 +110,10 @@ class ParticleConfig:
         Re-detection and re-solve passes allowed per step.
     max_iterations : int
         Iteration cap of one solve (ContactSolveError beyond).
+    threads : int
+        Numba threads of the contact solver (its loops over particles and contacts).  The
+        iterates do not depend on it (sums by fixed blocks, contact_solver.BLOCK), so a run
+        may resume with another value and give the same result.
     """
 
     lam: float
@@ -128,6 +133,7 @@ class ParticleConfig:
     max_passes: int = 20
     max_iterations: int = 200_000
     adaptive_dt: bool = False
+    threads: int = 1
 
     def validate(self) -> None:
         """Raise ValueError with a one-line message on an inconsistent configuration."""
@@ -169,6 +175,10 @@ class ParticleConfig:
                 f"max_iterations must be a positive integer, got {self.max_iterations}")
         if not isinstance(self.adaptive_dt, bool):
             raise ValueError(f"adaptive_dt must be true or false, got {self.adaptive_dt!r}")
+        if (not isinstance(self.threads, int)
+                or not 1 <= self.threads <= numba.config.NUMBA_NUM_THREADS):
+            raise ValueError(f"threads must be an integer in [1, "
+                             f"{numba.config.NUMBA_NUM_THREADS}], got {self.threads}")
         if self.init is not None and not Path(self.init).is_file():
             raise ValueError(f"init file not found: {self.init}")
 
@@ -294,6 +304,7 @@ def step(state: ParticleState, config: ParticleConfig, dt: float,
     accumulates the solver iterations, also of a step that raises.
     """
     solver = SOLVERS[config.solver]
+    numba.set_num_threads(config.threads)
     stol = config.effective_solver_tol
     margin = config.contact_margin
     spent = [0] if spent is None else spent
@@ -425,6 +436,9 @@ def _done(config: ParticleConfig, state: ParticleState, t: float) -> bool:
 LEGACY_CONFIG = {"adaptive_dt": False}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
 
+EXECUTION_FIELDS = ("threads",)
+"""Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
+
 
 def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames,
                      dt_next) -> None:
@@ -440,7 +454,12 @@ def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, fr
 def _load_checkpoint(path: Path, config):
     with np.load(path) as z:
         meta = json.loads(str(z["meta"]))
-        if {**LEGACY_CONFIG, **meta["config"]} != json.loads(json.dumps(asdict(config))):
+        saved = {**LEGACY_CONFIG, **meta["config"]}
+        now = json.loads(json.dumps(asdict(config)))
+        for k in EXECUTION_FIELDS:
+            saved.pop(k, None)
+            now.pop(k)
+        if saved != now:
             raise ValueError(f"checkpoint {path} belongs to a different configuration")
         st = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
                            int(meta["next_id"]))

@@ -39,7 +39,7 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.sparse.linalg import splu
 
-from .contact_solver import bb_smooth, finish, prepare
+from .contact_solver import bb_smooth, finish, incidence, prepare
 from .geometry import B, Contacts
 
 NAME = "twolevel"
@@ -217,8 +217,8 @@ def solve_contacts_twolevel(
     zx, zy, main = contact_points(c, n)
     p = hat_prolongation(zx, zy, main, coarse_h)
     s, g = contact_operators(c, length, dt)
-    args = (c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length, float(dt),
-            float(lam), bool(growth), akk, float(tol))
+    args = (*incidence(c.i, c.j, n), c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr,
+            length, float(dt), float(lam), bool(growth), akk, float(tol))
     q = np.empty(m)
     buf = np.full(smoothing + 1, np.nan)
     hist = []

@@ -8,6 +8,7 @@ References here:
   sigma = G gamma for lam > 0, displacements dt M D gamma for every lam) equal to BBPGD's.
 """
 
+import numba
 import numpy as np
 import pytest
 from test_particles_chain import chain
@@ -16,7 +17,9 @@ from cases.bench_contact_solvers import contacts_of, ring_packing, warm_problem
 from particles import simulation
 from particles.apgd import apgd_kernel, lipschitz_bound, solve_contacts_apgd
 from particles.contact_solver import (
+    BLOCK,
     ContactSolveError,
+    incidence,
     linearised_gap,
     problem_arrays,
     solve_contacts,
@@ -122,8 +125,8 @@ def test_too_long_step_is_recovered_by_halving(grown):
     lip = lipschitz_bound(c, length, dt, lam)
     gam = np.zeros(len(c))
     hist = np.full(200_001, np.nan)
-    it = apgd_kernel(gam, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
-                     dt, lam, True, akk, 8.0 / lip, tol, 200_000, hist)
+    it = apgd_kernel(gam, *incidence(c.i, c.j, len(length)), c.i, c.j, c.nx, c.ny, ti, tj, c.gi,
+                     c.gj, c.gap, mt, mr, length, dt, lam, True, akk, 8.0 / lip, tol, 200_000, hist)
     assert it > 0
     assert np.nanmax(hist) > 1e3 * np.nanmin(hist[: it + 1])  # it did blow up first
     assert_kkt(c, length, dt, lam, gam, tol)
@@ -178,11 +181,48 @@ def test_bench_particles_both_solvers_same_states(tmp_path):
     csv = tmp_path / "colony.csv"
     np.savetxt(csv, np.c_[state.x, state.y, state.theta, state.length], delimiter=",",
                header="x,y,theta,length", comments="")
+    threads = ["1", "2"] if numba.config.NUMBA_NUM_THREADS >= 2 else ["1"]
     res = bench_particles.main(["--sizes", "60", "--state", str(csv), "--steps", "2",
-                                "--folder", str(tmp_path)])
-    assert sorted(res) == ["apgd", "bbpgd"]
+                                "--folder", str(tmp_path), "--threads", *threads])
+    assert sorted(res) == sorted(["apgd", "bbpgd"] + [f"{s}@2" for s in ("apgd", "bbpgd")
+                                                      if threads == ["1", "2"]])
+    if len(threads) == 2:  # the same iterates on two threads
+        assert [r["iterations"] for r in res["bbpgd"]] == [r["iterations"]
+                                                           for r in res["bbpgd@2"]]
     for rows in res.values():
         assert [r["N"] for r in rows] == [state.n, state.n]  # the same two states, both solvers
         assert all(r["iterations"] > 0 and r["contacts"] > 0 for r in rows)
     with pytest.raises(SystemExit):
         bench_particles.main(["--state", str(tmp_path / "missing.csv")])
+
+
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
+@pytest.mark.parametrize("name", sorted(simulation.SOLVERS))
+def test_solvers_give_the_same_iterates_on_any_number_of_threads(name):
+    """More contacts than contact_solver.BLOCK, so the blocked sums have several blocks."""
+    x, y, th, length = ring_packing(2500, seed=7)
+    c = contacts_of(x, y, th, length, 0.1)
+    assert len(c) > 2 * BLOCK
+    solve = simulation.SOLVERS[name]
+    out = []
+    for threads in (1, 2):
+        numba.set_num_threads(threads)
+        try:
+            out.append(solve(c, length, 0.005, 1e-2, None, 1e-4))
+        finally:
+            numba.set_num_threads(1)
+    (g1, h1), (g2, h2) = out
+    assert len(h1) > 50
+    np.testing.assert_array_equal(g1, g2)
+    np.testing.assert_array_equal(h1, h2)
+
+
+def test_incidence_lists_every_contact_of_every_particle_in_order():
+    rng = np.random.default_rng(4)
+    n, m = 50, 400
+    ci = rng.integers(0, n, m)
+    cj = (ci + rng.integers(1, n, m)) % n
+    start, idx = incidence(ci, cj, n)
+    for p in range(n):
+        want = np.flatnonzero((ci == p) | (cj == p))
+        np.testing.assert_array_equal(idx[start[p]:start[p + 1]], want)

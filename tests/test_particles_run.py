@@ -1,8 +1,10 @@
 """Whole runs: invariants, determinism, outputs, checkpoint-resume equality."""
 
 import json
+from dataclasses import replace
 
 import gsd.hoomd
+import numba
 import numpy as np
 import pytest
 
@@ -109,6 +111,21 @@ def test_outputs_and_checkpoint_resume(tmp_path, adaptive, dt, stop):
         assert dts[:-1].max() <= cfg.dt and dts[stop:-1].min() < dts[stop - 1] < cfg.dt
 
 
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
+def test_resume_on_another_number_of_threads(tmp_path):
+    """threads is an execution setting: a run stopped on two threads and resumed on one gives
+    the files of an uninterrupted one-thread run (config.json records the last setting)."""
+    cfg = ParticleConfig(lam=1e-2, time=3.0, dt=0.01, seed=1)
+    full, part = tmp_path / "full", tmp_path / "part"
+    full.mkdir()
+    part.mkdir()
+    run(cfg, full)
+    run(replace(cfg, threads=2), part, stop_after=150)
+    run(cfg, part)
+    for name in ("history.csv", "particles.csv"):
+        assert (full / name).read_bytes() == (part / name).read_bytes(), name
+
+
 def test_checkpoint_of_earlier_version_resumes(tmp_path):
     """A checkpoint written before adaptive_dt (and the pass counts) existed resumes, with the
     configuration it ran with, and the missing history entries are left blank."""
@@ -168,6 +185,8 @@ def test_init_file(tmp_path):
         dict(lam=0.0, time=1.0, tol=1.0),
         dict(lam=0.0, time=1.0, solver="nope"),
         dict(lam=0.0, time=1.0, init="/nonexistent.csv"),
+        dict(lam=0.0, time=1.0, threads=0),
+        dict(lam=0.0, time=1.0, threads=10_000),
         dict(lam=float("nan"), time=1.0),
         dict(lam=0.0, time=1.0, output_every=0),
     ],
