@@ -19,6 +19,7 @@ from __future__ import annotations
 import gzip
 import math
 import os
+import warnings
 from collections.abc import Mapping
 from pathlib import Path
 
@@ -416,7 +417,8 @@ def ecoli_lambda(
 
 
 def read_csv(path: str | os.PathLike) -> dict[str, np.ndarray]:
-    """Read a CSV (or gzipped ``.csv.gz``) with a header row into float columns {name: array}."""
+    """Read a CSV (or gzipped ``.csv.gz``) with a header row into float columns {name: array};
+    empty cells (a column that a run resumed from an older checkpoint lacks) read as NaN."""
     path = Path(path)
     if not path.is_file():
         raise FileNotFoundError(f"no such CSV file: {path}")
@@ -424,7 +426,9 @@ def read_csv(path: str | os.PathLike) -> dict[str, np.ndarray]:
     with opener(path, "rt") as f:
         header = f.readline().strip()
     names = [h.strip() for h in header.split(",")]
-    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    with warnings.catch_warnings():  # a header-only file is an empty table, not a warning
+        warnings.simplefilter("ignore", UserWarning)
+        data = np.genfromtxt(path, delimiter=",", skip_header=1, ndmin=2, invalid_raise=True)
     if data.size == 0:
         return {n: np.empty(0) for n in names}
     if data.shape[1] != len(names):

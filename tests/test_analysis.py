@@ -225,3 +225,17 @@ def test_csv_round_trip_and_reproducible_gzip(tmp_path):
     assert A.write_csv(tmp_path / "a.csv.gz", cols).read_bytes() == first
     with pytest.raises(ValueError, match="differ in length"):
         A.write_csv(tmp_path / "b.csv", {"x": np.zeros(2), "y": np.zeros(3)})
+
+
+def test_read_csv_blank_cells_are_nan(tmp_path):
+    """History rows of a run resumed from an older checkpoint leave new columns blank."""
+    path = tmp_path / "h.csv"
+    path.write_text("step,passes,pass_iterations\n1,2,\n2,0,15\n")
+    h = A.read_csv(path)
+    np.testing.assert_array_equal(h["step"], [1, 2])
+    assert np.isnan(h["pass_iterations"][0]) and h["pass_iterations"][1] == 15
+    path.write_text("step,passes\n1,2\n2,0,15\n")
+    with pytest.raises(ValueError):
+        A.read_csv(path)
+    path.write_text("step,passes\n")
+    assert A.read_csv(path)["step"].size == 0
