@@ -56,7 +56,7 @@ import numpy as np
 from numba import njit
 
 from .contact_solver import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - G^T dl
-from .contact_solver import finish, incidence, prepare, problem_arrays, scatter
+from .contact_solver import finish, incidence, particle_sums, prepare, problem_arrays
 from .geometry import Contacts
 
 NAME = "apgd"
@@ -76,11 +76,11 @@ def residual_kernel(gam, q, akk):
 
 
 @njit(cache=True)
-def hessian_apply(v, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om,
+def hessian_apply(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om,
                   sig, out):
     """out = (dt D^T M D + G^T diag(cmax) G) v."""
     n = mt.shape[0]
-    scatter(v, start, idx, ci, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
+    particle_sums(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
     for p in range(n):
         vx[p] *= dt * mt[p]
         vy[p] *= dt * mt[p]
@@ -94,7 +94,8 @@ def hessian_apply(v, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, d
 
 
 @njit(cache=True)
-def lipschitz_kernel(start, idx, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, akk, iters, seed,
+def lipschitz_kernel(start, idx, coef,
+                     ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, akk, iters, seed,
                      min_iters, rtol):
     """Power iteration for the largest eigenvalue of P^(1/2) H P^(1/2), P = diag(1/a_kk).
 
@@ -120,7 +121,8 @@ def lipschitz_kernel(start, idx, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, d
         for k in range(m):
             v[k] /= nv
             u[k] = v[k] / sq[k]
-        hessian_apply(u, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om,
+        hessian_apply(u, start, idx, coef,
+                      ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om,
                       sig, w)
         prev = est
         est = 0.0
@@ -134,7 +136,7 @@ def lipschitz_kernel(start, idx, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, d
 
 
 @njit(cache=True)
-def apgd_kernel(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
                 growth, akk, step, tol, maxiter, hist):
     """APGD iterations in place on gam (module docstring); one gradient per iteration.
 
@@ -168,7 +170,8 @@ def apgd_kernel(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, le
     theta = 1.0
     t = step
     for it in range(0, maxiter + 1):
-        gap_kernel(y, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+        gap_kernel(y, start, idx, coef,
+                   ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
                    growth, vx, vy, om, sig, qy)
         # one pass: residual, feasibility, curvature (q(y) - q(yp)).(y - yp) / |y - yp|_P^-1
         res = 0.0
@@ -191,7 +194,8 @@ def apgd_kernel(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, le
             # instead (one extra gradient, only in the final phase)
             for k in range(m):
                 x1[k] = y[k] if y[k] > 0.0 else 0.0
-            gap_kernel(x1, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+            gap_kernel(x1, start, idx, coef,
+                       ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
                        growth, vx, vy, om, sig, qp)
             rp = residual_kernel(x1, qp, akk)
             if rp <= tol:
@@ -257,8 +261,9 @@ def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, lam: float, grow
     length = np.ascontiguousarray(length, dtype=np.float64)
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
     cmax = length * lam * dt * np.exp(dt) if growth else np.zeros_like(length)
-    start, idx = incidence(c.i, c.j, length.shape[0])
-    return float(lipschitz_kernel(start, idx, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, mt, mr,
+    start, idx, coef = incidence(c, ti, tj, length.shape[0])
+    return float(lipschitz_kernel(start, idx, coef,
+                 c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, mt, mr,
                                   cmax, float(dt), akk, int(iters), int(seed),
                                   int(min_iters), float(rtol)))
 
@@ -324,8 +329,8 @@ def solve_contacts_apgd(
     lip = lipschitz_bound(c, length, dt, lam, growth, power_iterations)
     step = 1.0 / (lipschitz_margin * lip)
     hist = np.full(maxiter + 1, np.nan)
-    start, idx = incidence(c.i, c.j, n)
-    it = apgd_kernel(gam, start, idx, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr,
+    start, idx, coef = incidence(c, ti, tj, n)
+    it = apgd_kernel(gam, start, idx, coef, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr,
                      length, float(dt), float(lam), bool(growth), akk, step, float(tol),
                      int(maxiter), hist)
     return finish("APGD", gam, hist, it, tol, n)

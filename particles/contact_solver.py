@@ -29,6 +29,7 @@ so tol is a length: every linearised gap is >= -tol and every loaded contact clo
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 from numba import njit, prange
 
@@ -54,9 +55,7 @@ class ContactSolveError(RuntimeError):
 
 
 @njit(cache=True)
-def incidence(ci, cj, n):
-    """Contacts by particle (CSR): the contacts of particle p are idx[start[p]:start[p + 1]],
-    in increasing order (a counting sort of the pairs (ci, cj))."""
+def _incidence(ci, cj, nx, ny, ti, tj, gi, gj, n):
     start = np.zeros(n + 1, dtype=np.int64)
     m = ci.shape[0]
     for k in range(m):
@@ -66,54 +65,106 @@ def incidence(ci, cj, n):
         start[p + 1] += start[p]
     fill = start[:-1].copy()
     idx = np.empty(2 * m, dtype=np.int64)
+    coef = np.empty((2 * m, 4))
     for k in range(m):
-        idx[fill[ci[k]]] = k
+        e = fill[ci[k]]
+        idx[e] = k
+        coef[e, 0] = -nx[k]
+        coef[e, 1] = -ny[k]
+        coef[e, 2] = -ti[k]
+        coef[e, 3] = gi[k]
         fill[ci[k]] += 1
-        idx[fill[cj[k]]] = k
+        e = fill[cj[k]]
+        idx[e] = k
+        coef[e, 0] = nx[k]
+        coef[e, 1] = ny[k]
+        coef[e, 2] = tj[k]
+        coef[e, 3] = gj[k]
         fill[cj[k]] += 1
-    return start, idx
+    return start, idx, coef
+
+
+def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int | None = None):
+    """Contacts by particle (CSR) with their coefficients, for the parallel gather of
+    :func:`particle_sums`: the contacts of particle p are idx[start[p]:start[p + 1]] in
+    increasing order, and row e of coef holds the coefficients of gamma_idx[e] in p's force
+    (x, y), torque and load, (-n, -t_i, G_i) on particle i and (n, t_j, G_j) on particle j:
+    the columns of D and G, stored particle by particle.
+
+    On one thread (``threads``, default numba.get_num_threads()) the lists are left empty and
+    the kernels scatter contact by contact instead: serially that is faster (fewer bytes per
+    iteration; README "Threads"), and it adds in the same order."""
+    if (numba.get_num_threads() if threads is None else threads) == 1:
+        return np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))
+    return _incidence(c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, n)
+
+
+@njit(cache=True)
+def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
+    """Serial :func:`particle_sums`: adds each contact's force, torque and load to its two
+    particles, contacts in increasing order."""
+    for p in range(vx.shape[0]):
+        vx[p] = 0.0
+        vy[p] = 0.0
+        om[p] = 0.0
+        sig[p] = 0.0
+    for k in range(gam.shape[0]):
+        g = gam[k]
+        if g == 0.0:
+            continue
+        i = ci[k]
+        j = cj[k]
+        vx[j] += g * nx[k]
+        vy[j] += g * ny[k]
+        om[j] += g * tj[k]
+        vx[i] -= g * nx[k]
+        vy[i] -= g * ny[k]
+        om[i] -= g * ti[k]
+        sig[i] += gi[k] * g
+        sig[j] += gj[k] * g
 
 
 @njit(cache=True, parallel=True)
-def scatter(gam, start, idx, ci, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
-    """Per-particle force, torque and load of contact forces gam: (vx, vy, om) = D gam,
-    sig = G gam (written into the four work arrays of shape (N,)).
-
-    Gathered particle by particle over the incidence lists (:func:`incidence`), in parallel
-    over particles; each particle sums its contacts in increasing order, so the sums do not
-    depend on the number of threads."""
+def gather(gam, start, idx, coef, vx, vy, om, sig):
+    """Parallel :func:`particle_sums`: each particle sums its contacts from the incidence
+    lists (:func:`incidence`) in increasing order, so no two threads write one entry and the
+    sums equal those of :func:`scatter` bit for bit (x - y = x + (-y) exactly)."""
     for p in prange(vx.shape[0]):
         fx = 0.0
         fy = 0.0
         tq = 0.0
         s = 0.0
         for e in range(start[p], start[p + 1]):
-            k = idx[e]
-            g = gam[k]
+            g = gam[idx[e]]
             if g == 0.0:
                 continue
-            if ci[k] == p:
-                fx -= g * nx[k]
-                fy -= g * ny[k]
-                tq -= g * ti[k]
-                s += gi[k] * g
-            else:
-                fx += g * nx[k]
-                fy += g * ny[k]
-                tq += g * tj[k]
-                s += gj[k] * g
+            fx += g * coef[e, 0]
+            fy += g * coef[e, 1]
+            tq += g * coef[e, 2]
+            s += coef[e, 3] * g
         vx[p] = fx
         vy[p] = fy
         om[p] = tq
         sig[p] = s
 
 
+@njit(cache=True)
+def particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
+    """Per-particle force, torque and load of contact forces gam: (vx, vy, om) = D gam,
+    sig = G gam (written into the four work arrays of shape (N,)); :func:`gather` when the
+    incidence lists are given, else :func:`scatter`."""
+    if idx.shape[0] > 0:
+        gather(gam, start, idx, coef, vx, vy, om, sig)
+    else:
+        scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
+
+
 @njit(cache=True, parallel=True)
-def _gradient(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
               growth, vx, vy, om, sig, out):
     """out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
     n = mt.shape[0]
-    scatter(gam, start, idx, ci, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
+    particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
     for p in prange(n):
         vx[p] *= mt[p]
         vy[p] *= mt[p]
@@ -190,7 +241,7 @@ def _projected_step(gam, g, alpha, out):
 
 
 @njit(cache=True)
-def bb_smooth(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
               growth, akk, tol, nu, alpha, parity, hist, qout):
     """At most nu BBPGD iterations in place on gam (contact_solver's iteration), starting from
     the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
@@ -207,7 +258,7 @@ def bb_smooth(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, leng
     g1 = np.empty(m)
     x1 = np.empty(m)
     part = np.empty(((m + BLOCK - 1) // BLOCK, 3))
-    args = (start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+    args = (start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
             vx, vy, om, sig)
     _gradient(gam, *args, g0)
     res = _residual(gam, g0, akk)
@@ -241,14 +292,14 @@ def bb_smooth(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, leng
 
 
 @njit(cache=True)
-def _bbpgd(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def _bbpgd(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
            growth, akk, tol, maxiter, hist):
     """BBPGD from max(0, gam) to the residual tol: :func:`bb_smooth` without an iteration cap
     short of maxiter, first step 1 / max |projected gradient| (Dai & Fletcher 2005)."""
     for k in range(gam.shape[0]):
         if gam[k] < 0.0:
             gam[k] = 0.0
-    it, _, _ = bb_smooth(gam, start, idx, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length,
+    it, _, _ = bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length,
                          dt, lam, growth, akk, tol, maxiter, 0.0, 0, hist,
                          np.empty(gam.shape[0]))
     return it
@@ -297,8 +348,9 @@ def solve_contacts(
     if m == 0:
         return gam, np.zeros(1)
     hist = np.full(maxiter + 1, np.nan)
-    start, idx = incidence(c.i, c.j, n)
-    it = _bbpgd(gam, start, idx, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
+    start, idx, coef = incidence(c, ti, tj, n)
+    it = _bbpgd(gam, start, idx, coef,
+                c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
                 float(dt), float(lam), bool(growth), akk, float(tol), int(maxiter), hist)
     return finish("BBPGD", gam, hist, it, tol, n)
 
@@ -351,8 +403,8 @@ def linearised_gap(
     out = np.empty(m)
     ti = c.rix * c.ny - c.riy * c.nx
     tj = c.rjx * c.ny - c.rjy * c.nx
-    start, idx = incidence(c.i, c.j, n)
-    _gradient(np.ascontiguousarray(gamma, dtype=np.float64), start, idx, c.i, c.j, c.nx, c.ny,
+    start, idx, coef = incidence(c, ti, tj, n)
+    _gradient(np.ascontiguousarray(gamma, dtype=np.float64), start, idx, coef, c.i, c.j, c.nx, c.ny,
               ti, tj, c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt),
               float(lam), bool(growth), np.empty(n), np.empty(n), np.empty(n), np.empty(n), out)
     return out

@@ -217,7 +217,7 @@ def solve_contacts_twolevel(
     zx, zy, main = contact_points(c, n)
     p = hat_prolongation(zx, zy, main, coarse_h)
     s, g = contact_operators(c, length, dt)
-    args = (*incidence(c.i, c.j, n), c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr,
+    args = (*incidence(c, ti, tj, n), c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr,
             length, float(dt), float(lam), bool(growth), akk, float(tol))
     q = np.empty(m)
     buf = np.full(smoothing + 1, np.nan)

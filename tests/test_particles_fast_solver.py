@@ -125,8 +125,8 @@ def test_too_long_step_is_recovered_by_halving(grown):
     lip = lipschitz_bound(c, length, dt, lam)
     gam = np.zeros(len(c))
     hist = np.full(200_001, np.nan)
-    it = apgd_kernel(gam, *incidence(c.i, c.j, len(length)), c.i, c.j, c.nx, c.ny, ti, tj, c.gi,
-                     c.gj, c.gap, mt, mr, length, dt, lam, True, akk, 8.0 / lip, tol, 200_000, hist)
+    it = apgd_kernel(gam, *incidence(c, ti, tj, len(length)), c.i, c.j, c.nx, c.ny, ti, tj,
+                     c.gi, c.gj, c.gap, mt, mr, length, dt, lam, True, akk, 8.0 / lip, tol, 200_000, hist)
     assert it > 0
     assert np.nanmax(hist) > 1e3 * np.nanmin(hist[: it + 1])  # it did blow up first
     assert_kkt(c, length, dt, lam, gam, tol)
@@ -218,11 +218,19 @@ def test_solvers_give_the_same_iterates_on_any_number_of_threads(name):
 
 
 def test_incidence_lists_every_contact_of_every_particle_in_order():
-    rng = np.random.default_rng(4)
-    n, m = 50, 400
-    ci = rng.integers(0, n, m)
-    cj = (ci + rng.integers(1, n, m)) % n
-    start, idx = incidence(ci, cj, n)
+    x, y, th, length = ring_packing(300, seed=5)
+    c = contacts_of(x, y, th, length, 0.1)
+    n = length.size
+    _, _, ti, tj, _ = problem_arrays(c, length, 0.01)
+    start, idx, coef = incidence(c, ti, tj, n, threads=2)
+    dense = np.zeros((4 * n, len(c)))  # rows: fx, fy, torque, load of every particle
+    for col, (ai, aj) in enumerate(((-c.nx, c.nx), (-c.ny, c.ny), (-ti, tj), (c.gi, c.gj))):
+        dense[col * n + c.i, np.arange(len(c))] += ai
+        dense[col * n + c.j, np.arange(len(c))] += aj
     for p in range(n):
-        want = np.flatnonzero((ci == p) | (cj == p))
+        want = np.flatnonzero((c.i == p) | (c.j == p))
         np.testing.assert_array_equal(idx[start[p]:start[p + 1]], want)
+        for col in range(4):
+            np.testing.assert_array_equal(coef[start[p]:start[p + 1], col],
+                                          dense[col * n + p, want])
+    assert incidence(c, ti, tj, n, threads=1)[1].size == 0  # serial kernels scatter instead
