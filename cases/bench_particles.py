@@ -13,16 +13,22 @@ seconds per step, solver iterations per step (re-solve passes included), contact
 the time between neighbour search, geometry, solver and update, and the exponents fitted to them
 (np.polyfit of log y against log N).  ``--threads 1 2`` repeats every measurement on each
 number of Numba threads (``ParticleConfig.threads``; the iterates do not depend on it, so the
-iteration counts must agree) and reports the speed-up.
+iteration counts must agree) and reports the speed-up.  ``--alternate K`` measures instead
+each number of threads K times, alternating, every measurement in a fresh process, and reports
+medians and ranges: on a shared virtual machine the speed-up of a second thread differs from
+process to process (README, "Threads").
 
     python -m cases.bench_particles [--sizes 1000 10000] [--state particles.csv]
                                     [--solvers bbpgd apgd] [--steps 10] [--threads 1 2]
+                                    [--alternate K]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import subprocess
+import sys
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -129,6 +135,36 @@ def _table(res: list[dict]) -> None:
             for k in ("contacts", "iterations", "seconds", "neighbours", "geometry")))
 
 
+def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -> dict:
+    """{threads: {N: [seconds per step of each repetition]}} of the first solver, each
+    measurement a fresh ``python -m cases.bench_particles ARGV --threads T`` process, the
+    numbers of threads alternating."""
+    secs: dict = {t: {} for t in threads}
+    for rep in range(repeats):
+        for t in threads:
+            sub = folder / f"alternate_t{t}"
+            sub.mkdir(parents=True, exist_ok=True)
+            for f in folder.glob("state_*.npz"):  # the grown states, shared
+                if not (sub / f.name).exists():
+                    (sub / f.name).symlink_to(f.resolve())
+            subprocess.run([sys.executable, "-m", "cases.bench_particles", *argv, "--threads",
+                            str(t), "--folder", str(sub)], check=True, stdout=subprocess.DEVNULL)
+            for r in json.loads(next(sub.glob("bench_*.json")).read_text()):
+                secs[t].setdefault(r["N"], []).append(r["seconds"])
+            print(f"repetition {rep + 1}, {t} thread(s): " + ", ".join(
+                f"N={n}: {v[-1]:.4g} s" for n, v in secs[t].items()), flush=True)
+    ref = threads[0]
+    print(f"\n| N | {' | '.join(f'{t} thread(s)' for t in threads)} | speed-up |")
+    print("|---|" + "---|" * (len(threads) + 1))
+    for n in secs[ref]:
+        med = [float(np.median(secs[t][n])) for t in threads]
+        print(f"| {n} | " + " | ".join(
+            f"{m:.4g} ({min(secs[t][n]):.4g}-{max(secs[t][n]):.4g})"
+            for m, t in zip(med, threads, strict=True))
+            + " | " + ", ".join(f"{med[0] / m:.2f}" for m in med[1:]) + " |")
+    return secs
+
+
 def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000])
@@ -140,6 +176,8 @@ def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
     ap.add_argument("--steps", type=int, default=10)
     ap.add_argument("--threads", type=int, nargs="+", default=[1],
                     help="numbers of Numba threads to measure (default 1)")
+    ap.add_argument("--alternate", type=int, default=0, metavar="K",
+                    help="K alternating repetitions per number of threads, each a fresh process")
     ap.add_argument("--folder", type=Path, default=DEFAULT_FOLDER)
     a = ap.parse_args(argv)
     for path in a.state:
@@ -150,6 +188,12 @@ def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
         base.dt = a.dt
     base.validate()
     paths = grow_states(base, sorted(a.sizes), a.folder) + list(a.state)
+    if a.alternate > 0:
+        forward = ["--sizes", *map(str, a.sizes), "--lam", str(a.lam), "--solvers",
+                   a.solvers[0], "--steps", str(a.steps)]
+        forward += [x for p in a.state for x in ("--state", str(p))]
+        forward += ["--dt", str(a.dt)] if a.dt is not None else []
+        return alternate(forward, a.threads, a.alternate, a.folder)
     results = {}
     for solver in a.solvers:
         for threads in a.threads:

@@ -192,6 +192,11 @@ def test_bench_particles_both_solvers_same_states(tmp_path):
     for rows in res.values():
         assert [r["N"] for r in rows] == [state.n, state.n]  # the same two states, both solvers
         assert all(r["iterations"] > 0 and r["contacts"] > 0 for r in rows)
+    # every measurement in a fresh process, thread counts alternating
+    secs = bench_particles.main(["--sizes", "60", "--steps", "1", "--folder", str(tmp_path),
+                                 "--threads", *threads, "--alternate", "1"])
+    assert sorted(secs) == [int(t) for t in threads]
+    assert all(list(v) == [state.n] and len(v[state.n]) == 1 for v in secs.values())
     with pytest.raises(SystemExit):
         bench_particles.main(["--state", str(tmp_path / "missing.csv")])
 
