@@ -94,9 +94,8 @@ def hessian_apply(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, c
 
 
 @njit(cache=True)
-def lipschitz_kernel(start, idx, coef,
-                     ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, akk, iters, seed,
-                     min_iters, rtol):
+def lipschitz_kernel(start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, akk,
+                     iters, seed, min_iters, rtol):
     """Power iteration for the largest eigenvalue of P^(1/2) H P^(1/2), P = diag(1/a_kk).
 
     At most ``iters`` products; stops after ``min_iters`` once the Rayleigh quotient (which
@@ -121,9 +120,8 @@ def lipschitz_kernel(start, idx, coef,
         for k in range(m):
             v[k] /= nv
             u[k] = v[k] / sq[k]
-        hessian_apply(u, start, idx, coef,
-                      ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om,
-                      sig, w)
+        hessian_apply(u, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt,
+                      vx, vy, om, sig, w)
         prev = est
         est = 0.0
         for k in range(m):
@@ -262,9 +260,8 @@ def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, lam: float, grow
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
     cmax = length * lam * dt * np.exp(dt) if growth else np.zeros_like(length)
     start, idx, coef = incidence(c, ti, tj, length.shape[0])
-    return float(lipschitz_kernel(start, idx, coef,
-                 c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, mt, mr,
-                                  cmax, float(dt), akk, int(iters), int(seed),
+    return float(lipschitz_kernel(start, idx, coef, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj,
+                                  mt, mr, cmax, float(dt), akk, int(iters), int(seed),
                                   int(min_iters), float(rtol)))
 
 

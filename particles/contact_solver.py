@@ -25,6 +25,12 @@ the projected residual
 
 is <= tol.  Both arguments of the min are gaps (a_kk gamma_k is the gap opened by gamma_k alone),
 so tol is a length: every linearised gap is >= -tol and every loaded contact closes to within tol.
+
+Threads: the loops of an iteration run in parallel over contacts and particles (Numba prange,
+``ParticleConfig.threads``).  D gamma and G gamma are gathered particle by particle on two or
+more threads (:func:`gather`) and scattered contact by contact on one (:func:`scatter`); both
+add in increasing contact order, and the sums of the BB step run over fixed blocks (BLOCK), so
+the iterates do not depend on the number of threads.
 """
 
 from __future__ import annotations
@@ -247,7 +253,7 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
     the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
     alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1 when tol is
     not reached.  hist[it] = residual after iteration it (hist[0]: start); qout = q(gam)
-    on return.  (start, idx): :func:`incidence` of (ci, cj)."""
+    on return.  (start, idx, coef): :func:`incidence` of the contacts."""
     n = mt.shape[0]
     m = gam.shape[0]
     vx = np.empty(n)
