@@ -65,6 +65,7 @@ def _colony(*args):
     [
         ["continuum", "--lam", "nan", "--radius", "2"],
         ["particles", "--lam", "0.01", "--radius", "inf"],
+        ["particles", "--lam", "0.01", "--radius", "2", "--threads", "0"],
         ["continuum", "--lam", "0.01", "--radius", "-1"],
         ["continuum", "--lam", "0.01", "--radius", "2", "--config", "missing.toml"],
     ],
