@@ -99,7 +99,8 @@ class ParticleConfig:
     output_every : int
         Trajectory frame every this many steps (and the final state).
     checkpoint_seconds : float
-        Wall time between checkpoints when writing to a folder.
+        Wall time between checkpoints when writing to a folder (like ``threads`` an execution
+        setting: a run may resume with another value).
     max_particles : int
         Guard: a run whose colony exceeds this raises ParticleLimitError.
     solver_tol : float or None
@@ -436,7 +437,7 @@ def _done(config: ParticleConfig, state: ParticleState, t: float) -> bool:
 LEGACY_CONFIG = {"adaptive_dt": False}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
 
-EXECUTION_FIELDS = ("threads",)
+EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
 """Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
 
 

@@ -113,14 +113,15 @@ def test_outputs_and_checkpoint_resume(tmp_path, adaptive, dt, stop):
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
 def test_resume_on_another_number_of_threads(tmp_path):
-    """threads is an execution setting: a run stopped on two threads and resumed on one gives
-    the files of an uninterrupted one-thread run (config.json records the last setting)."""
+    """threads and checkpoint_seconds are execution settings: a run stopped on two threads and
+    resumed on one, checkpointing at another interval, gives the files of an uninterrupted
+    one-thread run (config.json records the last setting)."""
     cfg = ParticleConfig(lam=1e-2, time=3.0, dt=0.01, seed=1)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
     part.mkdir()
     run(cfg, full)
-    run(replace(cfg, threads=2), part, stop_after=150)
+    run(replace(cfg, threads=2, checkpoint_seconds=1.0), part, stop_after=150)
     run(cfg, part)
     for name in ("history.csv", "particles.csv"):
         assert (full / name).read_bytes() == (part / name).read_bytes(), name
