@@ -126,7 +126,8 @@ def test_too_long_step_is_recovered_by_halving(grown):
     gam = np.zeros(len(c))
     hist = np.full(200_001, np.nan)
     it = apgd_kernel(gam, *incidence(c, ti, tj, len(length)), c.i, c.j, c.nx, c.ny, ti, tj,
-                     c.gi, c.gj, c.gap, mt, mr, length, dt, lam, True, akk, 8.0 / lip, tol, 200_000, hist)
+                     c.gi, c.gj, c.gap, mt, mr, length, dt, lam, True, akk, 8.0 / lip, tol,
+                     200_000, hist)
     assert it > 0
     assert np.nanmax(hist) > 1e3 * np.nanmin(hist[: it + 1])  # it did blow up first
     assert_kkt(c, length, dt, lam, gam, tol)
