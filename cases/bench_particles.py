@@ -208,19 +208,19 @@ def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
             out = a.folder / f"bench_{key}_lam{a.lam:g}.json"
             out.write_text(json.dumps(res, indent=1))
         for threads in a.threads[1:]:
-            ref, other = results[solver], results[f"{solver}@{threads}"]
-            print(f"\n{solver}: {threads} threads / {a.threads[0]} (same states): " + ", ".join(
-                f"N={r['N']}: iterations {o['iterations'] / r['iterations']:.2f}, "
-                f"seconds {o['seconds'] / r['seconds']:.2f}"
-                for r, o in zip(ref, other, strict=True)))
-    if len(a.solvers) >= 2:
-        ref, *others = a.solvers
-        for other in others:
-            print(f"\n{other} / {ref} (same states, same tolerance): " + ", ".join(
-                f"N={r['N']}: iterations {o['iterations'] / r['iterations']:.2f}, "
-                f"seconds {o['seconds'] / r['seconds']:.2f}"
-                for r, o in zip(results[ref], results[other], strict=True)))
+            _ratios(f"{solver}: {threads} threads / {a.threads[0]} (same states)",
+                    results[solver], results[f"{solver}@{threads}"])
+    ref, *others = a.solvers
+    for other in others:
+        _ratios(f"{other} / {ref} (same states, same tolerance)", results[ref], results[other])
     return results
+
+
+def _ratios(label: str, ref: list[dict], other: list[dict]) -> None:
+    """Print iterations and seconds of ``other`` over ``ref``, state by state."""
+    print(f"\n{label}: " + ", ".join(
+        f"N={r['N']}: iterations {o['iterations'] / r['iterations']:.2f}, "
+        f"seconds {o['seconds'] / r['seconds']:.2f}" for r, o in zip(ref, other, strict=True)))
 
 
 if __name__ == "__main__":

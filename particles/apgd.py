@@ -56,23 +56,12 @@ import numpy as np
 from numba import njit
 
 from .contact_solver import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - G^T dl
+from .contact_solver import _residual as residual  # max_k |min(a_kk gam_k, q_k)|
 from .contact_solver import finish, incidence, particle_sums, prepare, problem_arrays
 from .geometry import Contacts
 
 NAME = "apgd"
 """Name under which the engine may register this solver (ParticleConfig.solver)."""
-
-
-@njit(cache=True)
-def residual_kernel(gam, q, akk):
-    """max_k |min(a_kk gam_k, q_k)|."""
-    r = 0.0
-    for k in range(gam.shape[0]):
-        a = akk[k] * gam[k]
-        v = q[k] if q[k] < a else a
-        if abs(v) > r:
-            r = abs(v)
-    return r
 
 
 @njit(cache=True)
@@ -195,7 +184,7 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
             gap_kernel(x1, start, idx, coef,
                        ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
                        growth, vx, vy, om, sig, qp)
-            rp = residual_kernel(x1, qp, akk)
+            rp = residual(x1, qp, akk)
             if rp <= tol:
                 hist[it] = rp
                 gam[:] = x1
