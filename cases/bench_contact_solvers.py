@@ -64,6 +64,16 @@ grownrings 1e3, 1e4, 1e5: 258 / 329, 1409 / 1367, 4430 / 4182 (same growth in N)
 / 433, grown_R55 1274 / 1936. A constant factor on engine-grown states at best, not an
 N-independent cost; seconds were not better in the prototype.
 
+Fourth candidate, prototype not kept (runs/fastsolver/pgs_exp.py, untracked; 2026-11-22, load
+~3.5): projected Gauss-Seidel, i.e. exact coordinate descent on E contact by contact (Newton
+step on gamma_k with curvature a_kk + the growth curvature, projected on >= 0; one sweep costs
+about one gradient evaluation), alone and as the smoother of the two-level cycle above.  Cold,
+tol 1e-4, sweeps on grownrings 1229 / 10642 particles: Gauss-Seidel 1110 / 11190 (N^0.98),
+symmetric 1880 / 21710, SOR omega = 1.5 520 / 7380, Gauss-Seidel + coarse step (h = 4) every 50
+sweeps 1000 / 10900, every 10 sweeps 920 / 11140; BBPGD 296 / 3282 iterations.  Gauss-Seidel
+smooths the error, yet the coarse step still removes almost nothing, which is the diagnosis
+above: the slow part of the error is not smooth.
+
 The load error column compares sigma = G gamma with the reference solve (``--ref-solver`` at
 tol / ``--ref-factor``); with a small factor, or with the reference computed by one of the
 compared solvers, it is biased towards that solver: use BBPGD and a factor >= 100 for a fair
