@@ -6,7 +6,8 @@ continuum solver (samples = mesh nodes, weighted by their lumped areas) are redu
 - :func:`equal_area_annuli` / :func:`radial_profile`: averages over annuli of equal area about the
   colony centre, with the standard deviation (Fig 3A, Fig 4A);
 - :func:`ring_peaks` / :func:`ring_wavelength`: the ring wavelength, the distance between the
-  last two peaks of the radial mean-length profile (Fig 4B, C);
+  last two peaks of the radial mean-length profile (Fig 4B, C); :func:`ring_coherence`: whether
+  a particle colony has rings at all (the same radial pattern in every angular sector);
 - :func:`late_slope`: the late-time dR/dt by a linear fit (Fig 3D); :func:`max_value` (Fig 3C);
 - :func:`power_law_fit`: exponent and prefactor of y = C x^a (Fig 3C, Fig 4C);
 - :func:`ecoli_lambda`: the paper's estimate lam ~ 1.1e-3 for E. coli.
@@ -33,6 +34,7 @@ __all__ = [
     "smooth_profile",
     "ring_peaks",
     "ring_wavelength",
+    "ring_coherence",
     "late_slope",
     "max_value",
     "power_law_fit",
@@ -335,6 +337,55 @@ def ring_wavelength(r: np.ndarray, profile: np.ndarray, **kwargs) -> float:
     if peaks.size < 2:
         return float("nan")
     return float(peaks[-1] - peaks[-2])
+
+
+def ring_coherence(x: np.ndarray, y: np.ndarray, values: np.ndarray, sectors: int = 4,
+                   width: float = 1.0, inner: float = 0.5) -> tuple[float, float]:
+    """Azimuthal coherence of the radial pattern of ``values`` (particle lengths): rings or noise.
+
+    About the centroid of the points, with R = max r: the disc is cut into S = ``sectors`` equal
+    angular sectors; in each, ``values`` are averaged over annuli of ``width`` (default 1 = l0,
+    the particle scale) covering inner R <= r <= R - width (annuli empty in some sector are
+    dropped), and the least-squares quadratic in r is subtracted (the radial trend). Concentric
+    rings make the S profiles alike, noise does not. Returns (C, z),
+
+        C = (1/P) sum over the P = S (S - 1) / 2 sector pairs of the Pearson correlation of
+            their profiles,   z = C sqrt(P n),
+
+    n the number of annuli; (nan, nan) when a sector's profile is its trend to rounding (all
+    lengths equal, as in the lam = 0 colonies). For independent noise each correlation has mean
+    0 and variance about 1/n and the P correlations are uncorrelated, so z is about standard
+    normal: z >= 3 says the colony has rings (tested on synthetic noise and rings).
+    """
+    x, y, v = (np.asarray(a, dtype=float).ravel() for a in (x, y, values))
+    if not x.shape == y.shape == v.shape:
+        raise ValueError("x, y and values differ in length")
+    if sectors < 2 or not width > 0 or not 0 <= inner < 1:
+        raise ValueError("need sectors >= 2, width > 0 and 0 <= inner < 1")
+    dx, dy = x - x.mean(), y - y.mean()
+    r, sector = np.hypot(dx, dy), np.floor((np.arctan2(dy, dx) + np.pi) / (2 * np.pi) * sectors)
+    R = r.max() if r.size else 0.0
+    edges = np.arange(inner * R, R - width + 1e-12, width)
+    if edges.size < 5:
+        raise ValueError(f"colony of radius {R:.3g} too small for annuli of width {width:g}")
+    profiles = []
+    for s in range(sectors):
+        m = sector == s
+        count = np.histogram(r[m], edges)[0]
+        total = np.histogram(r[m], edges, weights=v[m])[0]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            profiles.append(total / count)
+    prof = np.array(profiles)
+    keep = np.all(np.isfinite(prof), axis=0)
+    rc = 0.5 * (edges[1:] + edges[:-1])[keep]
+    prof = prof[:, keep]
+    n = rc.size
+    prof = prof - np.array([np.polyval(np.polyfit(rc, p, 2), rc) for p in prof])
+    if np.std(prof, axis=1).min() <= 1e-9 * max(np.abs(v).max(), 1e-300):
+        return math.nan, math.nan  # no radial pattern beyond the trend (e.g. equal lengths)
+    corr = np.corrcoef(prof)[np.triu_indices(sectors, 1)]
+    C = float(np.mean(corr))
+    return C, C * math.sqrt(corr.size * n)
 
 
 # ----------------------------------------------------------------------------------------------

@@ -10,10 +10,13 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
   sqrt(2/lam) and the exact disc speed 4 c R at the final radius;
 - maximum stress: particles (max of the radially averaged stress, pooled over the last unit of
   growth), continuum (max p), analytic p(0) of the disc of the final radius;
-- final ring wavelength of both models and of the 1D radial reference;
+- final ring wavelength of both models and of the 1D radial reference, and whether the particle
+  colony has rings at all: the azimuthal coherence C of its final length pattern and its
+  significance z (:func:`cases.analysis.ring_coherence`; z >= RING_Z: rings);
 and the power-law exponents fitted against lam (lam > 0, finite values) of the wavelengths and
-maximum stresses, beside the paper's statements. Nothing is tuned: every number is a measurement
-of the runs.
+maximum stresses, beside the paper's statements; the particle wavelength's over the lam whose
+colony has rings only (elsewhere the peak finder measures noise). Nothing is tuned: every
+number is a measurement of the runs.
 
 ``compute`` writes ``table.csv``, ``exponents.csv`` and ``radius_diff_lam=*.csv`` to
 ``out/data``; ``plot`` writes ``results.md`` (the table) and ``crosscheck.png/pdf`` (relative
@@ -40,10 +43,14 @@ from continuum import radial
 __all__ = ["compute", "reduce", "plot", "runs_needed", "radius_difference", "markdown_table"]
 
 LATE_FRACTION = 0.2
+RING_Z = 3.0
+"""Significance (standard deviations of noise) of the ring coherence above which a particle
+colony has rings and its wavelength enters the fitted exponent."""
 
 #: exponent row name -> (table column, the paper's statement)
 EXPONENTS = {
-    "wavelength_particles": ("wavelength_particles", "wavelength ~ lam^(-1/2)"),
+    "wavelength_particles": ("wavelength_particles",
+                             "wavelength ~ lam^(-1/2) (particles: lam with rings, z >= 3)"),
     "wavelength_continuum": ("wavelength_continuum", "wavelength ~ lam^(-1/2)"),
     "wavelength_exact": ("wavelength_exact", "wavelength ~ lam^(-1/2)"),
     "max_stress_particles": ("max_stress_particles", "follows the analytic p(0)"),
@@ -113,12 +120,14 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
 
 PARTICLE_COLUMNS = ("t_final_particles", "max_rel_diff_R", "max_rel_diff_R_late",
                     "max_rel_diff_R_hull", "max_rel_diff_R_hull_late", "slope_particles",
-                    "max_stress_particles", "wavelength_particles")
+                    "max_stress_particles", "wavelength_particles", "ring_coherence_particles",
+                    "ring_z_particles")
 COLUMNS = ("lam", "radius_final", "t_final_continuum", "t_final_particles", "max_rel_diff_R",
            "max_rel_diff_R_late", "max_rel_diff_R_hull", "max_rel_diff_R_hull_late",
            "slope_particles", "slope_continuum", "slope_exact",
            "slope_asymptotic", "max_stress_particles", "max_pressure_continuum", "p0_exact",
-           "wavelength_particles", "wavelength_continuum", "wavelength_exact")
+           "wavelength_particles", "wavelength_continuum", "wavelength_exact",
+           "ring_coherence_particles", "ring_z_particles")
 
 
 def _continuum_row(fc: Path, lam: float) -> dict[str, float]:
@@ -148,6 +157,8 @@ def _particle_row(fp: Path, fc: Path, lam: float, data: Path) -> dict[str, float
                 A.thin_rows({**diff, "rel_diff_hull": hull["rel_diff"]}))
     late = diff["radius_continuum"] >= 0.5 * float(hc["radius"][-1])
     pp = A.final_particle_profile(fp, growth_window=1.0)
+    *_, (_, last) = A.particle_frames(fp)
+    coherence, z = A.ring_coherence(last["x"], last["y"], last["length"])
     return {
         "t_final_particles": float(hp["t"][-1]),
         "max_rel_diff_R": float(np.max(np.abs(diff["rel_diff"]))),
@@ -158,11 +169,14 @@ def _particle_row(fp: Path, fc: Path, lam: float, data: Path) -> dict[str, float
         "max_stress_particles": A.max_value(pp["stress"]),
         "wavelength_particles": A.profile_wavelength(
             A.final_particle_profile(fp, growth_window=0.0), noisy=True),
+        "ring_coherence_particles": coherence,
+        "ring_z_particles": z,
     }
 
 
 def exponents(table: dict[str, list]) -> dict[str, np.ndarray]:
     """Fitted exponent a of y = C lam^a (lam > 0, finite y) per EXPONENTS row; nan if < 2 points.
+    The particle wavelength is fitted over the lam with rings (ring_z_particles >= RING_Z) only.
 
     Columns: row (index into EXPONENTS), exponent, prefactor, n_points.
     """
@@ -171,6 +185,8 @@ def exponents(table: dict[str, list]) -> dict[str, np.ndarray]:
     for i, (_, (col, _)) in enumerate(EXPONENTS.items()):
         y = np.asarray(table[col], dtype=float)
         ok = (lam > 0) & np.isfinite(y) & (y > 0)
+        if col == "wavelength_particles":
+            ok &= np.asarray(table["ring_z_particles"], dtype=float) >= RING_Z
         try:
             a, C = A.power_law_fit(lam[ok], y[ok])
         except ValueError:
@@ -193,7 +209,7 @@ def markdown_table(data: str | Path) -> str:
         "| lam | R_f | t_f cont. / part. | max rel. diff R(t): disc (all / R > R_f/2), "
         "hull (all / R > R_f/2) "
         "| dR/dt part. / cont. / disc 4cR / sqrt(2/lam) | max stress part. / cont. / p(0) "
-        "| wavelength part. / cont. / 1D ref. |",
+        "| wavelength part. (ring z) / cont. / 1D ref. |",
         "|---|---|---|---|---|---|---|",
     ]
     for i in range(len(t["lam"])):
@@ -208,7 +224,8 @@ def markdown_table(data: str | Path) -> str:
             f" / {_f(g['slope_asymptotic'])} "
             f"| {_f(g['max_stress_particles'])} / {_f(g['max_pressure_continuum'])}"
             f" / {_f(g['p0_exact'])} "
-            f"| {_f(g['wavelength_particles'])} / {_f(g['wavelength_continuum'])}"
+            f"| {_f(g['wavelength_particles'])} (z {_f(g.get('ring_z_particles', math.nan), 2)})"
+            f" / {_f(g['wavelength_continuum'])}"
             f" / {_f(g['wavelength_exact'])} |")
     lines += ["", "| fitted against lam | exponent | points | paper |", "|---|---|---|---|"]
     names = list(EXPONENTS)

@@ -150,6 +150,33 @@ def test_pure_noise_and_short_profiles_give_nan():
     assert math.isnan(A.ring_wavelength(r, one_bump))
 
 
+def test_ring_coherence_is_standard_normal_on_noise_and_large_on_rings():
+    """ring_coherence's z: over 300 colonies of noise on a radial trend its mean is 0 and its
+    standard deviation 1 (the normalisation of the docstring); concentric rings under three
+    times their amplitude in noise give z >> 3, C near the expected correlation."""
+    rng = np.random.default_rng(11)
+    R = 60.0
+    zs = []
+    for _ in range(300):
+        xy = _uniform_disc(8000, R, rng)
+        r = np.hypot(*xy.T)
+        zs.append(A.ring_coherence(*xy.T, 1.3 + 0.004 * r + rng.normal(0, 0.2, r.size))[1])
+    assert abs(np.mean(zs)) < 0.2 and 0.8 < np.std(zs) < 1.2
+    xy = _uniform_disc(40000, R, rng) + [5.0, -3.0]
+    r = np.hypot(*(xy - xy.mean(axis=0)).T)
+    C, z = A.ring_coherence(*xy.T, 1.5 + 0.1 * np.cos(2 * np.pi * r / 6.0)
+                            + rng.normal(0, 0.3, r.size))
+    # per annulus and sector ~ 40000 * 2 r / (4 R^2) particles: signal variance 0.005 against
+    # noise variance 0.09 / count, so C ~ 0.005 / (0.005 + 0.09 / count) > 0.7 at r > 30;
+    # n = 29 annuli of width 1 in [30, 59], P = 6 pairs: z = C sqrt(174) > 9
+    assert C > 0.7 and z > 9
+    assert all(math.isnan(v) for v in A.ring_coherence(*xy.T, np.full(r.size, 1.149)))
+    with pytest.raises(ValueError, match="too small"):
+        A.ring_coherence([0.0, 1.0, 2.0], [0.0, 0.0, 0.0], [1.0, 1.0, 1.0])
+    with pytest.raises(ValueError, match="sectors"):
+        A.ring_coherence(*xy.T, r, sectors=1)
+
+
 def test_ring_peaks_ignores_nan_annuli():
     r = np.linspace(0, 30, 601)
     f = np.cos(2 * np.pi * r / 6.0)

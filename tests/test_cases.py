@@ -204,6 +204,9 @@ def test_crosscheck_reduce_and_table(fake_runs, tmp_path):
                                                       strict=True)}
     assert row["wavelength_continuum"][0] == pytest.approx(-0.5, abs=0.02)
     assert row["wavelength_continuum"][1] == 3
+    # the fake particle colonies have concentric waves at every lam > 0: all count as rings
+    assert np.all(t["ring_z_particles"][t["lam"] > 0] >= crosscheck.RING_Z)
+    assert row["wavelength_particles"][1] == 3
     paths = crosscheck.plot(data, tmp_path)
     md = paths[0].read_text()
     assert md.count("\n| 0.") == 3 and "wavelength ~ lam^(-1/2)" in md
