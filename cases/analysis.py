@@ -35,6 +35,7 @@ __all__ = [
     "ring_peaks",
     "ring_wavelength",
     "ring_coherence",
+    "RING_Z",
     "late_slope",
     "max_value",
     "power_law_fit",
@@ -337,6 +338,11 @@ def ring_wavelength(r: np.ndarray, profile: np.ndarray, **kwargs) -> float:
     if peaks.size < 2:
         return float("nan")
     return float(peaks[-1] - peaks[-2])
+
+
+RING_Z = 3.0
+"""Significance of :func:`ring_coherence` (standard deviations of noise) from which a particle
+colony counts as having rings, so that its wavelength enters a fitted exponent."""
 
 
 def ring_coherence(x: np.ndarray, y: np.ndarray, values: np.ndarray, sectors: int = 4,
@@ -748,3 +754,9 @@ def final_particle_profile(folder: str | os.PathLike, growth_window: float = 1.0
         out["r"], out[name], out[f"{name}_std"], out["count"] = r_mid, mean, std, count
     out["count"] = out.pop("count")
     return out
+
+
+def final_ring_coherence(folder: str | os.PathLike) -> tuple[float, float]:
+    """:func:`ring_coherence` (C, z) of the lengths in the last frame of a particle run."""
+    *_, (_, last) = particle_frames(folder)
+    return ring_coherence(last["x"], last["y"], last["length"])

@@ -12,7 +12,7 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
   growth), continuum (max p), analytic p(0) of the disc of the final radius;
 - final ring wavelength of both models and of the 1D radial reference, and whether the particle
   colony has rings at all: the azimuthal coherence C of its final length pattern and its
-  significance z (:func:`cases.analysis.ring_coherence`; z >= RING_Z: rings);
+  significance z (:func:`cases.analysis.ring_coherence`; z >= analysis.RING_Z: rings);
 and the power-law exponents fitted against lam (lam > 0, finite values) of the wavelengths and
 maximum stresses, beside the paper's statements; the particle wavelength's over the lam whose
 colony has rings only (elsewhere the peak finder measures noise). Nothing is tuned: every
@@ -43,9 +43,6 @@ from continuum import radial
 __all__ = ["compute", "reduce", "plot", "runs_needed", "radius_difference", "markdown_table"]
 
 LATE_FRACTION = 0.2
-RING_Z = 3.0
-"""Significance (standard deviations of noise) of the ring coherence above which a particle
-colony has rings and its wavelength enters the fitted exponent."""
 
 #: exponent row name -> (table column, the paper's statement)
 EXPONENTS = {
@@ -157,8 +154,7 @@ def _particle_row(fp: Path, fc: Path, lam: float, data: Path) -> dict[str, float
                 A.thin_rows({**diff, "rel_diff_hull": hull["rel_diff"]}))
     late = diff["radius_continuum"] >= 0.5 * float(hc["radius"][-1])
     pp = A.final_particle_profile(fp, growth_window=1.0)
-    *_, (_, last) = A.particle_frames(fp)
-    coherence, z = A.ring_coherence(last["x"], last["y"], last["length"])
+    coherence, z = A.final_ring_coherence(fp)
     return {
         "t_final_particles": float(hp["t"][-1]),
         "max_rel_diff_R": float(np.max(np.abs(diff["rel_diff"]))),
@@ -186,7 +182,7 @@ def exponents(table: dict[str, list]) -> dict[str, np.ndarray]:
         y = np.asarray(table[col], dtype=float)
         ok = (lam > 0) & np.isfinite(y) & (y > 0)
         if col == "wavelength_particles":
-            ok &= np.asarray(table["ring_z_particles"], dtype=float) >= RING_Z
+            ok &= np.asarray(table["ring_z_particles"], dtype=float) >= A.RING_Z
         try:
             a, C = A.power_law_fit(lam[ok], y[ok])
         except ValueError:

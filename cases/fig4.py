@@ -6,7 +6,9 @@
 (B) ring wavelength (distance between the last two peaks of the radial mean-length profile,
     cases.analysis.ring_wavelength) against time: continuum (lines) and particles (open circles);
 (C) final wavelength against lam for both models and the converged 1D radial reference
-    (continuum.radial, same peak detector), with the lam^(-1/2) law and fitted exponents.
+    (continuum.radial, same peak detector), with the lam^(-1/2) law and fitted exponents; a
+    particle colony without rings (ring coherence z < cases.analysis.RING_Z) is drawn apart and
+    left out of the particle fit (its "wavelength" is peak-finder noise).
 
 Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3}; about a minute on 2 cores, runs shared with
 the other cases through a common ``runs`` folder) or "paper" (radius 150, lam in
@@ -72,7 +74,8 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
     data = Path(data)
     lams = sorted({lam for _, lam in folders})
     rows = {k: [] for k in ("lam", "radius_continuum", "radius_particles",
-                            "wavelength_continuum", "wavelength_particles", "wavelength_exact")}
+                            "wavelength_continuum", "wavelength_particles", "wavelength_exact",
+                            "ring_z_particles")}
     for lam in lams:
         for engine in ENGINES:
             if (engine, lam) not in folders:
@@ -86,6 +89,8 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
                 A.write_csv(data / f"wavelength_{engine}_lam={lam:g}.csv", A.thin_rows(w))
                 A.write_csv(data / f"profile_{engine}_lam={lam:g}.csv",
                             _final_profile(folders[engine, lam], engine))
+        rows["ring_z_particles"].append(A.final_ring_coherence(folders["particles", lam])[1]
+                                        if ("particles", lam) in folders else math.nan)
         rows["lam"].append(lam)
         rows["wavelength_exact"].append(exact_wavelength(lam, rows["radius_continuum"][-1]))
     A.write_csv(data / "summary.csv", rows)
@@ -145,17 +150,24 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
 
     a = ax[2]
     s = A.read_csv(data / "summary.csv")
+    rings = s.get("ring_z_particles", np.full(s["lam"].shape, np.inf)) >= A.RING_Z
+    if np.isfinite(s["wavelength_particles"][~rings]).any():
+        a.plot(s["lam"][~rings], s["wavelength_particles"][~rings], "x", color="0.6",
+               label=f"particles, no rings (z < {A.RING_Z:g})")
     for key, style, label in (("wavelength_particles", "o", "particles"),
                               ("wavelength_continuum", "s", "continuum"),
                               ("wavelength_exact", "k.", "radial reference")):
-        if not np.isfinite(s[key]).any():
+        lam, w = s["lam"], s[key]
+        if key == "wavelength_particles":
+            lam, w = lam[rings], w[rings]
+        if not np.isfinite(w).any():
             continue
         try:
-            expo, _ = A.power_law_fit(s["lam"], s[key])
+            expo, _ = A.power_law_fit(lam, w)
             label = f"{label} (slope {expo:.2f})"
         except ValueError:
             pass
-        a.plot(s["lam"], s[key], style, mfc="none", label=label)
+        a.plot(lam, w, style, mfc="none", label=label)
     ok = np.isfinite(s["wavelength_exact"]) & (s["wavelength_exact"] > 0)
     if ok.any():
         C = np.exp(np.mean(np.log(s["wavelength_exact"][ok] * np.sqrt(s["lam"][ok]))))

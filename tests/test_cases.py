@@ -205,7 +205,7 @@ def test_crosscheck_reduce_and_table(fake_runs, tmp_path):
     assert row["wavelength_continuum"][0] == pytest.approx(-0.5, abs=0.02)
     assert row["wavelength_continuum"][1] == 3
     # the fake particle colonies have concentric waves at every lam > 0: all count as rings
-    assert np.all(t["ring_z_particles"][t["lam"] > 0] >= crosscheck.RING_Z)
+    assert np.all(t["ring_z_particles"][t["lam"] > 0] >= A.RING_Z)
     assert row["wavelength_particles"][1] == 3
     paths = crosscheck.plot(data, tmp_path)
     md = paths[0].read_text()
