@@ -369,7 +369,8 @@ def ring_coherence(x: np.ndarray, y: np.ndarray, values: np.ndarray, sectors: in
     if sectors < 2 or not width > 0 or not 0 <= inner < 1:
         raise ValueError("need sectors >= 2, width > 0 and 0 <= inner < 1")
     dx, dy = x - x.mean(), y - y.mean()
-    r, sector = np.hypot(dx, dy), np.floor((np.arctan2(dy, dx) + np.pi) / (2 * np.pi) * sectors)
+    r = np.hypot(dx, dy)
+    sector = np.minimum(np.floor((np.arctan2(dy, dx) + np.pi) / (2 * np.pi) * sectors), sectors - 1)
     R = r.max() if r.size else 0.0
     edges = np.arange(inner * R, R - width + 1e-12, width)
     if edges.size < 5:
@@ -756,7 +757,11 @@ def final_particle_profile(folder: str | os.PathLike, growth_window: float = 1.0
     return out
 
 
-def final_ring_coherence(folder: str | os.PathLike) -> tuple[float, float]:
-    """:func:`ring_coherence` (C, z) of the lengths in the last frame of a particle run."""
+def final_ring_coherence(folder: str | os.PathLike, width: float = 1.0) -> tuple[float, float]:
+    """:func:`ring_coherence` (C, z) of the lengths in the last frame of a particle run; (nan,
+    nan) for a colony too small for five annuli of ``width`` over its outer half."""
     *_, (_, last) = particle_frames(folder)
-    return ring_coherence(last["x"], last["y"], last["length"])
+    r = np.hypot(last["x"] - last["x"].mean(), last["y"] - last["y"].mean())
+    if r.size == 0 or 0.5 * r.max() < 5 * width:
+        return math.nan, math.nan
+    return ring_coherence(last["x"], last["y"], last["length"], width=width)

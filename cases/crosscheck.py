@@ -46,8 +46,8 @@ LATE_FRACTION = 0.2
 
 #: exponent row name -> (table column, the paper's statement)
 EXPONENTS = {
-    "wavelength_particles": ("wavelength_particles",
-                             "wavelength ~ lam^(-1/2) (particles: lam with rings, z >= 3)"),
+    "wavelength_particles": ("wavelength_particles", "wavelength ~ lam^(-1/2) (particles: lam "
+                             f"with rings, z >= {A.RING_Z:g})"),
     "wavelength_continuum": ("wavelength_continuum", "wavelength ~ lam^(-1/2)"),
     "wavelength_exact": ("wavelength_exact", "wavelength ~ lam^(-1/2)"),
     "max_stress_particles": ("max_stress_particles", "follows the analytic p(0)"),
