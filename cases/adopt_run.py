@@ -1,0 +1,123 @@
+"""Adopt a run made by hand (`colony particles ...`) into a sweep's runs folder, and record its
+small data in the repository.
+
+A paper-scale particle colony takes hours to days and is grown by one command resumed over
+several sessions, not by the sweep; once finished it is adopted:
+
+1. :func:`adopt`: the run's ``config.json`` must agree with the sweep parameters of its lam at
+   the scale (``cases.sweep.SCALES``; keys other than ``engine``); the folder is moved to
+   ``RUNS/<sweep name>`` with ``params.json`` and ``DONE`` written as ``cases.sweep.run_one``
+   writes them, so ``colony case NAME --scale S --runs RUNS --engines finished`` takes it;
+2. :func:`record`: its small data (history thinned by ``cases.analysis.thin_rows``, the final
+   profile, the configuration and the ``/usr/bin/time -v`` reports of its segments) are copied
+   to ``DATA/lam=LAM/``.
+
+Command line::
+
+    python -m cases.adopt_run RUN [--runs runs/paper] [--scale paper]
+        [--data cases/data/particles_paper] [--time-log LOG]
+
+Nothing is moved or written when a check fails (a one-line error, exit status 2).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import shutil
+import sys
+from pathlib import Path
+
+from cases import analysis as A
+from cases.sweep import DONE, _engine_params, run_name, scale_config
+
+__all__ = ["adopt", "record", "time_reports"]
+
+SMALL_FILES = ("profile.csv", "config.json")
+"""Files copied as they are by :func:`record` (besides the thinned history)."""
+
+
+def adopt(run: str | Path, runs: str | Path, scale: str = "paper",
+          engine: str = "particles") -> Path:
+    """Move the finished run folder ``run`` to ``runs/<sweep name>`` (module docstring).
+
+    Raises
+    ------
+    ValueError
+        No ``config.json`` or ``history.csv`` in ``run``, a sweep parameter that the run's
+        configuration does not match, or a target folder that exists already.
+    """
+    run, runs = Path(run), Path(runs)
+    for f in ("config.json", "history.csv"):
+        if not (run / f).is_file():
+            raise ValueError(f"{run}: no {f} (not a finished run folder)")
+    config = json.loads((run / "config.json").read_text())
+    if "lam" not in config:
+        raise ValueError(f"{run}/config.json has no lam")
+    params = _engine_params(engine, float(config["lam"]), scale_config(scale))
+    wrong = {k: (config.get(k), v) for k, v in params.items()
+             if k != "engine" and config.get(k) != v}
+    if wrong:
+        text = ", ".join(f"{k} = {a!r} (sweep: {b!r})" for k, (a, b) in wrong.items())
+        raise ValueError(f"{run}: configuration differs from the {scale} sweep's: {text}")
+    target = runs / run_name(params)
+    if target.resolve() != run.resolve():
+        if target.exists():
+            raise ValueError(f"{target} exists already")
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.move(str(run), str(target))
+    (target / "params.json").write_text(json.dumps(params, indent=2, default=str))
+    (target / DONE).write_text("")
+    return target
+
+
+def time_reports(text: str, lines: int = 23) -> str:
+    """The first ``lines`` lines of every ``/usr/bin/time -v`` report in ``text`` (command,
+    CPU and wall time, memory), one report after the other."""
+    blocks = text.split("\tCommand being timed")[1:]
+    return "".join("\tCommand being timed" + "\n".join(b.splitlines()[:lines]) + "\n"
+                   for b in blocks)
+
+
+def record(run: str | Path, data: str | Path, time_log: str | Path | None = None) -> Path:
+    """Copy the small data of the adopted run ``run`` to ``data/lam=LAM/`` (module docstring);
+    returns that folder."""
+    run = Path(run)
+    lam = float(json.loads((run / "config.json").read_text())["lam"])
+    dest = Path(data) / f"lam={lam:g}"
+    dest.mkdir(parents=True, exist_ok=True)
+    A.write_csv(dest / "history.csv", A.thin_rows(A.read_csv(run / "history.csv")))
+    for f in SMALL_FILES:
+        if (run / f).is_file():
+            shutil.copy(run / f, dest / f)
+    if time_log is not None:
+        (dest / "time.txt").write_text(time_reports(Path(time_log).read_text()))
+    return dest
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("run", type=Path, help="finished run folder (colony particles --out)")
+    p.add_argument("--runs", type=Path, default=Path("runs/paper"))
+    p.add_argument("--scale", default="paper")
+    p.add_argument("--engine", default="particles")
+    p.add_argument("--data", type=Path, default=Path("cases/data/particles_paper"))
+    p.add_argument("--time-log", type=Path, default=None,
+                   help="the run's /usr/bin/time -v -a -o log")
+    args = p.parse_args(argv)
+    try:
+        if args.time_log is not None and not args.time_log.is_file():
+            raise ValueError(f"no time log {args.time_log}")
+        target = adopt(args.run, args.runs, args.scale, args.engine)
+    except ValueError as err:
+        print(f"adopt_run: error: {err}", file=sys.stderr)
+        return 2
+    dest = record(target, args.data, args.time_log)
+    h = A.read_csv(target / "history.csv")
+    last = ", ".join(f"{k} = {h[k][-1]:.6g}" for k in ("t", "radius", "n_particles") if k in h)
+    print(f"adopted {target} ({last}); small data in {dest}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

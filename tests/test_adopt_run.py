@@ -1,0 +1,57 @@
+"""cases.adopt_run: a hand-made run joins the sweep's runs folder under the sweep's name."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from cases import adopt_run
+from cases import analysis as A
+from cases.sweep import is_done, run_name
+
+
+def fake_run(folder, **config):
+    folder.mkdir(parents=True)
+    (folder / "config.json").write_text(json.dumps({"lam": 0.1, "radius": 15.0, "dt": 0.01,
+                                                    "output_every": 20, **config}))
+    n = 5000
+    A.write_csv(folder / "history.csv", {"step": np.arange(n), "t": 0.01 * np.arange(n),
+                                         "radius": np.linspace(0.5, 15, n),
+                                         "n_particles": np.arange(n) + 1.0})
+    A.write_csv(folder / "profile.csv", {"r": [1.0, 2.0], "mean_length": [1.5, 1.4]})
+    return folder
+
+
+def test_adopt_moves_to_the_sweep_name_and_records_small_data(tmp_path):
+    run = fake_run(tmp_path / "by_hand")
+    target = adopt_run.adopt(run, tmp_path / "runs", scale="smoke")
+    params = {"engine": "particles", "lam": 0.1, "radius": 15.0, "output_every": 20}
+    assert target == tmp_path / "runs" / run_name(params) and is_done(target) and not run.exists()
+    assert json.loads((target / "params.json").read_text()) == params
+    log = tmp_path / "time.log"
+    log.write_text("\tCommand being timed: \"a\"\n\tUser time (seconds): 1.0\n"
+                   "\tCommand being timed: \"b\"\n\tUser time (seconds): 2.0\n")
+    dest = adopt_run.record(target, tmp_path / "data", log)
+    assert dest == tmp_path / "data" / "lam=0.1"
+    h = A.read_csv(dest / "history.csv")
+    assert 1 < h["t"].size < 5000 and h["t"][-1] == pytest.approx(49.99)
+    assert (dest / "profile.csv").read_text() == (target / "profile.csv").read_text()
+    assert (dest / "time.txt").read_text().count("Command being timed") == 2
+    # adopting the adopted folder again is a no-op
+    assert adopt_run.adopt(target, tmp_path / "runs", scale="smoke") == target
+
+
+def test_adopt_refuses_mismatch_and_existing_target_without_touching_anything(tmp_path, capsys):
+    run = fake_run(tmp_path / "wrong", radius=40.0)
+    with pytest.raises(ValueError, match="radius = 40.0 .sweep: 15.0"):
+        adopt_run.adopt(run, tmp_path / "runs", scale="smoke")
+    assert run.is_dir() and not (tmp_path / "runs").exists()
+    adopt_run.adopt(fake_run(tmp_path / "first"), tmp_path / "runs", scale="smoke")
+    second = fake_run(tmp_path / "second")
+    with pytest.raises(ValueError, match="exists already"):
+        adopt_run.adopt(second, tmp_path / "runs", scale="smoke")
+    assert second.is_dir()
+    assert adopt_run.main([str(tmp_path / "nothing"), "--scale", "smoke"]) == 2
+    assert "no config.json" in capsys.readouterr().err
