@@ -540,8 +540,9 @@ def read_continuum_frame(path: str | os.PathLike) -> tuple[np.ndarray, np.ndarra
     return np.asarray(mesh.points[:, :2], dtype=float), np.concatenate(tri), data
 
 
-def particle_frames(folder: str | os.PathLike):
-    """Iterate (t, {x, y, theta, length, stress}) over the frames of a particle run's trajectory.
+def particle_frames(folder: str | os.PathLike, last_only: bool = False):
+    """Iterate (t, {x, y, theta, length, stress}) over the frames of a particle run's trajectory
+    (``last_only``: its last frame alone, the others not read).
 
     Positions and angles come from the HOOMD schema (theta = 2 atan2(q_z, q_w)); length and stress
     from ``log/particles/length`` and ``log/particles/stress``; t from history.csv's row of the
@@ -556,7 +557,7 @@ def particle_frames(folder: str | os.PathLike):
     else:
         t_of_step = {}
     with gsd.hoomd.open(str(folder / "trajectory.gsd"), mode="r") as traj:
-        for frame in traj:
+        for frame in (traj[-1:] if last_only else traj):
             step = int(frame.configuration.step)
             t = t_of_step.get(step, 0.0 if step == 0 else float("nan"))
             pos = np.asarray(frame.particles.position, dtype=float)
@@ -760,7 +761,7 @@ def final_particle_profile(folder: str | os.PathLike, growth_window: float = 1.0
 def final_ring_coherence(folder: str | os.PathLike, width: float = 1.0) -> tuple[float, float]:
     """:func:`ring_coherence` (C, z) of the lengths in the last frame of a particle run; (nan,
     nan) for a colony too small for five annuli of ``width`` over its outer half."""
-    *_, (_, last) = particle_frames(folder)
+    ((_, last),) = particle_frames(folder, last_only=True)
     r = np.hypot(last["x"] - last["x"].mean(), last["y"] - last["y"].mean())
     if r.size == 0 or 0.5 * r.max() < 5 * width:
         return math.nan, math.nan
