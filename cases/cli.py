@@ -6,7 +6,7 @@
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
                      [--adaptive-dt] [--division-noise EPS] [--solver bbpgd|apgd|twolevel]
-                     [--threads N]
+                     [--threads N] [--change-step-policy]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
@@ -19,7 +19,8 @@ flags; the run writes it back as ``config.json`` next to its results.
 Output folders are never left half-written: a run writes into ``DIR.partial/`` and renames it to
 ``DIR`` only when everything (engine output, ``profile.csv``, the PNG) is written. A stopped
 particle run keeps its checkpoint in ``DIR.partial/`` and resumes from it when the same command
-is given again. Bad input ends with a one-line message on stderr and exit status 2.
+is given again (``--change-step-policy``: also with ``--adaptive-dt`` switched). Bad input
+ends with a one-line message on stderr and exit status 2.
 """
 
 from __future__ import annotations
@@ -150,12 +151,13 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
     return state
 
 
-def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True):
+def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
+                  change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
     from particles.simulation import run
 
     partial = stage(out, overwrite)
-    colony = run(config, out=partial, progress=progress)
+    colony = run(config, out=partial, progress=progress, change_step_policy=change_step_policy)
     profile = particle_profile(colony.x, colony.y, colony.length, colony.stress,
                                edge_width=PARTICLE_EDGE_WIDTH, radius=colony.radius())
     write_csv(partial / "profile.csv", profile)
@@ -261,6 +263,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
     p.add_argument("--threads", type=int,
                    help="threads of the contact solver (default 1; same result for any number)")
+    p.add_argument("--change-step-policy", action="store_true",
+                   help="resume a checkpoint written with another --adaptive-dt setting")
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)
@@ -309,7 +313,7 @@ def _dispatch(args) -> int:
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads}
         config = build_config(ParticleConfig, args.config, args.set, flags)
-        run_particles(config, Path(args.out), args.overwrite, progress)
+        run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy)
         print(f"particle run written to {args.out}")
     else:
         module = importlib.import_module(f"cases.{args.name}")

@@ -127,6 +127,28 @@ def test_resume_on_another_number_of_threads(tmp_path):
         assert (full / name).read_bytes() == (part / name).read_bytes(), name
 
 
+def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
+    """A run stopped with a fixed step resumes with --adaptive-dt only under
+    change_step_policy: its first steps are those of the fixed run, the later ones adapted,
+    and config.json records the new setting; any other change is refused."""
+    fixed = ParticleConfig(lam=1e-2, time=2.0, dt=0.08, seed=2)
+    adaptive = replace(fixed, adaptive_dt=True)
+    full, part = tmp_path / "full", tmp_path / "part"
+    full.mkdir()
+    part.mkdir()
+    a = run(fixed, full)
+    run(fixed, part, stop_after=10)
+    with pytest.raises(ValueError, match=r"differs in adaptive_dt.*change_step_policy"):
+        run(adaptive, part)
+    with pytest.raises(ValueError, match=r"differs in dt\)$"):
+        run(replace(adaptive, dt=0.04), part, change_step_policy=True)
+    b = run(adaptive, part, change_step_policy=True)
+    assert b.finished and json.loads((part / "config.json").read_text())["adaptive_dt"]
+    assert b.history[:10] == a.history[:10]
+    dts = np.array([r["dt"] for r in b.history])
+    assert np.all(dts[:10] == 0.08) and dts[10:-1].min() < 0.08
+
+
 def test_checkpoint_of_earlier_version_resumes(tmp_path):
     """A checkpoint written before adaptive_dt (and the pass counts) existed resumes, with the
     configuration it ran with, and the missing history entries are left blank."""
