@@ -287,3 +287,29 @@ def test_bench_timestep_small(tmp_path, capsys):
     assert "| 0.01 | adaptive:0.08 |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench_timestep.main(["--policies", "fixed:abc"])
+
+
+def test_bench_timestep_from_checkpoint(tmp_path, capsys):
+    """cases.bench_timestep --checkpoint: with the run's own step it continues the run exactly
+    (same iterations and particles as the uninterrupted run's next steps); a policy with half
+    the step takes twice the steps; a missing checkpoint is a usage error."""
+    from cases import bench_timestep
+    cfg = ParticleConfig(lam=1e-2, time=3.6, dt=0.02, seed=3)
+    full, part = tmp_path / "full", tmp_path / "part"
+    full.mkdir()
+    part.mkdir()
+    a = run(cfg, full)
+    run(cfg, part, stop_after=150)
+    rows = bench_timestep.main(["--checkpoint", str(part / "checkpoint.npz"), "--duration",
+                                "0.2", "--policies", "fixed:0.02", "fixed:0.01", "--out",
+                                str(tmp_path / "c.csv")])
+    same, half = rows
+    nxt = a.history[150:160]
+    assert same["steps"] == 10 and half["steps"] == 20 and same["duration"] == pytest.approx(0.2)
+    assert same["main_per_time"] * 0.2 == pytest.approx(
+        sum(r["iterations"] - r["pass_iterations"] for r in nxt))
+    assert same["n_particles"] == nxt[-1]["n_particles"] > 4
+    assert 0 < same["rotation_q999"] <= same["max_rotation"]
+    assert "| fixed:0.01 | 20 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench_timestep.main(["--checkpoint", str(tmp_path / "none.npz")])
