@@ -4,8 +4,10 @@ small data in the repository.
 A paper-scale particle colony takes hours to days and is grown by one command resumed over
 several sessions, not by the sweep; once finished it is adopted:
 
-1. :func:`adopt`: the run's ``config.json`` must agree with the sweep parameters of its lam at
-   the scale (``cases.sweep.SCALES``; keys other than ``engine``); the folder is moved to
+1. :func:`adopt`: the run's configuration as it started (``config.json`` with the step-policy
+   changes of its resumptions undone, :func:`initial_config`) must agree with the sweep
+   parameters of its lam at the scale (``cases.sweep.SCALES``; keys other than ``engine``);
+   the folder is moved to
    ``RUNS/<sweep name>`` with ``params.json`` and ``DONE`` written as ``cases.sweep.run_one``
    writes them, so ``colony case NAME --scale S --runs RUNS --engines finished`` takes it;
 2. :func:`record`: its small data (history thinned by ``cases.analysis.thin_rows``, the final
@@ -31,10 +33,19 @@ from pathlib import Path
 from cases import analysis as A
 from cases.sweep import DONE, _engine_params, run_name, scale_config
 
-__all__ = ["adopt", "record", "time_reports"]
+__all__ = ["adopt", "initial_config", "record", "time_reports"]
 
 SMALL_FILES = ("profile.csv", "config.json")
 """Files copied as they are by :func:`record` (besides the thinned history)."""
+
+
+def initial_config(config: dict) -> dict:
+    """The configuration a run started with: ``config`` (a config.json) with the step-policy
+    changes it records (``step_policy_changes``, particles.output.write_config) undone."""
+    config = dict(config)
+    for change in reversed(config.pop("step_policy_changes", [])):
+        config |= {k: v[0] for k, v in change.items() if k != "step"}
+    return config
 
 
 def adopt(run: str | Path, runs: str | Path, scale: str = "paper",
@@ -51,7 +62,7 @@ def adopt(run: str | Path, runs: str | Path, scale: str = "paper",
     for f in ("config.json", "history.csv"):
         if not (run / f).is_file():
             raise ValueError(f"{run}: no {f} (not a finished run folder)")
-    config = json.loads((run / "config.json").read_text())
+    config = initial_config(json.loads((run / "config.json").read_text()))
     if "lam" not in config:
         raise ValueError(f"{run}/config.json has no lam")
     params = _engine_params(engine, float(config["lam"]), scale_config(scale))

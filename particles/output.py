@@ -27,9 +27,25 @@ HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "m
                    "failed_iterations")
 
 
-def write_config(out: Path, config) -> None:
-    """config.json: the run's ParticleConfig fields."""
-    (out / "config.json").write_text(json.dumps(asdict(config), indent=2) + "\n")
+def write_config(out: Path, config, step: int | None = None,
+                 policy: tuple[str, ...] = ()) -> None:
+    """config.json: the run's ParticleConfig fields.
+
+    ``step`` given (a run resumed there with a changed step policy): the ``policy`` fields that
+    differ from the config.json in ``out`` are appended to its ``step_policy_changes``, a list of
+    {"step": step, field: [old, new], ...}, kept with the new fields.
+    """
+    fields = asdict(config)
+    path = out / "config.json"
+    if step is not None and path.is_file():
+        old = json.loads(path.read_text())
+        changes = old.pop("step_policy_changes", [])
+        diff = {k: [old[k], fields[k]] for k in policy if k in old and old[k] != fields[k]}
+        if diff:
+            changes.append({"step": step, **diff})
+        if changes:
+            fields["step_policy_changes"] = changes
+    path.write_text(json.dumps(fields, indent=2) + "\n")
 
 
 def write_history(out: Path, history: list[dict]) -> None:

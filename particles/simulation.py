@@ -440,14 +440,15 @@ LEGACY_CONFIG = {"adaptive_dt": False}
 EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
 """Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
 
-STEP_POLICY_FIELDS = ("adaptive_dt",)
+STEP_POLICY_FIELDS = ("dt", "adaptive_dt")
 """Configuration fields that change only the step lengths after the checkpoint (the result
 within the time-stepping error): a checkpoint resumes with other values only when asked
-(``run(..., change_step_policy=True)``); the history's dt column records every step as it ran.
-Where it pays (lam = 1e-4, 6.55e4 particles, from the same checkpoint): with dt = 0.005 rods
-under loads ~1e3 turned by up to 0.9 rad in a step (99.9 % quantile 0.1), the re-solve passes met
-crossed rods and 2 of 7 steps were halved: 14,600 solver iterations per 0.005 time units, failed
-attempts included; with dt = 0.0025, 10 steps, none halved: 5,950."""
+(``run(..., change_step_policy=True)``); the history's dt column records every step as it ran
+and config.json the changes (``output.write_config``).  Where it pays (lam = 1e-4, 6.55e4
+particles, from the same checkpoint): with dt = 0.005 rods under loads ~1e3 turned by up to 0.9
+rad in a step (99.9 % quantile 0.1), the re-solve passes met crossed rods and 2 of 7 steps were
+halved: 14,600 solver iterations per 0.005 time units, failed attempts included; with
+dt = 0.0025, 10 steps, none halved: 5,950."""
 
 
 def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames,
@@ -531,9 +532,10 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
         the returned Colony has ``finished = False``.
     change_step_policy : bool
-        Resume from a checkpoint written with other STEP_POLICY_FIELDS values (config.json is
-        then rewritten; the result differs from an uninterrupted run within the time-stepping
-        error).
+        Resume from a checkpoint written with other STEP_POLICY_FIELDS values (config.json then
+        holds the new values and, under ``step_policy_changes``, the step and the old and new
+        values of each change; the result differs from an uninterrupted run's within the
+        time-stepping error).
 
     SIGINT (Ctrl-C) or SIGTERM (e.g. a batch system's time limit) in the main thread ends the
     run after the current step, with a checkpoint of that step written (then KeyboardInterrupt,
@@ -558,7 +560,8 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
             ckpt, config, change_step_policy)
         output.truncate_trajectory(traj, frames[0])
         if change_step_policy:
-            output.write_config(out, config)
+            dt_next = min(dt_next, config.dt) if config.adaptive_dt else config.dt
+            output.write_config(out, config, step=nstep, policy=STEP_POLICY_FIELDS)
     else:
         state = initial_state(config)
         t, nstep, history = 0.0, 0, []

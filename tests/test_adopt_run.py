@@ -55,3 +55,20 @@ def test_adopt_refuses_mismatch_and_existing_target_without_touching_anything(tm
     assert second.is_dir()
     assert adopt_run.main([str(tmp_path / "nothing"), "--scale", "smoke"]) == 2
     assert "no config.json" in capsys.readouterr().err
+
+
+def test_adopt_checks_the_configuration_the_run_started_with(tmp_path):
+    """A run resumed with another step (config.json's step_policy_changes) is checked against
+    the sweep with its starting step (paper scale, lam = 1e-3: dt = 0.005)."""
+    paper = {"lam": 1e-3, "radius": 150.0, "output_every": 100}
+    changes = [{"step": 100, "adaptive_dt": [False, True]},
+               {"step": 150, "dt": [0.005, 0.0025], "adaptive_dt": [True, False]}]
+    run = fake_run(tmp_path / "resumed", **paper, dt=0.0025, adaptive_dt=False,
+                   step_policy_changes=changes)
+    assert adopt_run.initial_config(json.loads((run / "config.json").read_text())) == {
+        **paper, "dt": 0.005, "adaptive_dt": False}
+    assert is_done(adopt_run.adopt(run, tmp_path / "runs", scale="paper"))
+    changes[1]["dt"] = [0.01, 0.0025]
+    wrong = fake_run(tmp_path / "wrong", **paper, dt=0.0025, step_policy_changes=changes)
+    with pytest.raises(ValueError, match=r"dt = 0.01 .sweep: 0.005"):
+        adopt_run.adopt(wrong, tmp_path / "runs2", scale="paper")

@@ -128,10 +128,11 @@ def test_resume_on_another_number_of_threads(tmp_path):
 
 
 def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
-    """A run stopped with a fixed step resumes with --adaptive-dt only under
-    change_step_policy: its first steps are those of the fixed run, the later ones adapted,
-    and config.json records the new setting; any other change is refused."""
-    fixed = ParticleConfig(lam=1e-2, time=2.0, dt=0.08, seed=2)
+    """A run stopped with a fixed step resumes with --adaptive-dt, then with another fixed dt,
+    only under change_step_policy: its first steps are those of the fixed run, the next ones
+    adapted, the last ones of the new dt, and config.json records the changes; any other
+    change is refused."""
+    fixed = ParticleConfig(lam=1e-2, time=3.0, dt=0.08, seed=2)
     adaptive = replace(fixed, adaptive_dt=True)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
@@ -140,13 +141,18 @@ def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
     run(fixed, part, stop_after=10)
     with pytest.raises(ValueError, match=r"differs in adaptive_dt.*change_step_policy"):
         run(adaptive, part)
-    with pytest.raises(ValueError, match=r"differs in dt\)$"):
-        run(replace(adaptive, dt=0.04), part, change_step_policy=True)
-    b = run(adaptive, part, change_step_policy=True)
-    assert b.finished and json.loads((part / "config.json").read_text())["adaptive_dt"]
-    assert b.history[:10] == a.history[:10]
+    with pytest.raises(ValueError, match=r"differs in seed\)$"):
+        run(replace(adaptive, seed=3), part, change_step_policy=True)
+    run(adaptive, part, change_step_policy=True, stop_after=30)
+    b = run(replace(fixed, dt=0.04), part, change_step_policy=True)
+    assert b.finished and b.history[:10] == a.history[:10]
     dts = np.array([r["dt"] for r in b.history])
-    assert np.all(dts[:10] == 0.08) and dts[10:-1].min() < 0.08
+    assert np.all(dts[:10] == 0.08) and dts[10:40].min() < 0.08 and np.all(dts[40:-1] == 0.04)
+    config = json.loads((part / "config.json").read_text())
+    assert (config["dt"], config["adaptive_dt"]) == (0.04, False)
+    assert config["step_policy_changes"] == [
+        {"step": 10, "adaptive_dt": [False, True]},
+        {"step": 40, "dt": [0.08, 0.04], "adaptive_dt": [True, False]}]
 
 
 def test_checkpoint_of_earlier_version_resumes(tmp_path):
