@@ -23,6 +23,12 @@ no longer hold and the passes meet crossed rods).
                                    [--uncapped] [--out runs/bench_timestep.csv]
     python -m cases.bench_timestep --checkpoint RUN/checkpoint.npz [--duration 0.02]
                                    [--policies fixed:0.005 fixed:0.0025]
+    python -m cases.bench_timestep --history RUN [RUN ...] [--min-particles 6e4]
+
+``--history`` reads what whole runs did instead (no computation): per step-policy segment of
+each run folder (config.json's ``step_policy_changes``), restricted to N >= ``--min-particles``,
+the steps, dt range, halved steps and solver iterations per unit time, failed attempts
+included.
 
 CPU time (time.process_time) is reported because the engine is single-threaded and this
 machine is often shared; wall time is in the CSV too.
@@ -33,6 +39,7 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -40,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 import particles.simulation as simulation
+from cases import analysis as A
 from particles.growth import divide
 from particles.simulation import ParticleConfig, run
 
@@ -125,6 +133,42 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
             "n_particles": state.n}
 
 
+def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
+    """Per step-policy segment of the run folder ``run`` (module docstring): first and last
+    step, N range, dt range, steps, halved steps, iterations per unit time (main, passes and
+    failed attempts; failed counted 0 where the history predates the column) and the failed
+    share."""
+    run = Path(run)
+    h = A.read_csv(run / "history.csv")
+    changes = json.loads((run / "config.json").read_text()).get("step_policy_changes", [])
+    bounds = [0, *(c["step"] for c in changes), math.inf]
+    failed = np.nan_to_num(h["failed_iterations"])
+    rows = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        m = (h["step"] > a) & (h["step"] <= b) & (h["n_particles"] >= min_particles)
+        if not m.any():
+            continue
+        work = h["iterations"][m] + failed[m]
+        rows.append({"run": run.name, "first_step": int(h["step"][m][0]),
+                     "last_step": int(h["step"][m][-1]),
+                     "n_first": int(h["n_particles"][m][0]),
+                     "n_last": int(h["n_particles"][m][-1]),
+                     "dt_min": float(h["dt"][m].min()), "dt_max": float(h["dt"][m].max()),
+                     "steps": int(m.sum()), "halved": int((h["substeps"][m] > 1).sum()),
+                     "per_time": float(work.sum() / h["dt"][m].sum()),
+                     "failed_share": float(failed[m].sum() / work.sum())})
+    return rows
+
+
+def _segments_table(rows: list[dict]) -> None:
+    print("| run | steps | N | dt | halved | iterations per unit time | failed share |")
+    print("|---|---|---|---|---|---|---|")
+    for r in rows:
+        print(f"| {r['run']} | {r['first_step']}-{r['last_step']} | {r['n_first']}-{r['n_last']} "
+              f"| {r['dt_min']:.2g}-{r['dt_max']:.2g} | {r['halved']} of {r['steps']} "
+              f"| {r['per_time']:.3g} | {100 * r['failed_share']:.0f} % |", flush=True)
+
+
 def _checkpoint_table(rows: list[dict]) -> None:
     print("| N | lam | policy | steps | halved | main its / time | pass its / time "
           "| failed its / time | CPU s | max rotation | 99.9 % rotation |")
@@ -169,7 +213,18 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     help="measure the policies from this saved state (module docstring)")
     ap.add_argument("--duration", type=float, default=0.02,
                     help="with --checkpoint: time advanced per policy")
+    ap.add_argument("--history", type=Path, nargs="+",
+                    help="report the step-policy segments of these run folders (no runs)")
+    ap.add_argument("--min-particles", type=float, default=0.0,
+                    help="with --history: steps with at least this many particles")
     a = ap.parse_args(argv)
+    if a.history:
+        missing = [str(r) for r in a.history if not (r / "history.csv").is_file()]
+        if missing:
+            ap.error(f"no history.csv in {', '.join(missing)}")
+        rows = [row for r in a.history for row in history_segments(r, a.min_particles)]
+        _segments_table(rows)
+        return rows
     try:
         for p in a.policies:
             parse_policy(p)

@@ -319,3 +319,14 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     assert "| fixed:0.01 | 20 |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench_timestep.main(["--checkpoint", str(tmp_path / "none.npz")])
+    # --history: the segments of a run resumed with another dt add up to its history
+    run(replace(cfg, dt=0.01), part, change_step_policy=True)
+    seg = bench_timestep.main(["--history", str(part)])
+    h = np.genfromtxt(part / "history.csv", delimiter=",", names=True)
+    assert [(r["first_step"], r["last_step"]) for r in seg] == [(1, 150), (151, len(h))]
+    assert [r["dt_max"] for r in seg] == pytest.approx([0.02, 0.01])
+    work = h["iterations"] + h["failed_iterations"]
+    assert sum(r["per_time"] * r["steps"] * r["dt_max"] for r in seg) == pytest.approx(
+        work.sum(), rel=1e-6)
+    with pytest.raises(SystemExit):
+        bench_timestep.main(["--history", str(tmp_path / "none")])
