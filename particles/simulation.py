@@ -444,11 +444,10 @@ STEP_POLICY_FIELDS = ("dt", "adaptive_dt")
 """Configuration fields that change only the step lengths after the checkpoint (the result
 within the time-stepping error): a checkpoint resumes with other values only when asked
 (``run(..., change_step_policy=True)``); the history's dt column records every step as it ran
-and config.json the changes (``output.write_config``).  Where it pays (lam = 1e-4, 6.55e4
-particles, from the same checkpoint): with dt = 0.005 rods under loads ~1e3 turned by up to 0.9
-rad in a step (99.9 % quantile 0.1), the re-solve passes met crossed rods and 2 of 7 steps were
-halved: 14,600 solver iterations per 0.005 time units, failed attempts included; with
-dt = 0.0025, 10 steps, none halved: 5,950."""
+and config.json the changes (``output.write_config``).  Where it pays: paper-scale colonies at
+small lam, whose rods turn so fast under loads ~1/lam that a step fixed at the start becomes
+too long (README, "Time step"; lam = 1e-4, N >= 6e4: dt = 0.005 needs 2.6x the solver work per
+unit time of dt = 0.0025, 60 % of it in failed attempts)."""
 
 
 def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames,
