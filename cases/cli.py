@@ -19,8 +19,8 @@ flags; the run writes it back as ``config.json`` next to its results.
 Output folders are never left half-written: a run writes into ``DIR.partial/`` and renames it to
 ``DIR`` only when everything (engine output, ``profile.csv``, the PNG) is written. A stopped
 particle run keeps its checkpoint in ``DIR.partial/`` and resumes from it when the same command
-is given again (``--change-step-policy``: also with ``--adaptive-dt`` switched). Bad input
-ends with a one-line message on stderr and exit status 2.
+is given again (``--change-step-policy``: also with another ``--dt`` or ``--adaptive-dt``). Bad
+input ends with a one-line message on stderr and exit status 2.
 """
 
 from __future__ import annotations
@@ -264,7 +264,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=int,
                    help="threads of the contact solver (default 1; same result for any number)")
     p.add_argument("--change-step-policy", action="store_true",
-                   help="resume a checkpoint written with another --adaptive-dt setting")
+                   help="resume a checkpoint written with another --dt or --adaptive-dt")
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)
