@@ -152,3 +152,24 @@ def test_case_from_committed_data(tmp_path, data_set):
                   "--out", str(tmp_path / "f"))
     assert res.returncode == 0, res.stderr
     assert (tmp_path / "f" / "fig3.png").stat().st_size > 0
+
+
+def test_particles_resume_with_another_step_only_when_asked(tmp_path):
+    """A stopped run (checkpoint in DIR.partial) given another --dt: refused with a one-line
+    error naming --change-step-policy; with it, resumed and the change recorded."""
+    from particles.simulation import ParticleConfig, run
+
+    out = tmp_path / "p"
+    partial = tmp_path / "p.partial"
+    partial.mkdir()
+    run(ParticleConfig(lam=1e-2, radius=3.0, seed=3), partial, stop_after=20)
+    args = ("particles", "--lam", "1e-2", "--radius", "3", "--seed", "3", "--dt", "0.005",
+            "--out", str(out), "--quiet")
+    res = _colony(*args)
+    assert res.returncode == 2 and res.stderr.count("\n") == 1
+    assert "differs in dt" in res.stderr and "--change-step-policy" in res.stderr
+    res = _colony(*args, "--change-step-policy")
+    assert res.returncode == 0, res.stderr
+    config = json.loads((out / "config.json").read_text())
+    assert config["dt"] == 0.005 and config["step_policy_changes"] == [
+        {"step": 20, "dt": [0.01, 0.005]}]
