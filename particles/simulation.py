@@ -446,8 +446,8 @@ within the time-stepping error): a checkpoint resumes with other values only whe
 (``run(..., change_step_policy=True)``); the history's dt column records every step as it ran
 and config.json the changes (``output.write_config``).  Where it pays: paper-scale colonies at
 small lam, whose rods turn so fast under loads ~1/lam that a step fixed at the start becomes
-too long (README, "Time step"; lam = 1e-4, N >= 6e4: dt = 0.005 needs 2.6x the solver work per
-unit time of dt = 0.0025, 60 % of it in failed attempts)."""
+too long (README, "Time step"; lam = 1e-4, N >= 6e4: at dt = 0.005 60 % of the solver work
+went into failed attempts)."""
 
 
 def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames,
