@@ -100,9 +100,7 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
 def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
     """Advance the state of checkpoint ``path`` by ``duration`` under ``policy`` (module
     docstring); the run's configuration otherwise.  Iterations are per unit time."""
-    with np.load(path) as z:
-        saved = json.loads(str(z["meta"]))["config"]
-    config = ParticleConfig(**{**simulation.LEGACY_CONFIG, **saved})
+    config = simulation.checkpoint_config(Path(path))
     state, t0, _, rng, warm, *_ = simulation._load_checkpoint(Path(path), config)
     adaptive, dt_max = parse_policy(policy)
     config = replace(config, dt=dt_max, adaptive_dt=adaptive)

@@ -461,10 +461,21 @@ def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, fr
     os.replace(tmp, path)
 
 
+def _saved_config(meta: dict) -> dict:
+    """The configuration fields a checkpoint's metadata holds (LEGACY_CONFIG where missing)."""
+    return {**LEGACY_CONFIG, **meta["config"]}
+
+
+def checkpoint_config(path: Path) -> ParticleConfig:
+    """The configuration the checkpoint at ``path`` was written with."""
+    with np.load(path) as z:
+        return ParticleConfig(**_saved_config(json.loads(str(z["meta"]))))
+
+
 def _load_checkpoint(path: Path, config, change_step_policy: bool = False):
     with np.load(path) as z:
         meta = json.loads(str(z["meta"]))
-        saved = {**LEGACY_CONFIG, **meta["config"]}
+        saved = _saved_config(meta)
         now = json.loads(json.dumps(asdict(config)))
         free = EXECUTION_FIELDS + (STEP_POLICY_FIELDS if change_step_policy else ())
         for k in free:
