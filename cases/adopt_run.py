@@ -107,12 +107,14 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("run", type=Path, help="finished run folder (colony particles --out)")
-    p.add_argument("--runs", type=Path, default=Path("runs/paper"))
-    p.add_argument("--scale", default="paper")
-    p.add_argument("--engine", default="particles")
-    p.add_argument("--data", type=Path, default=Path("cases/data/particles_paper"))
+    p.add_argument("--runs", type=Path, default=Path("runs/paper"),
+                   help="the sweep's runs folder the run is moved into (default runs/paper)")
+    p.add_argument("--scale", default="paper", help="sweep scale to check against (default paper)")
+    p.add_argument("--engine", default="particles", help="engine of the run (default particles)")
+    p.add_argument("--data", type=Path, default=Path("cases/data/particles_paper"),
+                   help="small data go to DATA/lam=LAM (default cases/data/particles_paper)")
     p.add_argument("--time-log", type=Path, default=None,
                    help="the run's /usr/bin/time -v -a -o log")
     args = p.parse_args(argv)

@@ -216,7 +216,7 @@ def states(args):
 
 
 def main(argv=None) -> None:
-    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000],
                    help="target particle numbers of synthetic ring packings")
     p.add_argument("--grown", action="append", help="saved grown state (npz), repeatable")

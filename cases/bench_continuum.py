@@ -121,7 +121,7 @@ def target_run(radius: float = 150.0, lam: float = 1e-2, **overrides) -> dict:
 
 
 def main(argv=None) -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000, 100000])
     ap.add_argument("--steps", type=int, default=5)
     ap.add_argument("--radius", type=float, default=150.0, help="target run radius (0: skip)")

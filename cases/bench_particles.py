@@ -166,7 +166,7 @@ def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -
 
 
 def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000])
     ap.add_argument("--state", type=Path, action="append", default=[],
                     help="a colony CSV (x, y, theta, length) to measure as well (repeatable)")

@@ -199,7 +199,7 @@ def _table(rows: list[dict]) -> None:
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--radius", type=float, default=40.0)
     ap.add_argument("--lams", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 0.0])
     ap.add_argument("--policies", nargs="+",
