@@ -20,7 +20,8 @@ number is a measurement of the runs.
 
 ``compute`` writes ``table.csv``, ``exponents.csv`` and ``radius_diff_lam=*.csv`` to
 ``out/data``; ``plot`` writes ``results.md`` (the table) and ``crosscheck.png/pdf`` (relative
-R(t) difference against t, for both particle radii) from those CSVs only. Scales as in
+R(t) difference for both particle radii: against t over the whole run, and against the continuum
+radius over the table's late window R_c >= R_f/2) from those CSVs only. Scales as in
 cases.sweep.SCALES (smoke: about a minute on 2 cores; paper: hours).
 
 Engines and committed data as for every figure case (``cases.sweep.case_runs``, docs/DESIGN.md):
@@ -245,18 +246,26 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     out.mkdir(parents=True, exist_ok=True)
     md = out / "results.md"
     md.write_text(markdown_table(data))
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, (ax, late) = plt.subplots(1, 2, figsize=(11, 4))
     files = sorted(data.glob("radius_diff_lam=*.csv"), key=lambda p: float(p.stem.split("=")[1]))
+    table = A.read_csv(data / "table.csv") if files else {}
     for i, p in enumerate(files):
         d = A.read_csv(p)
         c = plt.cm.plasma(i / max(1, len(files)))
-        ax.plot(d["t"], 100 * d["rel_diff"], color=c,
-                label=rf"$\lambda$ = {float(p.stem.split('=')[1]):g}")
-        if "rel_diff_hull" in d:
-            ax.plot(d["t"], 100 * d["rel_diff_hull"], "--", color=c)
-    ax.axhline(0, color="k", lw=0.5)
+        R_f = table["radius_final"][np.isclose(table["lam"], float(p.stem.split("=")[1]))][0]
+        window = d["radius_continuum"] >= 0.5 * R_f
+        for y, style in ((d["rel_diff"], "-"), (d.get("rel_diff_hull"), "--")):
+            if y is None:
+                continue
+            label = rf"$\lambda$ = {float(p.stem.split('=')[1]):g}" if style == "-" else None
+            ax.plot(d["t"], 100 * y, style, color=c, label=label)
+            late.plot(d["radius_continuum"][window], 100 * y[window], style, color=c)
+    for a in (ax, late):
+        a.axhline(0, color="k", lw=0.5)
     ax.set(xlabel="t", ylabel=r"$(R_p - R_c)/R_c$ [%]",
-           title="particle radius: enclosing disc (solid), sqrt(hull area/pi) (dashed)")
+           title="(A) all times: disc (solid), sqrt(hull area/pi) (dashed)")
+    late.set(xlabel=r"continuum radius $R_c$", ylabel=r"$(R_p - R_c)/R_c$ [%]",
+             title=r"(B) late: $R_c \geq R_f/2$ (the table's window)")
     if files:
         ax.legend(fontsize=8)
     note_missing_engines(fig, {"continuum", *(["particles"] if files else [])})
