@@ -252,12 +252,13 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     for i, p in enumerate(files):
         d = A.read_csv(p)
         c = plt.cm.plasma(i / max(1, len(files)))
-        R_f = table["radius_final"][np.isclose(table["lam"], float(p.stem.split("=")[1]))][0]
+        lam = float(p.stem.split("=")[1])
+        R_f = table["radius_final"][np.isclose(table["lam"], lam)][0]
         window = d["radius_continuum"] >= 0.5 * R_f
         for y, style in ((d["rel_diff"], "-"), (d.get("rel_diff_hull"), "--")):
             if y is None:
                 continue
-            label = rf"$\lambda$ = {float(p.stem.split('=')[1]):g}" if style == "-" else None
+            label = rf"$\lambda$ = {lam:g}" if style == "-" else None
             ax.plot(d["t"], 100 * y, style, color=c, label=label)
             late.plot(d["radius_continuum"][window], 100 * y[window], style, color=c)
     for a in (ax, late):
