@@ -21,7 +21,7 @@ import gzip
 import math
 import os
 import warnings
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 
 import numpy as np
@@ -42,6 +42,7 @@ __all__ = [
     "ecoli_lambda",
     "read_csv",
     "write_csv",
+    "markdown_rows",
     "continuum_frames",
     "read_continuum_frame",
     "particle_frames",
@@ -492,6 +493,12 @@ def read_csv(path: str | os.PathLike) -> dict[str, np.ndarray]:
     if data.shape[1] != len(names):
         raise ValueError(f"{path}: {len(names)} header names but {data.shape[1]} columns")
     return {n: data[:, i] for i, n in enumerate(names)}
+
+
+def markdown_rows(header: Sequence[str], rows: Iterable[Sequence]) -> str:
+    """A markdown table: the header, the ``|---|`` rule, one line per row of formatted cells."""
+    lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    return "\n".join(lines + ["| " + " | ".join(map(str, r)) + " |" for r in rows])
 
 
 def write_csv(path: str | os.PathLike, columns: Mapping[str, np.ndarray], fmt: str = "%.8g"):

@@ -35,6 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
+from cases import analysis as A
 from particles.growth import divide
 from particles.output import read_init
 from particles.simulation import SOLVERS, ParticleConfig, step
@@ -120,14 +121,13 @@ def fit_exponent(ns, ys) -> float:
 
 
 def _table(res: list[dict]) -> None:
-    print("| N | contacts | iterations/step | s/step | ns/(contact*it) | neighbours | geometry "
-          "| solver | update |")
-    print("|---|---|---|---|---|---|---|---|---|")
-    for r in res:
-        print(f"| {r['N']} | {r['contacts']:.0f} | {r['iterations']:.0f} | {r['seconds']:.4f} "
-              f"| {r['ns_per_contact_iteration']:.1f} | {100 * r['neighbours_frac']:.1f}% "
-              f"| {100 * r['geometry_frac']:.1f}% | {100 * r['solver_frac']:.1f}% "
-              f"| {100 * r['update_frac']:.1f}% |")
+    print(A.markdown_rows(
+        ("N", "contacts", "iterations/step", "s/step", "ns/(contact*it)", "neighbours",
+         "geometry", "solver", "update"),
+        ((r["N"], f"{r['contacts']:.0f}", f"{r['iterations']:.0f}", f"{r['seconds']:.4f}",
+          f"{r['ns_per_contact_iteration']:.1f}", f"{100 * r['neighbours_frac']:.1f}%",
+          f"{100 * r['geometry_frac']:.1f}%", f"{100 * r['solver_frac']:.1f}%",
+          f"{100 * r['update_frac']:.1f}%") for r in res)))
     ns = [r["N"] for r in res]
     if len(set(ns)) >= 2:
         print("fitted exponents vs N: " + ", ".join(

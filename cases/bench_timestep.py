@@ -159,23 +159,21 @@ def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
 
 
 def _segments_table(rows: list[dict]) -> None:
-    print("| run | steps | N | dt | halved | iterations per unit time | failed share |")
-    print("|---|---|---|---|---|---|---|")
-    for r in rows:
-        print(f"| {r['run']} | {r['first_step']}-{r['last_step']} | {r['n_first']}-{r['n_last']} "
-              f"| {r['dt_min']:.2g}-{r['dt_max']:.2g} | {r['halved']} of {r['steps']} "
-              f"| {r['per_time']:.3g} | {100 * r['failed_share']:.0f} % |", flush=True)
+    print(A.markdown_rows(
+        ("run", "steps", "N", "dt", "halved", "iterations per unit time", "failed share"),
+        ((r["run"], f"{r['first_step']}-{r['last_step']}", f"{r['n_first']}-{r['n_last']}",
+          f"{r['dt_min']:.2g}-{r['dt_max']:.2g}", f"{r['halved']} of {r['steps']}",
+          f"{r['per_time']:.3g}", f"{100 * r['failed_share']:.0f} %") for r in rows)), flush=True)
 
 
 def _checkpoint_table(rows: list[dict]) -> None:
-    print("| N | lam | policy | steps | halved | main its / time | pass its / time "
-          "| failed its / time | CPU s | max rotation | 99.9 % rotation |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
-    for r in rows:
-        print(f"| {r['n_particles']} | {r['lam']:g} | {r['policy']} | {r['steps']} "
-              f"| {r['halved']} | {r['main_per_time']:.4g} | {r['pass_per_time']:.4g} "
-              f"| {r['failed_per_time']:.4g} | {r['cpu_s']:.1f} | {r['max_rotation']:.3g} "
-              f"| {r['rotation_q999']:.3g} |", flush=True)
+    print(A.markdown_rows(
+        ("N", "lam", "policy", "steps", "halved", "main its / time", "pass its / time",
+         "failed its / time", "CPU s", "max rotation", "99.9 % rotation"),
+        ((r["n_particles"], f"{r['lam']:g}", r["policy"], r["steps"], r["halved"],
+          f"{r['main_per_time']:.4g}", f"{r['pass_per_time']:.4g}", f"{r['failed_per_time']:.4g}",
+          f"{r['cpu_s']:.1f}", f"{r['max_rotation']:.3g}", f"{r['rotation_q999']:.3g}")
+         for r in rows)), flush=True)
 
 
 def _write(rows: list[dict], columns: tuple[str, ...], out: Path) -> None:
@@ -188,14 +186,13 @@ def _write(rows: list[dict], columns: tuple[str, ...], out: Path) -> None:
 
 
 def _table(rows: list[dict]) -> None:
-    print("| lam | policy | CPU s | steps | halved | main its | pass its | failed its "
-          "| t at R | N |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for r in rows:
-        policy = r["policy"] + (" uncapped" if r["uncapped"] else "")
-        print(f"| {r['lam']:g} | {policy} | {r['cpu_s']:.1f} | {r['steps']} | {r['halved']} "
-              f"| {r['main_iterations']} | {r['pass_iterations']} | {r['failed_iterations']} "
-              f"| {r['t_at_radius']:.3f} | {r['n_particles']} |", flush=True)
+    print(A.markdown_rows(
+        ("lam", "policy", "CPU s", "steps", "halved", "main its", "pass its", "failed its",
+         "t at R", "N"),
+        ((f"{r['lam']:g}", r["policy"] + (" uncapped" if r["uncapped"] else ""),
+          f"{r['cpu_s']:.1f}", r["steps"], r["halved"], r["main_iterations"],
+          r["pass_iterations"], r["failed_iterations"], f"{r['t_at_radius']:.3f}",
+          r["n_particles"]) for r in rows)), flush=True)
 
 
 def main(argv: list[str] | None = None) -> list[dict]:

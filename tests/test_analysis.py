@@ -266,3 +266,10 @@ def test_read_csv_blank_cells_are_nan(tmp_path):
         A.read_csv(path)
     path.write_text("step,passes\n")
     assert A.read_csv(path)["step"].size == 0
+
+
+def test_markdown_rows():
+    """Header, rule and rows of a markdown table, cells converted with str."""
+    assert A.markdown_rows(("a", "b"), [(1, "x"), (2.5, "y")]) == (
+        "| a | b |\n|---|---|\n| 1 | x |\n| 2.5 | y |")
+    assert A.markdown_rows(("a",), []) == "| a |\n|---|"
