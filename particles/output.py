@@ -1,11 +1,35 @@
 """Run outputs: config.json, history.csv, particles.csv, trajectory.gsd.
 
-trajectory.gsd follows the HOOMD schema (gsd.hoomd): per frame, particles at z = 0 with
-orientation quaternion (cos(theta/2), 0, 0, sin(theta/2)) about z, typeid 0 (type "rod"),
-diameter b, and per-particle tip-to-tip length and axial load under
-``log/particles/length`` and ``log/particles/stress``.  OVITO opens it directly (File > Load
-File; the log quantities appear as particle properties "length" and "stress"); ParaView reads
-it through OVITO export or the gsd Python package.
+trajectory.gsd follows the HOOMD schema (gsd.hoomd) and is laid out so that OVITO (3.x, File >
+Load File or ``ovito.io.import_file``) draws every particle as the sphero-cylinder it is, with no
+pipeline set up by hand.  Per frame:
+
+- ``configuration.step`` = the step; ``log/Time`` = t (OVITO: global attributes ``Timestep`` and
+  ``Time``); ``configuration.dimensions`` = 2.
+- ``configuration.box``: a square of edge 2 (X + BOX_MARGIN) centred at the origin, X the
+  largest |x| or |y| reached by any particle (segment end + b/2).  HOOMD boxes are periodic and
+  OVITO's GSD reader always marks the cell periodic (checked: ``cell.pbc == (True, True,
+  True)``); with this edge every periodic image lies at least 2 BOX_MARGIN away from the colony,
+  so images never touch it.  ``cases.viewer.ovito_pipeline`` also turns periodicity off.
+- ``particles.position`` (x, y, 0), ``particles.diameter`` = b (OVITO: ``Radius`` = b/2), one type
+  "rod" whose ``type_shapes`` entry is a ConvexPolyhedron of two vertices on the local z axis
+  with rounding radius b/2 (OVITO makes this type a ``Spherocylinder``).
+- ``particles.orientation``: the unit quaternion (w, x, y, z) = (cos(theta/2), -sin(theta/2),
+  cos(theta/2), sin(theta/2)) / sqrt(2), the rotation R_z(theta) R_y(pi/2), which turns the local
+  z axis (OVITO's sphero-cylinder axis) into the particle axis p = (cos theta, sin theta, 0).
+  theta = 2 atan2(q_z, q_w), as with the plain turn about z written before (older files).
+- ``log/particles/Aspherical Shape`` = (b/2, b/2, l - b) per particle: OVITO loads it as its
+  standard ``Aspherical Shape`` property, which for a Spherocylinder is (radius, -, length of the
+  cylindrical part), so each rod gets its own tip-to-tip length l.
+- ``log/particles/Particle Identifier`` = the particle's id (OVITO's standard identifier, so
+  OVITO tracks particles across frames); ``log/particles/parent`` and
+  ``log/particles/generation`` when the state carries ``parent`` and ``generation`` arrays.
+- ``log/particles/length`` (l) and ``log/particles/stress`` (axial load sigma): OVITO
+  user properties ``length`` and ``stress`` (colour with Color coding, range [1, 2] for l).
+
+``read_trajectory`` reads the frames back (gsd and numpy only); ``cases.viewer.ovito_pipeline``
+opens the file in OVITO's Python module (optional dependency ``ovito``) and
+``cases.viewer.render_ovito`` renders a frame.
 """
 
 from __future__ import annotations
@@ -13,7 +37,8 @@ from __future__ import annotations
 import csv
 import json
 import os
-from dataclasses import asdict
+from collections.abc import Iterable, Iterator
+from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import gsd.hoomd
@@ -85,32 +110,82 @@ def read_init(path: str | os.PathLike) -> tuple[np.ndarray, ...]:
         raise ValueError(f"init file {p}: non-numeric value ({e})") from None
 
 
-def make_frame(state: ParticleState, step: int) -> gsd.hoomd.Frame:
-    """One HOOMD frame of the colony (see module docstring)."""
+BOX_MARGIN = 2.0
+"""Gap (model length units) between the colony and the box edge; images are 2 BOX_MARGIN apart."""
+
+ROD_TYPE = "rod"
+_NOMINAL_CYLINDER = 1.0  # the type's default cylinder length; every particle overrides it
+
+
+def rod_quaternion(theta: np.ndarray) -> np.ndarray:
+    """Unit quaternions (w, x, y, z) turning the local z axis into p = (cos theta, sin theta, 0).
+
+    q = q_z(theta) q_y(pi/2) = (cos(theta/2), -sin(theta/2), cos(theta/2), sin(theta/2)) / sqrt(2):
+    first a quarter turn about y (z -> x), then a turn by theta about z (x -> p).
+    """
+    h = 0.5 * np.asarray(theta, dtype=float)
+    c, s = np.cos(h), np.sin(h)
+    return np.column_stack([c, -s, c, s]) / np.sqrt(2.0)
+
+
+def rod_axis(q: np.ndarray) -> np.ndarray:
+    """Image of the local z axis under unit quaternions (w, x, y, z), shape (n, 3).
+
+    R(q) e_z = (2 (x z + w y), 2 (y z - w x), 1 - 2 (x^2 + y^2)).
+    """
+    q = np.asarray(q, dtype=float)
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+
+
+def box_edge(state: ParticleState) -> float:
+    """Edge 2 (X + BOX_MARGIN) of the square box; X = max |coordinate| of any particle point."""
+    h = 0.5 * (state.length - B)
+    ex = np.abs(state.x) + np.abs(np.cos(state.theta)) * h
+    ey = np.abs(state.y) + np.abs(np.sin(state.theta)) * h
+    return 2.0 * (float(max(ex.max(), ey.max())) + B / 2 + BOX_MARGIN)
+
+
+def make_frame(state: ParticleState, step: int, t: float | None = None) -> gsd.hoomd.Frame:
+    """One HOOMD frame of the colony at step ``step`` and time ``t`` (see module docstring).
+
+    ``t`` None: no ``log/Time`` (the time is then read from history.csv).
+    """
     f = gsd.hoomd.Frame()
     n = state.n
     f.configuration.step = int(step)
     f.configuration.dimensions = 2
-    ext = 2.0 * (float(np.max(np.abs(np.concatenate([state.x, state.y])))) + 2.0)
+    ext = box_edge(state)
     f.configuration.box = [ext, ext, 0.0, 0.0, 0.0, 0.0]
     f.particles.N = n
-    f.particles.types = ["rod"]
+    f.particles.types = [ROD_TYPE]
+    f.particles.type_shapes = [{"type": "ConvexPolyhedron", "rounding_radius": B / 2,
+                                "vertices": [[0.0, 0.0, -_NOMINAL_CYLINDER / 2],
+                                             [0.0, 0.0, _NOMINAL_CYLINDER / 2]]}]
     f.particles.typeid = np.zeros(n, dtype=np.uint32)
     f.particles.position = np.column_stack([state.x, state.y, np.zeros(n)]).astype(np.float32)
-    q = np.zeros((n, 4), dtype=np.float32)
-    q[:, 0] = np.cos(state.theta / 2)
-    q[:, 3] = np.sin(state.theta / 2)
-    f.particles.orientation = q
+    f.particles.orientation = rod_quaternion(state.theta).astype(np.float32)
     f.particles.diameter = np.full(n, B, dtype=np.float32)
+    shape = np.empty((n, 3), dtype=np.float32)
+    shape[:, :2] = B / 2
+    shape[:, 2] = state.length - B
+    f.log["particles/Aspherical Shape"] = shape
+    f.log["particles/Particle Identifier"] = np.asarray(state.ids, dtype=np.int64)
+    for name in ("parent", "generation"):
+        values = getattr(state, name, None)
+        if values is not None:
+            f.log[f"particles/{name}"] = np.asarray(values, dtype=np.int64)
     f.log["particles/length"] = state.length.astype(np.float32)
     f.log["particles/stress"] = state.stress.astype(np.float32)
+    if t is not None:
+        f.log["Time"] = np.array([float(t)], dtype=np.float64)
     return f
 
 
-def append_frame(path: Path, state: ParticleState, step: int) -> None:
+def append_frame(path: Path, state: ParticleState, step: int, t: float | None = None) -> None:
     """Append a frame to trajectory.gsd (created when missing)."""
-    with gsd.hoomd.open(str(path), mode="a") as t:
-        t.append(make_frame(state, step))
+    with gsd.hoomd.open(str(path), mode="a") as traj:
+        traj.append(make_frame(state, step, t))
 
 
 def truncate_trajectory(path: Path, n_frames: int) -> None:
@@ -126,3 +201,91 @@ def truncate_trajectory(path: Path, n_frames: int) -> None:
         for fr in frames:
             t.append(fr)
     os.replace(tmp, path)
+
+
+@dataclass
+class TrajectoryFrame:
+    """One frame of trajectory.gsd as numpy arrays (float64, int64).
+
+    ``ids`` None for files written before ids were stored; ``parent`` and ``generation`` None when
+    the run did not record them.  ``t`` is NaN when neither ``log/Time`` nor a history.csv row
+    of the frame's step gives it.
+    """
+
+    step: int
+    t: float
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    length: np.ndarray
+    stress: np.ndarray
+    ids: np.ndarray | None = None
+    parent: np.ndarray | None = None
+    generation: np.ndarray | None = None
+
+    @property
+    def n(self) -> int:
+        return int(self.x.shape[0])
+
+
+def count_frames(path: str | os.PathLike) -> int:
+    """Number of frames in a trajectory.gsd.  Raises ValueError when it is missing."""
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"trajectory not found: {p}")
+    with gsd.hoomd.open(str(p), mode="r") as traj:
+        return len(traj)
+
+
+def _history_times(folder: Path) -> dict[int, float]:
+    """step -> t from history.csv beside the trajectory ({} when absent or without a step column)."""
+    path = folder / "history.csv"
+    if not path.is_file():
+        return {}
+    with open(path, newline="") as f:
+        rows = list(csv.DictReader(f))
+    if not rows or "step" not in rows[0] or "t" not in rows[0]:
+        return {}
+    return {int(r["step"]): float(r["t"]) for r in rows}
+
+
+def read_trajectory(path: str | os.PathLike,
+                    frames: Iterable[int] | None = None) -> Iterator[TrajectoryFrame]:
+    """Yield the frames (all, or the indices ``frames``) of a trajectory.gsd.
+
+    theta = 2 atan2(q_z, q_w), right for this module's quaternions and for the plain turns about
+    z of older files; l and sigma from ``log/particles/length`` and ``log/particles/stress``; t
+    from ``log/Time``, else from the history.csv beside the file (row of the frame's step; 0 at
+    step 0).  Raises ValueError when the file is missing or lacks the per-particle logs.
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"trajectory not found: {p}")
+    t_of_step: dict[int, float] | None = None
+    with gsd.hoomd.open(str(p), mode="r") as traj:
+        for i in range(len(traj)) if frames is None else frames:
+            fr = traj[int(i)]
+            log = fr.log
+            if "particles/length" not in log or "particles/stress" not in log:
+                raise ValueError(f"{p}: frame {i} has no log/particles/length or stress")
+            step = int(fr.configuration.step)
+            if "Time" in log:
+                t = float(np.asarray(log["Time"]).ravel()[0])
+            else:
+                if t_of_step is None:
+                    t_of_step = _history_times(p.parent)
+                t = t_of_step.get(step, 0.0 if step == 0 else float("nan"))
+            pos = np.asarray(fr.particles.position, dtype=float)
+            q = np.asarray(fr.particles.orientation, dtype=float)
+
+            def opt(name, log=log):
+                v = log.get(f"particles/{name}")
+                return None if v is None else np.asarray(v, dtype=np.int64)
+
+            yield TrajectoryFrame(
+                step=step, t=t, x=pos[:, 0].copy(), y=pos[:, 1].copy(),
+                theta=2.0 * np.arctan2(q[:, 3], q[:, 0]),
+                length=np.asarray(log["particles/length"], dtype=float),
+                stress=np.asarray(log["particles/stress"], dtype=float),
+                ids=opt("Particle Identifier"), parent=opt("parent"),
+                generation=opt("generation"))
