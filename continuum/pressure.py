@@ -289,6 +289,7 @@ class PressureSolver:
         self.reuse_factor = reuse_factor
         self.assembler: P1Assembler | None = None
         self._amg = None
+        self._amg_source: np.ndarray | None = None
         self.stats = NewtonStats()
         self.last: dict | None = None
 
@@ -297,12 +298,34 @@ class PressureSolver:
         self.assembler = P1Assembler(tris, n_nodes, n_boundary)
         self._amg = None
 
+    def amg_state(self) -> np.ndarray | None:
+        """CSR data (on the assembler's pattern) of the matrix the AMG hierarchy was built from.
+
+        None when there is no hierarchy. Together with the topology this is all the state the
+        solver carries from one solve to the next (the hierarchy is reused while CG converges
+        quickly), so a solver given it by ``restore_amg`` makes the same decisions and computes
+        the same iterates, bit for bit (``amg_hierarchy`` is deterministic).
+        """
+        return None if self._amg is None else self._amg_source
+
+    def restore_amg(self, data: np.ndarray | None) -> None:
+        """Rebuild the AMG hierarchy from ``amg_state()`` of a solver on the same topology."""
+        if data is None:
+            self._amg = None
+            return
+        data = np.array(data, dtype=float)
+        if self.assembler is None or data.shape != (self.assembler.nnz,):
+            raise ValueError("restore_amg: the matrix does not fit the current mesh topology")
+        self._amg = amg_hierarchy(self.assembler.matrix(data))
+        self._amg_source = data
+
     def _setup(self, A: sp.csr_matrix, st: NewtonStats) -> None:
         """Build the AMG hierarchy of A (``amg_hierarchy``), counted and timed in ``st``."""
         import time
 
         t0 = time.perf_counter()
         self._amg = amg_hierarchy(A)
+        self._amg_source = A.data.copy()
         st.amg_setups += 1
         st.time_amg += time.perf_counter() - t0
 

@@ -22,10 +22,14 @@ div u = g), is interpolated and multiplied back by exp(G_new).
 
 from __future__ import annotations
 
+import json
 import math
+import os
+import signal
 import sys
+import threading
 import time as _time
-from dataclasses import dataclass, field, fields
+from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 import numpy as np
@@ -83,6 +87,9 @@ class ContinuumConfig:
         Write the VTU series (history, boundary and config are always written).
     max_steps : int
         Safety limit on the number of time steps.
+    checkpoint_seconds : float
+        Wall time between checkpoints when writing to a folder (an execution setting,
+        ``EXECUTION_FIELDS``: a checkpoint resumes under another value, with the same result).
     """
 
     lam: float = 0.0
@@ -102,6 +109,7 @@ class ContinuumConfig:
     output_every: float = 1.0
     write_fields: bool = True
     max_steps: int = 200_000
+    checkpoint_seconds: float = 300.0
 
     def validate(self) -> ContinuumConfig:
         """Check the values; raises ValueError with a one-line message. Returns self."""
@@ -137,6 +145,8 @@ class ContinuumConfig:
             raise ValueError(f"output_every must be >= 0, got {self.output_every!r}")
         if not (isinstance(self.max_steps, int) and self.max_steps > 0):
             raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
+        if not (math.isfinite(self.checkpoint_seconds) and self.checkpoint_seconds >= 0):
+            raise ValueError(f"checkpoint_seconds must be >= 0, got {self.checkpoint_seconds!r}")
         self._shape_polygon()  # parses and checks the shape
         if self.radius is not None:
             r_init = math.sqrt(abs(M.polygon_area(self._shape_polygon())) / math.pi)
@@ -187,6 +197,7 @@ class ContinuumState:
         (finite volumes in l), so mean_length_psi is the smoother of the two.
     t : time; boundary : (K, 2) boundary polygon (the nodes 0..K-1); history : per-step rows.
     timings : accumulated seconds per stage.
+    finished : False when the run stopped early (``max_steps_this_call``) and can be resumed.
     """
 
     points: np.ndarray
@@ -196,6 +207,7 @@ class ContinuumState:
     boundary: np.ndarray
     history: list = field(default_factory=list)
     timings: dict = field(default_factory=dict)
+    finished: bool = True
 
     def sample(self, xy: np.ndarray) -> dict:
         """P1 interpolation of every field at the points xy (P, 2); NaN outside the domain."""
@@ -211,12 +223,22 @@ class ContinuumState:
 
 
 class _Colony:
-    """Mutable solver state: mesh, fields and the pressure solver (one run)."""
+    """Mutable solver state: mesh, fields and the pressure solver (one run).
 
-    def __init__(self, config: ContinuumConfig):
+    ``snapshot`` returns everything that determines the following steps, and
+    ``_Colony(config, snapshot)`` continues from it exactly as this object would.
+    """
+
+    SCALARS = ("t", "nb", "n_remesh", "newton", "krylov", "h_mesh", "hmean_mesh", "dt_prev")
+    ARRAYS = ("points", "tris", "G", "p", "u", "g")
+
+    def __init__(self, config: ContinuumConfig, snapshot: tuple[dict, dict] | None = None):
         self.cfg = config
         self.solver = PressureSolver(config.lam)
         self.grid = LengthGrid(config.n_length_cells)
+        if snapshot is not None:
+            self._restore(*snapshot)
+            return
         self.t = 0.0
         self.n_remesh = 0
         self.timings = dict.fromkeys(
@@ -234,6 +256,35 @@ class _Colony:
         self.p = np.zeros(n)
         self.p_prev, self.dt_prev = None, 1.0
         self.solve_here()
+
+    # ------------------------------------------------------------------ checkpoints
+    def snapshot(self) -> tuple[dict, dict]:
+        """(scalars, arrays) of the state: mesh, fields, Psi, warm start, AMG matrix, counters.
+
+        ``timings`` (wall seconds) is included so that a resumed run keeps accumulating.
+        """
+        scalars = {name: getattr(self, name) for name in self.SCALARS}
+        scalars["timings"] = dict(self.timings)
+        arrays = {name: getattr(self, name) for name in self.ARRAYS}
+        arrays["psi"] = self.sizes.n
+        if self.p_prev is not None:
+            arrays["p_prev"] = self.p_prev
+        amg = self.solver.amg_state()
+        if amg is not None:
+            arrays["amg"] = amg
+        return scalars, arrays
+
+    def _restore(self, scalars: dict, arrays: dict) -> None:
+        """Set the state from ``snapshot()`` output (the pressure solver's AMG rebuilt)."""
+        for name in self.SCALARS:
+            setattr(self, name, scalars[name])
+        self.timings = dict(scalars["timings"])
+        for name in self.ARRAYS:
+            setattr(self, name, np.array(arrays[name]))
+        self.sizes = SizeDistribution(self.grid, arrays["psi"])
+        self.p_prev = np.array(arrays["p_prev"]) if "p_prev" in arrays else None
+        self.solver.set_mesh(self.tris, len(self.points), self.nb)
+        self.solver.restore_amg(arrays.get("amg"))
 
     # ------------------------------------------------------------------ helpers
     def h_target(self, area: float) -> float:
@@ -399,7 +450,7 @@ class _Colony:
             "remesh": {None: 0, "quality": 1, "boundary": 2, "size": 3}[reason],
         }
 
-    def state(self, history: list) -> ContinuumState:
+    def state(self, history: list, finished: bool = True) -> ContinuumState:
         return ContinuumState(
             points=self.points.copy(),
             triangles=self.tris.copy(),
@@ -408,24 +459,180 @@ class _Colony:
             boundary=self.points[: self.nb].copy(),
             history=list(history),
             timings=dict(self.timings),
+            finished=finished,
         )
 
 
-def run(config: ContinuumConfig, out: Path | None = None, progress: bool = False) -> ContinuumState:
+EXECUTION_FIELDS = ("checkpoint_seconds",)
+"""Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
+
+CHECKPOINT = "checkpoint.npz"
+"""File name of the checkpoint in the run folder."""
+
+
+def _step_dt(col: _Colony, config: ContinuumConfig) -> tuple[float, bool]:
+    """dt of the next step, the stable one (``stable_dt``) shortened to land on the goal.
+
+    Returns (dt, last): ``last`` is True when the step is meant to reach the goal (radius R:
+    R + dt dR/dt >= R_goal; time: t + dt >= T).
+    """
+    dt = stable_dt(col.points[: col.nb], col.u[: col.nb], config.courant)
+    if config.radius is not None:
+        R, Rdot = math.sqrt(col.area / math.pi), col.radius_rate()
+        if R + dt * Rdot >= config.radius:
+            return max((config.radius - R) / max(Rdot, 1e-300), 1e-14), True
+    elif col.t + dt >= config.time * (1 - 1e-12):
+        return config.time - col.t, True
+    return dt, False
+
+
+def _advance(col: _Colony, config: ContinuumConfig) -> tuple[dict, bool]:
+    """One step of a run: remesh if due, then a Heun step; returns (history row, goal reached)."""
+    reason = col.maybe_remesh()
+    dt, last = _step_dt(col, config)
+    dt = col.step(dt)
+    row = col.history_row(dt, reason)
+    if config.radius is not None:
+        return row, row["radius"] >= config.radius * (1 - 1e-7)
+    return row, last and col.t >= config.time * (1 - 1e-12)
+
+
+def _save_checkpoint(
+    path: Path, config: ContinuumConfig, col: _Colony, history: list, frames: list,
+    next_frame: float, done: bool,
+) -> None:
+    """Write the run's state (``_Colony.snapshot``, history, VTU frame list, next frame time,
+    configuration) to ``path`` atomically: a temporary file, then ``os.replace``."""
+    scalars, arrays = col.snapshot()
+    meta = {"config": asdict(config), "colony": scalars, "history": history,
+            "frames": frames, "next_frame": next_frame, "done": done}
+    tmp = path.with_name(path.name + ".tmp.npz")
+    np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
+    os.replace(tmp, path)
+
+
+def _check_resumable(path: Path, saved: dict, config: ContinuumConfig) -> None:
+    """ValueError unless the saved configuration equals ``config`` up to EXECUTION_FIELDS."""
+    now = json.loads(json.dumps(asdict(config)))
+    wrong = sorted(
+        k for k in {*saved, *now} if k not in EXECUTION_FIELDS and saved.get(k) != now.get(k)
+    )
+    if wrong:
+        raise ValueError(
+            f"checkpoint {path} belongs to a different configuration (differs in "
+            f"{', '.join(wrong)}); delete it, or use another output folder, to start afresh"
+        )
+
+
+def _load_checkpoint(path: Path, config: ContinuumConfig) -> tuple:
+    """(colony, history, frames, next_frame, done) saved by ``_save_checkpoint`` at ``path``."""
+    with np.load(path) as z:
+        meta = json.loads(str(z["meta"]))
+        _check_resumable(path, meta["config"], config)
+        arrays = {k: z[k] for k in z.files if k != "meta"}
+    col = _Colony(config, (meta["colony"], arrays))
+    frames = [(t, name) for t, name in meta["frames"]]
+    return col, meta["history"], frames, meta["next_frame"], meta["done"]
+
+
+def _remove_later_frames(out: Path, frames: list) -> None:
+    """Delete the VTU frames ``fields/frame_*.vtu`` that are not in ``frames``: those the run
+    wrote after its checkpoint (a resumed run writes them again)."""
+    keep = {name for _, name in frames}
+    for path in sorted((out / "fields").glob("frame_*.vtu")):
+        if f"fields/{path.name}" not in keep:
+            path.unlink()
+
+
+class _StopRequest:
+    """SIGINT / SIGTERM deferred to the end of the current step (main thread only).
+
+    ``install`` replaces the handlers; the first signal sets ``signum`` and puts the previous
+    handlers back, so the run can finish its step and write a checkpoint, while a second signal
+    acts at once. ``restore`` puts them back. (The twin of particles.simulation._StopRequest:
+    the two engines do not import each other.)
+    """
+
+    def __init__(self):
+        self.signum = None
+        self._previous = {}
+
+    def install(self) -> _StopRequest:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self._previous[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def _handle(self, signum, frame):
+        self.signum = signum
+        self.restore()
+
+    def restore(self) -> None:
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        self._previous = {}
+
+    def act(self) -> None:
+        """Raise for the signal received: KeyboardInterrupt (SIGINT), SystemExit(128 + signum)."""
+        if self.signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        if self.signum is not None:
+            raise SystemExit(128 + self.signum)
+
+
+def _start(config: ContinuumConfig, out: Path | None, writer) -> tuple:
+    """(colony, history, next_frame, done): from ``out``'s checkpoint if there is one (the
+    frames written after it removed, the writer's frame list restored), else afresh (writing
+    config.json and the first frame)."""
+    from continuum import output
+
+    ckpt = None if out is None else out / CHECKPOINT
+    if ckpt is not None and ckpt.exists():
+        col, history, frames, next_frame, done = _load_checkpoint(ckpt, config)
+        if writer is not None:
+            writer.frames = frames
+            _remove_later_frames(out, frames)
+        return col, history, next_frame, done
+    if out is not None:
+        output.write_config(out, config)
+    col = _Colony(config)
+    history = [col.history_row(0.0, None)]
+    if writer is not None:
+        writer.write(col.t, col.points, col.tris, col.state_fields())
+    return col, history, config.output_every if config.output_every > 0 else math.inf, False
+
+
+def run(
+    config: ContinuumConfig,
+    out: Path | None = None,
+    progress: bool = False,
+    max_steps_this_call: int | None = None,
+) -> ContinuumState:
     """Grow the colony until ``config.radius`` or ``config.time``; optionally write ``out``.
 
     Parameters
     ----------
     config : ContinuumConfig
     out : Path, optional
-        Existing empty folder: config.json, history.csv, boundary.csv, fields.pvd + fields/.
+        Existing folder: config.json, history.csv, boundary.csv, fields.pvd + fields/, and
+        checkpoint.npz every ``config.checkpoint_seconds``. If it holds a checkpoint of the
+        same configuration (up to EXECUTION_FIELDS) the run resumes from it, with a result
+        bit-identical to an uninterrupted run's (files and arrays). The caller removes
+        checkpoint.npz after a finished run.
     progress : bool
         Show a tqdm progress bar (only when stderr is a terminal).
+    max_steps_this_call : int, optional
+        Stop after this many steps of this call, writing a checkpoint (as if interrupted);
+        the returned state has ``finished = False``.
+
+    SIGINT or SIGTERM in the main thread ends the run after the current step (remeshing and
+    output included) with a checkpoint of that step, then raises KeyboardInterrupt (SIGINT) or
+    SystemExit(128 + signum) (SIGTERM); a second signal acts at once.
 
     Raises
     ------
     ValueError
-        Bad configuration.
+        Bad configuration, or a checkpoint of another configuration in ``out``.
     PressureDivergence
         No pressure solution (e.g. lam < 0 beyond the critical size).
     """
@@ -440,14 +647,9 @@ def run(config: ContinuumConfig, out: Path | None = None, progress: bool = False
         out = Path(out)
         if not out.is_dir():
             raise ValueError(f"output folder does not exist: {out}")
-        output.write_config(out, config)
         if config.write_fields:
             writer = output.FieldWriter(out)
-    col = _Colony(config)
-    history = [col.history_row(0.0, None)]
-    if writer is not None:
-        writer.write(col.t, col.points, col.tris, col.state_fields())
-    next_frame = config.output_every if config.output_every > 0 else math.inf
+    col, history, next_frame, done = _start(config, out, writer)
     by_radius = config.radius is not None
     goal = config.radius if by_radius else config.time
     start = history[0]["radius"] if by_radius else 0.0
@@ -457,48 +659,45 @@ def run(config: ContinuumConfig, out: Path | None = None, progress: bool = False
         unit="R" if by_radius else "t",
         leave=False,
     )
-    done = False
-    for _ in range(config.max_steps):
-        reason = col.maybe_remesh()
-        dt = stable_dt(col.points[: col.nb], col.u[: col.nb], config.courant)
-        if by_radius:
-            R, Rdot = math.sqrt(col.area / math.pi), col.radius_rate()
-            if R + dt * Rdot >= goal:
-                dt = max((goal - R) / max(Rdot, 1e-300), 1e-14)
-                done = True
-        elif col.t + dt >= goal * (1 - 1e-12):
-            dt = goal - col.t
-            done = True
-        try:
-            dt = col.step(dt)
-        except PressureDivergence:
-            if out is not None:  # keep the history up to the failure for diagnosis
+    stop = _StopRequest().install()
+    last_checkpoint = _time.monotonic()
+    steps_here = 0
+    try:
+        while not done:
+            if len(history) > config.max_steps:
+                raise RuntimeError(f"max_steps={config.max_steps} reached at {col.where()}")
+            try:
+                row, done = _advance(col, config)
+            except PressureDivergence:
+                if out is not None:  # keep the history up to the failure for diagnosis
+                    output.write_history(out, history)
+                raise
+            history.append(row)
+            steps_here += 1
+            bar.update(round((row["radius"] if by_radius else col.t) - start, 6) - bar.n)
+            if writer is not None and (col.t >= next_frame) and not done:
+                writer.write(col.t, col.points, col.tris, col.state_fields())
+                next_frame += config.output_every
+            pause = not done and max_steps_this_call is not None
+            pause = pause and steps_here >= max_steps_this_call
+            due = not done and _time.monotonic() - last_checkpoint >= config.checkpoint_seconds
+            if out is not None and (stop.signum is not None or pause or due):
+                frames = [] if writer is None else writer.frames
+                _save_checkpoint(out / CHECKPOINT, config, col, history, frames, next_frame, done)
                 output.write_history(out, history)
-            bar.close()
-            raise
-        row = col.history_row(dt, reason)
-        history.append(row)
-        progress_now = row["radius"] if by_radius else col.t
-        bar.update(round(progress_now - start, 6) - bar.n)
-        if by_radius:
-            done = row["radius"] >= goal * (1 - 1e-7)
-        else:
-            done = done and col.t >= goal * (1 - 1e-12)
-        if writer is not None and (col.t >= next_frame) and not done:
-            writer.write(col.t, col.points, col.tris, col.state_fields())
-            next_frame += config.output_every
-        if done:
-            break
-    else:
+                last_checkpoint = _time.monotonic()
+            if stop.signum is not None or pause:
+                break
+        state = col.state(history, finished=done)
+        if out is not None and done:
+            output.write_history(out, history)
+            output.write_boundary(out, state.boundary)
+            if writer is not None:
+                writer.write(col.t, col.points, col.tris, state.fields)
+    finally:
+        stop.restore()
         bar.close()
-        raise RuntimeError(f"max_steps={config.max_steps} reached at {col.where()}")
-    bar.close()
-    state = col.state(history)
-    if out is not None:
-        output.write_history(out, history)
-        output.write_boundary(out, state.boundary)
-        if writer is not None:
-            writer.write(col.t, col.points, col.tris, state.fields)
+    stop.act()
     return state
 
 
