@@ -238,7 +238,7 @@ def count_frames(path: str | os.PathLike) -> int:
 
 
 def _history_times(folder: Path) -> dict[int, float]:
-    """step -> t from history.csv beside the trajectory ({} when absent or without a step column)."""
+    """step -> t from history.csv beside the trajectory ({} when absent or without step)."""
     path = folder / "history.csv"
     if not path.is_file():
         return {}

@@ -10,8 +10,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from particles.output import (BOX_MARGIN, append_frame, box_edge, count_frames, read_trajectory,
-                              rod_axis, rod_quaternion, truncate_trajectory)
+from particles.output import (
+    BOX_MARGIN,
+    append_frame,
+    box_edge,
+    count_frames,
+    read_trajectory,
+    rod_axis,
+    rod_quaternion,
+    truncate_trajectory,
+)
 from particles.state import B, ParticleState
 
 

@@ -1,0 +1,329 @@
+"""Pictures and movies of a finished run, redrawn from its saved outputs (nothing is rerun).
+
+``plot_run(DIR)`` (``colony plot DIR``) and ``movie_run(DIR, OUT.mp4)`` (``colony movie DIR``)
+read a run folder of either engine (docs/DESIGN.md, output contract):
+
+- continuum: config.json, history.csv, fields.pvd + fields/*.vtu (point data G);
+- particles: config.json, history.csv, trajectory.gsd (particles.csv for the final picture).
+
+Particles are sphero-cylinders coloured by their length l, the continuum is its mean length
+lbar = 2^frac(G / ln 2) with the domain boundary; both on the colour scale [1, 2] of the paper's
+Fig 2 (cases.draw.LENGTH_LIMITS).  The final pictures are those ``colony continuum|particles``
+draws (the functions of cases.cli, reused); R(t) comes from history.csv.  Movie frames share one
+colour scale and the axis limits of the largest (last) frame; the MP4 is written by
+imageio-ffmpeg (H.264, yuv420p, playable everywhere).
+
+``ovito_pipeline`` and ``render_ovito`` open a particle trajectory in OVITO's Python module (an
+optional dependency) and render it headless.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from types import SimpleNamespace
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from cases.analysis import continuum_frames, read_continuum_frame, read_csv  # noqa: E402
+from cases.draw import DEFAULT_CMAP, LENGTH_LIMITS, draw_particles  # noqa: E402
+
+__all__ = ["run_kind", "plot_run", "movie_run", "boundary_edges", "ovito_pipeline",
+           "render_ovito"]
+
+#: Files that make a folder a run of each engine.
+REQUIRED = {"continuum": ("config.json", "history.csv", "fields.pvd"),
+            "particles": ("config.json", "history.csv", "trajectory.gsd")}
+
+#: Movie frame size in pixels (multiples of 16, the H.264 macro block).
+MOVIE_SIZE = (720, 640)
+
+
+def run_kind(run_dir: str | Path) -> str:
+    """'continuum' or 'particles' from the files in ``run_dir``; ValueError (one line) otherwise."""
+    d = Path(run_dir)
+    if not d.is_dir():
+        raise ValueError(f"{d}: not a folder")
+    kind = ("continuum" if (d / "fields.pvd").exists() else
+            "particles" if (d / "trajectory.gsd").exists() else None)
+    if kind is None:
+        raise ValueError(f"{d}: not a run folder (neither fields.pvd nor trajectory.gsd)")
+    missing = [f for f in REQUIRED[kind] if not (d / f).is_file()]
+    if missing:
+        raise ValueError(f"{d}: {kind} run folder without {', '.join(missing)}")
+    return kind
+
+
+def _lam(d: Path) -> float:
+    try:
+        return float(json.loads((d / "config.json").read_text())["lam"])
+    except (ValueError, KeyError, TypeError) as e:
+        raise ValueError(f"{d}: config.json unreadable or without lam ({e})") from None
+
+
+def _continuum_frames(d: Path) -> list[tuple[float, Path]]:
+    import xml.etree.ElementTree as ET
+
+    try:
+        frames = continuum_frames(d)
+    except (ET.ParseError, TypeError, ValueError) as e:
+        raise ValueError(f"{d}: fields.pvd unreadable ({e})") from None
+    missing = [p.name for _, p in frames if not p.is_file()]
+    if not frames or missing:
+        raise ValueError(f"{d}: fields.pvd lists no frames or missing files "
+                         f"({', '.join(missing[:3])})")
+    return frames
+
+
+# --------------------------------------------------------------------------- pictures
+
+
+def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
+    """Redraw a run's pictures into ``out`` (default: the run folder); returns the PNG paths.
+
+    Continuum: ``mean_length.png`` (the last VTU frame); particles: ``colony.png`` (particles.csv,
+    else the trajectory's last frame); both: ``radius.png``, R(t) from history.csv, and
+    ``profile.png``, the radial mean-length profile from profile.csv when present.
+    """
+    from cases.cli import _draw_continuum, _draw_particles
+
+    d = Path(run_dir)
+    kind = run_kind(d)
+    lam = _lam(d)
+    o = d if out is None else Path(out)
+    o.mkdir(parents=True, exist_ok=True)
+    hist = _history(d)
+    if kind == "continuum":
+        t, vtu = _continuum_frames(d)[-1]
+        points, triangles, data = read_continuum_frame(vtu)
+        if "G" not in data:
+            raise ValueError(f"{d}: {vtu.name} has no point data G")
+        state = SimpleNamespace(points=points, triangles=triangles, fields=data, t=t)
+        _draw_continuum(state, o / "mean_length", lam)
+        paths = [o / "mean_length.png"]
+    else:
+        colony = _final_particles(d, hist)
+        _draw_particles(colony, o / "colony", lam)
+        paths = [o / "colony.png"]
+    paths.append(_plot_radius(hist, kind, lam, o / "radius.png"))
+    if (d / "profile.csv").is_file():
+        paths.append(_plot_profile(read_csv(d / "profile.csv"), kind, lam, o / "profile.png"))
+    return paths
+
+
+def _history(d: Path) -> dict[str, np.ndarray]:
+    hist = read_csv(d / "history.csv")
+    if "t" not in hist or "radius" not in hist or np.size(hist["t"]) == 0:
+        raise ValueError(f"{d}: history.csv without rows or columns t, radius")
+    return {k: np.atleast_1d(v) for k, v in hist.items()}
+
+
+def _final_particles(d: Path, hist: dict[str, np.ndarray]) -> SimpleNamespace:
+    t = float(hist["t"][-1])
+    if (d / "particles.csv").is_file():
+        p = read_csv(d / "particles.csv")
+        return SimpleNamespace(**{k: np.atleast_1d(p[k]) for k in ("x", "y", "theta", "length")},
+                               t=t)
+    from particles.output import count_frames, read_trajectory
+
+    (fr,) = read_trajectory(d / "trajectory.gsd", frames=[count_frames(d / "trajectory.gsd") - 1])
+    return SimpleNamespace(x=fr.x, y=fr.y, theta=fr.theta, length=fr.length,
+                           t=fr.t if math.isfinite(fr.t) else t)
+
+
+def _plot_radius(hist, kind: str, lam: float, path: Path) -> Path:
+    fig, ax = plt.subplots(figsize=(5, 3.6))
+    ax.plot(hist["t"], hist["radius"], lw=1.5)
+    ax.set_xlabel("t")
+    ax.set_ylabel("R(t)")
+    ax.set_title(f"{kind}, lam = {lam:g}: colony radius")
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+def _plot_profile(profile, kind: str, lam: float, path: Path) -> Path:
+    fig, ax = plt.subplots(figsize=(5, 3.6))
+    ax.plot(profile["r"], profile["mean_length"], lw=1.2)
+    ax.set_xlabel("r")
+    ax.set_ylabel(r"mean length $\bar\ell$")
+    ax.set_title(f"{kind}, lam = {lam:g}: final radial profile")
+    ax.set_ylim(*LENGTH_LIMITS)
+    ax.grid(alpha=0.3)
+    fig.savefig(path, dpi=120, bbox_inches="tight")
+    plt.close(fig)
+    return path
+
+
+# --------------------------------------------------------------------------- movies
+
+
+def boundary_edges(triangles: np.ndarray) -> np.ndarray:
+    """Edges (k, 2) of a triangle mesh used by exactly one triangle: the domain boundary."""
+    t = np.asarray(triangles, dtype=np.int64)
+    e = np.sort(np.concatenate([t[:, [0, 1]], t[:, [1, 2]], t[:, [2, 0]]]), axis=1)
+    uniq, count = np.unique(e, axis=0, return_counts=True)
+    return uniq[count == 1]
+
+
+def _pick(n: int, max_frames: int | None) -> list[int]:
+    """At most ``max_frames`` frame indices, evenly spaced, first and last kept."""
+    if max_frames is None or n <= max_frames:
+        return list(range(n))
+    if max_frames < 2:
+        return [n - 1]
+    return sorted(set(np.round(np.linspace(0, n - 1, max_frames)).astype(int).tolist()))
+
+
+def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
+              max_frames: int | None = None, pixels: int = 640,
+              progress: bool = True) -> Path:
+    """Write an MP4 of a run's frames (every VTU / trajectory frame, or ``max_frames`` of them).
+
+    Each movie frame is a matplotlib picture of ``MOVIE_SIZE`` pixels: particles as
+    sphero-cylinders coloured by l, or the continuum's lbar on a ``pixels``-wide grid over the
+    final domain with the frame's boundary; colour scale [1, 2] and axis limits (those of the
+    last, largest frame) fixed.  A tqdm bar shows progress when ``progress``.
+    """
+    import imageio_ffmpeg
+    from matplotlib.collections import LineCollection
+    from tqdm import tqdm
+
+    from cases.cli import mean_length_image
+
+    d = Path(run_dir)
+    kind = run_kind(d)
+    lam = _lam(d)
+    out_path = Path(out_path)
+    if fps <= 0 or (max_frames is not None and max_frames < 1):
+        raise ValueError(f"fps must be > 0 and max_frames >= 1, got {fps}, {max_frames}")
+    if kind == "continuum":
+        frames = _continuum_frames(d)
+        pick = _pick(len(frames), max_frames)
+        p_last, _, _ = read_continuum_frame(frames[pick[-1]][1])
+        lo, hi = p_last.min(axis=0), p_last.max(axis=0)
+    else:
+        from particles.output import count_frames, read_trajectory
+
+        gsd_path = d / "trajectory.gsd"
+        pick = _pick(count_frames(gsd_path), max_frames)
+        (last,) = read_trajectory(gsd_path, frames=[pick[-1]])
+        h = 0.5 * last.length
+        lo = np.array([np.min(last.x - h), np.min(last.y - h)])
+        hi = np.array([np.max(last.x + h), np.max(last.y + h)])
+    pad = 0.03 * float(np.max(hi - lo)) + 0.5
+    xlim, ylim = (lo[0] - pad, hi[0] + pad), (lo[1] - pad, hi[1] + pad)
+
+    w, h = MOVIE_SIZE
+    fig = plt.figure(figsize=(w / 100, h / 100), dpi=100)
+    ax = fig.add_axes((0.06, 0.06, 0.74, 0.86))
+    cax = fig.add_axes((0.84, 0.15, 0.03, 0.68))
+    sm = plt.cm.ScalarMappable(cmap=DEFAULT_CMAP, norm=plt.Normalize(*LENGTH_LIMITS))
+    cb = fig.colorbar(sm, cax=cax)  # a fixed axes: the picture does not move between frames
+    cb.set_label(r"length $\ell$" if kind == "particles" else r"mean length $\bar\ell$")
+
+    out_path.parent.mkdir(parents=True, exist_ok=True)
+    writer = imageio_ffmpeg.write_frames(str(out_path), (w, h), fps=fps, codec="libx264",
+                                         pix_fmt_in="rgb24", pix_fmt_out="yuv420p",
+                                         quality=None, macro_block_size=16,
+                                         output_params=["-crf", "23"])
+    writer.send(None)
+    try:
+        if kind == "continuum":
+            items = ((frames[i][0], frames[i][1]) for i in pick)
+        else:
+            items = ((None, fr) for fr in read_trajectory(gsd_path, frames=pick))
+        bar = tqdm(items, total=len(pick), desc=f"movie {out_path.name}", disable=not progress)
+        for t, item in bar:
+            ax.clear()
+            if kind == "continuum":
+                points, triangles, data = read_continuum_frame(item)
+                size = float(np.max(points.max(axis=0) - points.min(axis=0)))
+                px = max(32, int(pixels * size / float(np.max(hi - lo))))
+                image, extent = mean_length_image(points, triangles, data["G"], pixels=px)
+                ax.imshow(image, origin="lower", extent=extent, cmap=DEFAULT_CMAP,
+                          vmin=LENGTH_LIMITS[0], vmax=LENGTH_LIMITS[1],
+                          interpolation="nearest")
+                edges = points[boundary_edges(triangles)]
+                ax.add_collection(LineCollection(edges, colors="k", linewidths=0.8))
+                ax.set_title(f"continuum, lam = {lam:g}, t = {t:.3g}")
+            else:
+                draw_particles(item.x, item.y, item.theta, item.length, ax=ax, rasterized=False)
+                ax.set_title(f"particles, lam = {lam:g}, N = {item.n}, t = {item.t:.3g}")
+            ax.set_xlim(*xlim)
+            ax.set_ylim(*ylim)
+            ax.set_aspect("equal")
+            fig.canvas.draw()
+            rgb = np.asarray(fig.canvas.buffer_rgba())[:, :, :3]
+            writer.send(np.ascontiguousarray(rgb).tobytes())
+    finally:
+        writer.close()
+        plt.close(fig)
+    return out_path
+
+
+# --------------------------------------------------------------------------- OVITO
+
+
+def ovito_pipeline(path: str | Path, color_by: str = "length",
+                   clim: Sequence[float] = LENGTH_LIMITS):
+    """OVITO pipeline of a particle trajectory.gsd: rods coloured by ``color_by``, cell open.
+
+    The file alone already gives OVITO sphero-cylinders of each particle's length along theta
+    (particles/output.py); this adds the colour coding (viridis, limits ``clim``) and turns the
+    cell's periodicity off (OVITO's GSD reader always marks HOOMD boxes periodic).
+    """
+    from ovito.io import import_file
+    from ovito.modifiers import ColorCodingModifier
+
+    p = Path(path)
+    if not p.is_file():
+        raise ValueError(f"trajectory not found: {p}")
+    pipeline = import_file(str(p))
+
+    def open_cell(frame, data):
+        data.cell_.pbc = (False, False, False)
+        data.cell_.vis.enabled = False
+
+    pipeline.modifiers.append(open_cell)
+    pipeline.modifiers.append(ColorCodingModifier(
+        property=color_by, start_value=float(clim[0]), end_value=float(clim[1]),
+        gradient=ColorCodingModifier.Viridis()))
+    return pipeline
+
+
+def render_ovito(path: str | Path, png: str | Path, frame: int = -1,
+                 size: tuple[int, int] = (600, 600), renderer: str = "tachyon") -> Path:
+    """Render one frame of a particle trajectory with OVITO headless (top view, white).
+
+    ``renderer``: 'tachyon' (software ray tracer) or 'opengl'.  OVITO 3.17 renders through
+    Vulkan: on a machine without a GPU it needs the Vulkan loader and Mesa's software driver
+    (Debian: ``apt-get install libvulkan1 mesa-vulkan-drivers``).
+    """
+    from ovito.vis import OpenGLRenderer, TachyonRenderer, Viewport
+
+    pipeline = ovito_pipeline(path)
+    k = frame % pipeline.num_frames
+    pos = pipeline.compute(k).particles.positions[:, :2]
+    lo, hi = pos.min(axis=0) - 1.0, pos.max(axis=0) + 1.0  # + half a division length
+    centre = 0.5 * (lo + hi)
+    pipeline.add_to_scene()
+    try:
+        # orthographic top view: fov is half the height of the visible area (world units)
+        half = 0.5 * float(max(hi[1] - lo[1], (hi[0] - lo[0]) * size[1] / size[0]))
+        vp = Viewport(type=Viewport.Type.Top, camera_pos=(centre[0], centre[1], 0.0),
+                      fov=1.02 * half)
+        r = TachyonRenderer(ambient_occlusion=False) if renderer == "tachyon" else OpenGLRenderer()
+        vp.render_image(filename=str(png), size=size, frame=k, background=(1.0, 1.0, 1.0),
+                        renderer=r)
+    finally:
+        pipeline.remove_from_scene()
+    return Path(png)
