@@ -100,17 +100,32 @@ def test_bad_folders_are_one_line_value_errors(particle_run, continuum_run, tmp_
     assert run_kind(particle_run) == "particles" and run_kind(continuum_run) == "continuum"
 
 
-def test_ovito_render(tmp_path):
+def test_ovito_render_is_the_rod(tmp_path):
+    """OVITO's picture of one rod (l = 1.8, theta = 0.5) has the rod's area and direction.
+
+    render_ovito's top view spans 2 fov = 2.04 (positions +- 1) over the image height, so a
+    pixel is (2.04 / 200)^2; the rod covers (l - b) b + pi b^2 / 4.
+    """
     pytest.importorskip("ovito")
     from cases.viewer import render_ovito
     from particles.output import append_frame
-    from particles.state import ParticleState
+    from particles.state import B, ParticleState
 
+    length, theta = 1.8, 0.5
     path = tmp_path / "trajectory.gsd"
-    append_frame(path, ParticleState.from_arrays([0.0, 1.5], [0.0, 0.5], [0.0, 1.0], [1.2, 1.8]),
-                 0, t=0.0)
+    append_frame(path, ParticleState.from_arrays([0.0], [0.0], [theta], [length]), 0, t=0.0)
     try:
-        png = render_ovito(path, tmp_path / "o.png", size=(64, 64))
+        png = render_ovito(path, tmp_path / "o.png", size=(200, 200))
     except RuntimeError as e:  # no Vulkan loader / driver on this machine
         pytest.skip(f"OVITO cannot render here: {str(e).splitlines()[0]}")
     assert _is_png(png)
+    import matplotlib.pyplot as plt
+
+    img = plt.imread(png)[:, :, :3]
+    rows, cols = np.nonzero(img.min(axis=2) < 0.98)  # not the white background
+    area = rows.size * (2.04 / 200) ** 2
+    assert area == pytest.approx((length - B) * B + np.pi * B * B / 4, rel=0.05)
+    xy = np.column_stack([cols, -rows]).astype(float)  # image rows grow downwards
+    w, v = np.linalg.eigh(np.cov(xy.T))
+    angle = np.arctan2(v[1, -1], v[0, -1]) % np.pi
+    assert angle == pytest.approx(theta, abs=0.02)
