@@ -6,8 +6,16 @@ continuum solver (samples = mesh nodes, weighted by their lumped areas) are redu
 - :func:`equal_area_annuli` / :func:`radial_profile`: averages over annuli of equal area about the
   colony centre, with the standard deviation (Fig 3A, Fig 4A);
 - :func:`ring_peaks` / :func:`ring_wavelength`: the ring wavelength, the distance between the
-  last two peaks of the radial mean-length profile (Fig 4B, C); :func:`ring_coherence`: whether
-  a particle colony has rings at all (the same radial pattern in every angular sector);
+  last two peaks of the radial mean-length profile (Fig 4B, C; particle colonies);
+  :func:`ring_coherence`: whether a particle colony has rings at all (the same radial pattern
+  in every angular sector);
+- continuum rings from the field, not from a binned profile: the contours G = k ln 2 of the
+  smooth growth phase (:mod:`continuum.rings`), where lbar = 2^frac(G / ln 2) jumps from 2 to 1
+  and so peaks: :func:`frame_rings`, :func:`continuum_rings` (a run's ``rings.csv`` or its last
+  frame), :func:`contour_wavelength` (difference of the two outermost mean ring radii);
+  continuum radial profiles average G and map the mean by 2^frac(. / ln 2)
+  (``mean_length_phase``, :func:`field_profile`), sharp where the annulus mean of the
+  discontinuous lbar is smeared;
 - :func:`late_slope`: the late-time dR/dt by a linear fit (Fig 3D); :func:`max_value` (Fig 3C);
 - :func:`power_law_fit`: exponent and prefactor of y = C x^a (Fig 3C, Fig 4C);
 - :func:`ecoli_lambda`: the paper's estimate lam ~ 1.1e-3 for E. coli.
@@ -26,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 from scipy.signal import find_peaks
+
+from continuum import rings as _rings
 
 __all__ = [
     "equal_area_annuli",
@@ -54,7 +64,15 @@ __all__ = [
     "wavelength_series",
     "final_continuum_profile",
     "final_particle_profile",
+    "frame_rings",
+    "continuum_rings",
+    "contour_wavelength",
+    "continuum_wavelength",
+    "profile_ring_radii",
+    "mean_length_from_phase",
 ]
+
+LN2 = math.log(2.0)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -600,6 +618,12 @@ def field_profile(
     `samples_per_annulus` area-uniform points per annulus (Vogel spiral); the fields are
     interpolated linearly in the mesh's triangles and samples outside the domain are dropped, so
     each annulus averages over its intersection with the colony.
+
+    When `values` has the growth phase ``G``, the column ``mean_length_phase`` =
+    2^frac(<G> / ln 2) of the annulus mean <G> is added: G is smooth, so <G> = G(r) + O(w^2)
+    (w the annulus width) and the mapped profile keeps the rings' jumps sharp (at the annulus
+    resolution), where the annulus mean of the discontinuous lbar = 2^frac(G / ln 2) (column
+    ``mean_length``) smears each jump over the annulus and so shifts its apparent peak.
     """
     from matplotlib.tri import LinearTriInterpolator, Triangulation
 
@@ -621,7 +645,42 @@ def field_profile(
         inside &= np.isfinite(s)
         sampled[name] = s
     sampled = {k: v[inside] for k, v in sampled.items()}
-    return radial_profile(xy[inside], sampled, center=center, radius=radius, n_annuli=n_annuli)
+    out = radial_profile(xy[inside], sampled, center=center, radius=radius, n_annuli=n_annuli)
+    if "G" in values:
+        count = out.pop("count")
+        out["mean_length_phase"] = mean_length_from_phase(out["G"])
+        out["count"] = count
+    return out
+
+
+def mean_length_from_phase(G: np.ndarray) -> np.ndarray:
+    """lbar = 2^frac(G / ln 2): the mean length after growth phase G for Psi0 = delta(l - 1)
+    (nan stays nan)."""
+    q = np.asarray(G, dtype=float) / LN2
+    return 2.0 ** (q - np.floor(q))
+
+
+def profile_ring_radii(r: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Rings of a radial profile of the growth phase: radii where the (annulus-mean) G(r) crosses
+    k ln 2, by linear interpolation between samples (k >= 1; nan samples dropped).
+
+    Returns (radii, k) in increasing r. A cheap stand-in for the contours of the 2D field
+    (:func:`frame_rings`) when only ``profile.csv`` is at hand.
+    """
+    r = np.asarray(r, dtype=float)
+    G = np.asarray(G, dtype=float)
+    ok = np.isfinite(r) & np.isfinite(G)
+    r, G = r[ok], G[ok]
+    radii, ks = [], []
+    for i in range(r.size - 1):
+        lo, hi = sorted((G[i], G[i + 1]))
+        for k in range(max(1, math.floor(lo / LN2) + 1), math.floor(hi / LN2) + 1):
+            if G[i + 1] == G[i]:
+                continue
+            radii.append(r[i] + (k * LN2 - G[i]) / (G[i + 1] - G[i]) * (r[i + 1] - r[i]))
+            ks.append(k)
+    order = np.argsort(radii)
+    return np.asarray(radii, dtype=float)[order], np.asarray(ks, dtype=int)[order]
 
 
 def particle_profile(
@@ -687,20 +746,28 @@ def colony_radius(x: np.ndarray, y: np.ndarray, length: np.ndarray) -> float:
 
 def wavelength_series(folder: str | os.PathLike, engine: str,
                       edge_width: float | None = None, **kwargs) -> dict[str, np.ndarray]:
-    """Ring wavelength of the radial mean-length profile at every output frame of a run.
+    """Ring wavelength at every output frame of a run.
 
-    Continuum: every VTU frame, :func:`field_profile` (edge width 0.05), no noise threshold.
+    Continuum: every VTU frame, the contours G = k ln 2 of the growth phase (:func:`frame_rings`),
+    wavelength = difference of the two outermost mean ring radii (:func:`contour_wavelength`;
+    lbar peaks exactly at a ring, so this is the distance between the last two peaks of lbar);
+    a frame without G (runs older than the G output) falls back to the peaks of the
+    :func:`field_profile` of lbar (edge width 0.05, no noise threshold).
     Particles: every trajectory frame, :func:`particle_profile` (edge width 0.5), noise threshold
-    from the annulus standard errors. Returns columns t, radius, wavelength (nan: < 2 peaks).
+    from the annulus standard errors, peaks of the mean-length profile.
+    Returns columns t, radius, wavelength (nan: < 2 rings).
     """
     ts, Rs, ws = [], [], []
     if engine == "continuum":
         ew = 0.05 if edge_width is None else edge_width
         for t, path in continuum_frames(folder):
             pts, tri, data = read_continuum_frame(path)
-            prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=ew)
             ts.append(t)
             Rs.append(math.sqrt(_mesh_area(pts, tri) / math.pi))
+            if "G" in data:
+                ws.append(contour_wavelength(_rings.ring_table(pts, tri, data["G"])))
+                continue
+            prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=ew)
             ws.append(profile_wavelength(prof, noisy=False, **kwargs))
     elif engine == "particles":
         ew = 0.5 if edge_width is None else edge_width
@@ -725,11 +792,55 @@ def _mesh_area(points: np.ndarray, triangles: np.ndarray) -> float:
 
 def final_continuum_profile(folder: str | os.PathLike, edge_width: float = 0.05
                             ) -> dict[str, np.ndarray]:
-    """Radial profile (mean_length, pressure) of the last VTU frame of a continuum run."""
+    """Radial profile of the last VTU frame of a continuum run: mean_length, pressure and, when
+    the frame has it, G with mean_length_phase = 2^frac(<G> / ln 2) (:func:`field_profile`)."""
     t, path = continuum_frames(folder)[-1]
     pts, tri, data = read_continuum_frame(path)
-    return field_profile(pts, tri, {"mean_length": data["mean_length"], "pressure": data["p"]},
-                         edge_width=edge_width)
+    values = {"mean_length": data["mean_length"], "pressure": data["p"]}
+    if "G" in data:
+        values["G"] = data["G"]
+    return field_profile(pts, tri, values, edge_width=edge_width)
+
+
+def frame_rings(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Ring table (:func:`continuum.rings.ring_table`) of the G field of one VTU frame."""
+    pts, tri, data = read_continuum_frame(path)
+    if "G" not in data:
+        raise ValueError(f"{path}: no growth phase G in the frame")
+    return _rings.ring_table(pts, tri, data["G"])
+
+
+def continuum_rings(folder: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Final ring table of a continuum run: its ``rings.csv`` (written by the run) if present,
+    else computed from the G of its last VTU frame (the same numbers)."""
+    folder = Path(folder)
+    if (folder / "rings.csv").is_file():
+        table = read_csv(folder / "rings.csv")
+        for key in ("k", "n_pieces"):
+            if key in table:
+                table[key] = table[key].astype(int)
+        return table
+    return frame_rings(continuum_frames(folder)[-1][1])
+
+
+def continuum_wavelength(folder: str | os.PathLike, edge_width: float = 0.05, **kwargs) -> float:
+    """Final ring wavelength of a continuum run: :func:`contour_wavelength` of
+    :func:`continuum_rings`; a run without G in its frames falls back to the peaks of the last
+    frame's lbar profile (as :func:`wavelength_series`)."""
+    folder = Path(folder)
+    if (folder / "rings.csv").is_file():
+        return contour_wavelength(continuum_rings(folder))
+    pts, tri, data = read_continuum_frame(continuum_frames(folder)[-1][1])
+    if "G" in data:
+        return contour_wavelength(_rings.ring_table(pts, tri, data["G"]))
+    prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=edge_width)
+    return profile_wavelength(prof, noisy=False, **kwargs)
+
+
+def contour_wavelength(table: Mapping[str, np.ndarray]) -> float:
+    """Ring wavelength of a ring table: the two largest mean ring radii's difference (nan if
+    fewer than two rings; :func:`continuum.rings.ring_wavelength`)."""
+    return _rings.ring_wavelength(table)
 
 
 def final_particle_profile(folder: str | os.PathLike, growth_window: float = 1.0,

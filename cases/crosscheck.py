@@ -10,8 +10,11 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
   sqrt(2/lam) and the exact disc speed 4 c R at the final radius;
 - maximum stress: particles (max of the radially averaged stress, pooled over the last unit of
   growth), continuum (max p), analytic p(0) of the disc of the final radius;
-- final ring wavelength of both models and of the 1D radial reference, and whether the particle
-  colony has rings at all: the azimuthal coherence C of its final length pattern and its
+- final ring wavelength of both models and of the 1D radial reference (continuum and reference:
+  the difference of the two outermost rings G = k ln 2, the contours of the growth phase,
+  cases.analysis.continuum_wavelength, and continuum.radial.ring_radii at the continuum's final
+  radius, cases.fig4.exact_wavelength; particles: the last two peaks of the radial mean-length
+  profile), and whether the particle colony has rings at all: the azimuthal coherence C of its final length pattern and its
   significance z (:func:`cases.analysis.ring_coherence`; z >= analysis.RING_Z: rings);
 and the power-law exponents fitted against lam (lam > 0, finite values) of the wavelengths and
 maximum stresses, beside the paper's statements; the particle wavelength's over the lam whose
@@ -141,7 +144,7 @@ def _continuum_row(fc: Path, lam: float) -> dict[str, float]:
         "slope_asymptotic": math.sqrt(2.0 / lam) if lam > 0 else math.nan,
         "max_pressure_continuum": float(hc["max_pressure"][-1]),
         "p0_exact": radial.max_pressure(R_f, lam),
-        "wavelength_continuum": float(A.wavelength_series(fc, "continuum")["wavelength"][-1]),
+        "wavelength_continuum": A.continuum_wavelength(fc),
         "wavelength_exact": exact_wavelength(lam, R_f) if lam > 0 else math.nan,
     }
 

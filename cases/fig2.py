@@ -7,7 +7,10 @@ continuum mean length lbar at the same five fractions of its own final time, sam
 All panels of a row share the final colony's scale, so the growth is visible.
 
 The continuum panels are drawn from the azimuthal average of the 2D field (equal-area annuli at
-most 0.05 wide at the edge) revolved about the centre: the CSVs behind the figure stay small
+most 0.05 wide at the edge) revolved about the centre: lbar = 2^frac(<G>/ln 2) of the annulus
+mean <G> of the smooth growth phase (column mean_length_phase; the annulus mean of the
+discontinuous lbar itself, column mean_length, smears every ring over an annulus and is drawn
+only from data made before the phase column existed): the CSVs behind the figure stay small
 (a 2D mesh at radius 150 has ~1e5 nodes per frame). How far the 2D field departs from radial
 symmetry is not shown here. The particle snapshots are stored as gzipped CSV (x, y, theta,
 length at 4 significant digits): at paper scale about 2 MB in all.
@@ -84,9 +87,13 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
             for k, j in enumerate(pick, start=1):
                 t, path = frames[j]
                 pts, tri, d = A.read_continuum_frame(path)
-                prof = A.field_profile(pts, tri, {"mean_length": d["mean_length"]})
+                values = {"mean_length": d["mean_length"]}
+                if "G" in d:
+                    values["G"] = d["G"]
+                prof = A.field_profile(pts, tri, values)
                 A.write_csv(data / f"continuum_lam={lam:g}_k={k}.csv",
-                            {"r": prof["r"], "mean_length": prof["mean_length"]})
+                            {c: prof[c] for c in ("r", "mean_length", "mean_length_phase")
+                             if c in prof})
                 area = A._mesh_area(pts, tri)
                 _index(index, 0, lam, k, t, float(np.sqrt(area / np.pi)))
     A.write_csv(data / "snapshots.csv", index)
@@ -155,7 +162,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                                           ax=ax)
             else:
                 p = A.read_csv(data / f"continuum_lam={lam:g}_k={k}.csv")
-                mappable = _revolved(ax, p["r"], p["mean_length"])
+                mappable = _revolved(ax, p["r"], p.get("mean_length_phase", p["mean_length"]))
             ax.set_xlim(-1.05 * R, 1.05 * R)
             ax.set_ylim(-1.05 * R, 1.05 * R)
             ax.set_xticks([])

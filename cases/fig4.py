@@ -1,14 +1,24 @@
 """Fig 4 of the paper: dynamics of size inhomogeneity (the rings).
 
 (A) radially averaged particle length <l_n> in equal-area annuli at the final time, with a
-    one-standard-deviation band, for the three lam of Fig 2 (continuum lbar dashed, its band the
-    azimuthal spread);
-(B) ring wavelength (distance between the last two peaks of the radial mean-length profile,
-    cases.analysis.ring_wavelength) against time: continuum (lines) and particles (open circles);
+    one-standard-deviation band, for the three lam of Fig 2 (continuum dashed: 2^frac(<G>/ln 2)
+    of the annulus mean of the growth phase, column mean_length_phase, its band lbar s_G, the
+    azimuthal spread s_G of G carried by d lbar / dG = lbar; data made before that column
+    existed: the annulus mean of lbar and its spread);
+(B) ring wavelength against time, continuum (lines): difference of the two outermost rings,
+    the contours G = k ln 2 of the growth phase (cases.analysis.wavelength_series,
+    continuum.rings), where lbar = 2^frac(G/ln 2) peaks; particles (open circles): distance
+    between the last two peaks of the radial mean-length profile (cases.analysis.ring_wavelength);
 (C) final wavelength against lam for both models and the converged 1D radial reference
-    (continuum.radial, same peak detector), with the lam^(-1/2) law and fitted exponents; a
-    particle colony without rings (ring coherence z < cases.analysis.RING_Z) is drawn apart and
-    left out of the particle fit (its "wavelength" is peak-finder noise).
+    (difference of the two outermost ring radii G(r) = k ln 2 of continuum.radial.ring_radii at
+    the continuum's final radius, the same definition as the continuum's), with the lam^(-1/2)
+    law and fitted exponents; a particle colony without rings (ring coherence
+    z < cases.analysis.RING_Z) is drawn apart and left out of the particle fit (its
+    "wavelength" is peak-finder noise).
+
+``rings_continuum_lam=*.csv``: the final ring table of each continuum run (columns of
+continuum.rings.COLUMNS) with ``radius_exact``, the 1D reference's radius of the same ring k at
+the continuum's final radius (nan where the reference has no such ring).
 
 Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3}; about a minute on 2 cores, runs shared with
 the other cases through a common ``runs`` folder) or "paper" (radius 150, lam in
@@ -30,7 +40,7 @@ import numpy as np
 from cases import analysis as A
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 
-__all__ = ["compute", "reduce", "plot", "runs_needed", "exact_wavelength"]
+__all__ = ["compute", "reduce", "plot", "runs_needed", "exact_wavelength", "exact_rings"]
 
 
 def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
@@ -41,12 +51,27 @@ def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
     return lams, engine_pairs(lams, engines)
 
 
-def exact_wavelength(lam: float, radius: float, n: int = 8001) -> float:
-    """Wavelength of the 1D radial reference lbar(r) at colony radius R (same peak detector)."""
+def exact_wavelength(lam: float, radius: float) -> float:
+    """Wavelength of the 1D radial reference at colony radius R: the difference of its two
+    outermost ring radii, G(r) = k ln 2 (continuum.radial.ring_radii, |G - k ln 2| <= 1e-11);
+    nan with fewer than two rings (lam = 0 has none)."""
     from continuum import radial
 
-    r = np.linspace(0.0, radius, n)
-    return A.ring_wavelength(r, radial.mean_length_profile(lam, r, radius=radius))
+    if lam <= 0:
+        return math.nan
+    r = radial.ring_radii(lam, radius=radius)
+    return float(r[-1] - r[-2]) if r.size >= 2 else math.nan
+
+
+def exact_rings(table: dict[str, np.ndarray], lam: float, radius: float) -> np.ndarray:
+    """The 1D reference's radius of each ring k of ``table`` at colony radius R (nan if absent)."""
+    from continuum import radial
+
+    if lam <= 0:
+        return np.full(len(table["k"]), math.nan)
+    r, k = radial.ring_radii(lam, radius=radius, with_index=True)
+    by_k = dict(zip(k.tolist(), r.tolist(), strict=True))
+    return np.array([by_k.get(int(kk), math.nan) for kk in table["k"]], dtype=float)
 
 
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig4-smoke",
@@ -89,6 +114,10 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
                 A.write_csv(data / f"wavelength_{engine}_lam={lam:g}.csv", A.thin_rows(w))
                 A.write_csv(data / f"profile_{engine}_lam={lam:g}.csv",
                             _final_profile(folders[engine, lam], engine))
+            if engine == "continuum":
+                rings = A.continuum_rings(folders[engine, lam])
+                rings["radius_exact"] = exact_rings(rings, lam, float(w["radius"][-1]))
+                A.write_csv(data / f"rings_continuum_lam={lam:g}.csv", rings, fmt="%.10g")
         rows["ring_z_particles"].append(A.final_ring_coherence(folders["particles", lam])[1]
                                         if ("particles", lam) in folders else math.nan)
         rows["lam"].append(lam)
@@ -128,6 +157,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             p = A.read_csv(path)
             ok = p["count"] > 0
             r, m, s = p["r"][ok], p["mean_length"][ok], p["mean_length_std"][ok]
+            if "mean_length_phase" in p:  # continuum: 2^frac(<G>/ln 2), spread lbar s_G
+                m = p["mean_length_phase"][ok]
+                s = m * p["G_std"][ok]
             a.plot(r, m, style, color=colors[lam], lw=1, label=label)
             label = None
             a.fill_between(r, m - s, m + s, color=colors[lam], alpha=0.2, lw=0)

@@ -3,8 +3,9 @@
 1. Reductions and plots on synthetic run folders written to the output contract of
    docs/DESIGN.md, whose answers are known by construction: linear R(t) (slopes exact), particle
    radius 10 % above the continuum's (relative difference exactly 0.1), mean-length waves of
-   wavelength w = 1.2 lam^(-1/2) (wavelengths and the fitted exponent -1/2), pressure = the
-   exact disc pressure (max pressure = p(0)).
+   wavelength w = 1.2 lam^(-1/2) (wavelengths and the fitted exponent -1/2: particles a cosine
+   in r, continuum the growth phase G = ln 2 (r/w + 1/4), rings G = k ln 2 every w, and
+   lbar = 2^frac(G/ln 2)), pressure = the exact disc pressure (max pressure = p(0)).
 2. The smoke scale of every case with the real engines:
    the cases share one runs folder, so the eight smoke runs are computed once (about a minute
    on 2 cores). Asserted: the physics the smoke colonies must already show (continuum max
@@ -43,6 +44,14 @@ def mean_length(r: np.ndarray, lam: float) -> np.ndarray:
     return 1.5 if lam == 0 else 1.5 + 0.3 * np.cos(2 * np.pi * r / wavelength(lam))
 
 
+def phase(r: np.ndarray, lam: float) -> np.ndarray:
+    """Synthetic continuum growth phase: rings G = k ln 2 at r = (k - 1/4) w; lam = 0: G = ln 1.5
+    (no ring, lbar = 1.5)."""
+    if lam == 0:
+        return math.log(1.5) + 0 * r
+    return math.log(2.0) * (r / wavelength(lam) + 0.25)
+
+
 def _disc_mesh(R: float, n: int = 3000):
     from scipy.spatial import Delaunay
 
@@ -68,8 +77,9 @@ def fake_continuum_run(folder: Path, lam: float) -> Path:
     for i, (t, Rt) in enumerate(zip(TIMES, R, strict=True)):
         pts, tri = _disc_mesh(Rt, n=int(400 + 3 * Rt**2))
         r = np.hypot(*pts.T)
-        data = {"p": radial.pressure(np.minimum(r, Rt), Rt, lam),
-                "mean_length": mean_length(r, lam) + 0 * r}
+        G = phase(r, lam)
+        data = {"p": radial.pressure(np.minimum(r, Rt), Rt, lam), "G": G,
+                "mean_length": A.mean_length_from_phase(G)}
         name = f"fields/frame_{i:05d}.vtu"
         meshio.write(folder / name, meshio.Mesh(np.column_stack([pts, 0 * r]),
                                                 [("triangle", tri)], point_data=data))
