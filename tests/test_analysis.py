@@ -273,3 +273,56 @@ def test_markdown_rows():
     assert A.markdown_rows(("a", "b"), [(1, "x"), (2.5, "y")]) == (
         "| a | b |\n|---|---|\n| 1 | x |\n| 2.5 | y |")
     assert A.markdown_rows(("a",), []) == "| a |\n|---|"
+
+
+# ---------------------------------------------------------------- continuum rings from G
+
+
+def _disc(R: float, h: float):
+    from continuum import mesh as M
+
+    bnd = M.resample_polygon(M.circle_polygon(R, 2048), spacing=h, min_points=16)
+    return M.triangulate(bnd, h)
+
+
+def test_field_profile_maps_the_mean_phase():
+    """<G> is smooth: 2^frac(<G>/ln 2) keeps the rings at their radii; <lbar> does not."""
+    pts, tri = _disc(10.0, 0.25)
+    r = np.hypot(*pts.T)
+    G = math.log(2) * (0.3 + r / 1.7)  # rings G = k ln 2 at r_k = 1.7 (k - 0.3)
+    prof = A.field_profile(pts, tri, {"mean_length": A.mean_length_from_phase(G), "G": G},
+                           edge_width=0.05)
+    assert list(prof)[-2:] == ["mean_length_phase", "count"]
+    np.testing.assert_allclose(prof["mean_length_phase"], A.mean_length_from_phase(prof["G"]))
+    radii, k = A.profile_ring_radii(prof["r"], prof["G"])
+    exact = 1.7 * (k - 0.3)
+    assert k.tolist() == [1, 2, 3, 4, 5, 6]
+    np.testing.assert_allclose(radii, exact, atol=0.01)
+    # the annulus mean of the sawtooth lbar is smeared over the annulus straddling each ring
+    # (largest value 1.884 here); the mapped mean phase reaches 2 - O(w / 1.7) (1.986)
+    assert np.nanmax(prof["mean_length"]) < 1.9
+    assert np.nanmax(prof["mean_length_phase"]) > 1.97
+
+
+def test_continuum_rings_from_rings_csv_or_last_frame(tmp_path):
+    from continuum.output import FieldWriter, write_rings
+    from continuum.rings import ring_table
+
+    pts, tri = _disc(6.0, 0.3)
+    r = np.hypot(*pts.T)
+    w = FieldWriter(tmp_path)
+    for t in (0.0, 1.0):
+        w.write(t, pts, tri, {"G": math.log(2) * (t + r / 1.5), "p": 0 * r})
+    G = math.log(2) * (1.0 + r / 1.5)  # rings at r = 1.5 (k - 1), k = 2..5
+    from_frame = A.continuum_rings(tmp_path)  # no rings.csv: the last VTU frame
+    direct = ring_table(pts, tri, G)
+    assert from_frame["k"].tolist() == direct["k"].tolist() == [2, 3, 4, 5]
+    np.testing.assert_allclose(from_frame["mean_radius"], direct["mean_radius"], rtol=1e-12)
+    write_rings(tmp_path, pts, tri, G)
+    from_csv = A.continuum_rings(tmp_path)
+    for c in ("k", "mean_radius", "length", "cx"):
+        np.testing.assert_allclose(from_csv[c], direct[c], rtol=1e-14, atol=1e-15)
+    assert A.continuum_wavelength(tmp_path) == pytest.approx(1.5, abs=0.01)
+    series = A.wavelength_series(tmp_path, "continuum")
+    np.testing.assert_array_equal(series["t"], [0.0, 1.0])
+    np.testing.assert_allclose(series["wavelength"], 1.5, atol=0.01)

@@ -182,6 +182,13 @@ def test_fig4_reduce_and_plot(fake_runs, tmp_path):
     np.testing.assert_allclose(series["radius"], R_continuum(TIMES), rtol=2e-3)
     late = series["radius"] > 4 * wavelength(0.04)
     np.testing.assert_allclose(series["wavelength"][late], wavelength(0.04), rtol=0.03)
+    # final ring table: contours G = k ln 2 at r = (k - 1/4) w (P1 interpolation of r)
+    rings = A.read_csv(data / "rings_continuum_lam=0.04.csv")
+    np.testing.assert_allclose(rings["mean_radius"], (rings["k"] - 0.25) * wavelength(0.04),
+                               atol=0.02)
+    assert "radius_exact" in rings
+    prof = A.read_csv(data / "profile_continuum_lam=0.04.csv")
+    assert {"G", "G_std", "mean_length_phase"} <= set(prof)
     paths = fig4.plot(data, tmp_path)
     assert all(p.stat().st_size > 5000 for p in paths)
 
