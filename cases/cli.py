@@ -28,8 +28,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib
+import logging
 import math
-import shutil
+import os
 import sys
 import tomllib
 from pathlib import Path
@@ -37,6 +38,16 @@ from pathlib import Path
 import numpy as np
 
 from cases.analysis import field_profile, particle_profile, write_csv
+from cases.rundir import (
+    check_target,
+    describe,
+    is_no_space,
+    no_space_message,
+    RunFolderError,
+    prepare_stage,
+    publish,
+    record,
+)
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
 CONTINUUM_EDGE_WIDTH = 0.05
@@ -104,7 +115,14 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
             values[key] = _coerce(raw, default)
         except UsageError as err:
             raise UsageError(f"--set {key}: {err}") from None
-    values.update({k: v for k, v in flags.items() if v is not None})
+    given = {k: v for k, v in flags.items() if v is not None}
+    if "lam" in names:
+        if "lam" in given and "lam" in values and float(values["lam"]) != given["lam"]:
+            raise UsageError(f"lam given twice: --lam {given['lam']:g} and lam = "
+                             f"{values['lam']} in --config/--set; give it once")
+        if "lam" not in given and "lam" not in values:
+            raise UsageError("lam is required: give --lam or lam in --config/--set")
+    values.update(given)
     unknown = set(values) - set(names)
     if unknown:
         raise UsageError(f"unknown setting(s) {', '.join(sorted(unknown))}")
@@ -113,59 +131,81 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
     return config
 
 
-# --------------------------------------------------------------------------- staged output
-
-
-def stage(out: Path, overwrite: bool) -> Path:
-    """Return the staging folder ``out.partial`` (kept if it exists: it may hold a checkpoint)."""
-    if out.exists() and not overwrite:
-        raise UsageError(f"output folder {out} exists (use --overwrite to replace it)")
-    partial = out.with_name(out.name + ".partial")
-    partial.mkdir(parents=True, exist_ok=True)
-    return partial
-
-
-def publish(partial: Path, out: Path) -> None:
-    """Atomically move the finished ``partial`` folder to ``out``."""
-    if out.exists():
-        shutil.rmtree(out)
-    partial.rename(out)
-
-
 # --------------------------------------------------------------------------- runs
+
+
+def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable=(),
+                step_policy=()):
+    """Run ``body(partial)`` in the checked stage of ``out`` with its provenance, then publish.
+
+    Everything that can be checked is checked before the stage is touched (rundir); the stage
+    records the run (run.json) and is renamed to ``out`` only when ``body`` returned.
+    """
+    partial = prepare_stage(out, overwrite, engine, config, resumable, step_policy)
+    with record(partial, engine, config):
+        result = body(partial)
+    target = partial.with_name(partial.name.removesuffix(".partial"))
+    if target.exists():  # still only what colony wrote, right before it is replaced
+        check_target(target, overwrite=True)
+    publish(partial, target)
+    return result
 
 
 def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True):
     """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG."""
     from continuum.simulation import run
 
-    partial = stage(out, overwrite)
-    state = run(config, out=partial, progress=progress)
-    profile = field_profile(state.points, state.triangles,
-                            {"mean_length": state.fields["mean_length"],
-                             "mean_length_psi": state.fields["mean_length_psi"],
-                             "pressure": state.fields["p"]}, edge_width=CONTINUUM_EDGE_WIDTH)
-    write_csv(partial / "profile.csv", profile)
-    _draw_continuum(state, partial / "mean_length", config.lam)
-    publish(partial, out)
-    return state
+    def body(partial):
+        state = run(config, out=partial, progress=progress)
+        profile = field_profile(state.points, state.triangles,
+                                {"mean_length": state.fields["mean_length"],
+                                 "mean_length_psi": state.fields["mean_length_psi"],
+                                 "pressure": state.fields["p"]},
+                                edge_width=CONTINUUM_EDGE_WIDTH)
+        write_csv(partial / "profile.csv", profile)
+        _draw_continuum(state, partial / "mean_length", config.lam)
+        _remove_checkpoints(partial)
+        return state
+
+    check_continuum_fits(config)
+    return _staged_run("continuum", config, Path(out), overwrite, body,
+                       resumable=CHECKPOINTS)
 
 
 def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
                   change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
-    from particles.simulation import run
+    from particles.simulation import STEP_POLICY_FIELDS, check_initial, run
 
-    partial = stage(out, overwrite)
-    colony = run(config, out=partial, progress=progress, change_step_policy=change_step_policy)
-    profile = particle_profile(colony.x, colony.y, colony.length, colony.stress,
-                               edge_width=PARTICLE_EDGE_WIDTH, radius=colony.radius())
-    write_csv(partial / "profile.csv", profile)
-    _draw_particles(colony, partial / "colony", config.lam)
-    for checkpoint in partial.glob("checkpoint*"):  # the run is complete: nothing to resume
+    def body(partial):
+        colony = run(config, out=partial, progress=progress,
+                     change_step_policy=change_step_policy)
+        profile = particle_profile(colony.x, colony.y, colony.length, colony.stress,
+                                   edge_width=PARTICLE_EDGE_WIDTH, radius=colony.radius())
+        write_csv(partial / "profile.csv", profile)
+        _draw_particles(colony, partial / "colony", config.lam)
+        _remove_checkpoints(partial)  # the run is complete: nothing to resume
+        return colony
+
+    check_initial(config)
+    return _staged_run("particles", config, Path(out), overwrite, body, resumable=CHECKPOINTS,
+                       step_policy=STEP_POLICY_FIELDS if change_step_policy else ())
+
+
+#: Checkpoint files of either engine in a stage (a stopped run resumes from them).
+CHECKPOINTS = ("checkpoint.npz",)
+
+
+def _remove_checkpoints(partial: Path) -> None:
+    for checkpoint in partial.glob("checkpoint*"):
         checkpoint.unlink()
-    publish(partial, out)
-    return colony
+
+
+def check_continuum_fits(config) -> None:
+    """Refuse a continuum run whose mesh cannot fit in memory (continuum.budget)."""
+    from continuum.budget import check_memory
+
+    check_memory(config)
 
 
 def mean_length_image(points, triangles, G, pixels: int = 900):
@@ -226,7 +266,8 @@ def _draw_particles(colony, stem: Path, lam: float) -> None:
 
 
 def _common(p: argparse.ArgumentParser, default_out: str) -> None:
-    p.add_argument("--lam", type=float, required=True, help="stress sensitivity lambda")
+    p.add_argument("--lam", type=float,
+                   help="stress sensitivity lambda (or lam in --config / --set)")
     stop = p.add_mutually_exclusive_group(required=True)
     stop.add_argument("--radius", type=float, help="stop when the colony radius reaches R")
     stop.add_argument("--time", type=float, help="stop at time T")
@@ -235,7 +276,12 @@ def _common(p: argparse.ArgumentParser, default_out: str) -> None:
     p.add_argument("--config", help="TOML file of configuration values")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override one configuration value (repeatable)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    _verbosity(p)
+
+
+def _verbosity(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--quiet", action="store_true", help="no progress bar, warnings only")
+    p.add_argument("--verbose", action="store_true", help="log every stage (INFO, DEBUG)")
 
 
 def parser() -> argparse.ArgumentParser:
@@ -265,6 +311,9 @@ def parser() -> argparse.ArgumentParser:
                    help="threads of the contact solver (default 1; same result for any number)")
     p.add_argument("--change-step-policy", action="store_true",
                    help="resume a checkpoint written with another --dt or --adaptive-dt")
+
+    i = sub.add_parser("info", help="print a run folder's provenance (run.json)")
+    i.add_argument("dir", help="run folder (or its stopped DIR.partial)")
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)
@@ -315,6 +364,8 @@ def _dispatch(args) -> int:
         config = build_config(ParticleConfig, args.config, args.set, flags)
         run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy)
         print(f"particle run written to {args.out}")
+    elif args.command == "info":
+        print(describe(Path(args.dir)))
     else:
         module = importlib.import_module(f"cases.{args.name}")
         out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
@@ -337,22 +388,49 @@ def _dispatch(args) -> int:
     return 0
 
 
+def _stage_of(args) -> Path | None:
+    """The stage folder of a run command (None for other commands or unusable --out)."""
+    out = getattr(args, "out", None)
+    if args.command not in ("continuum", "particles") or not out:
+        return None
+    path = Path(os.path.abspath(out))
+    return path.with_name(path.name + ".partial") if path.name else None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``colony`` console script; returns the exit status."""
     args = parser().parse_args(argv)
+    configure_logging(getattr(args, "quiet", False), getattr(args, "verbose", False))
+    partial = _stage_of(args)
+    kept = (f"; the last checkpoint is kept in {partial}, give the same command to resume"
+            if partial is not None else "")
     try:
         return _dispatch(args)
     except KeyboardInterrupt:
-        print("colony: interrupted; finished work is kept in the .partial folder", file=sys.stderr)
+        print(f"colony: interrupted (SIGINT){kept}", file=sys.stderr)
         return 130
-    except (ValueError, FileNotFoundError, RuntimeError, OSError) as err:
+    except SystemExit as err:  # SIGTERM during a run: the engine stopped after a whole step
+        if isinstance(err.code, int) and err.code > 128:
+            print(f"colony: terminated (signal {err.code - 128}){kept}", file=sys.stderr)
+        raise
+    except (ValueError, RuntimeError, OSError) as err:
         message = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        out = getattr(args, "out", None)
-        partial = Path(out).with_name(Path(out).name + ".partial") if out else None
-        if args.command != "case" and partial is not None and partial.is_dir():
+        if partial is not None and is_no_space(err, partial if partial.is_dir() else None):
+            message = no_space_message(partial.parent)
+        if (partial is not None and partial.is_dir() and (partial / "run.json").exists()
+                and not isinstance(err, RunFolderError)):
             message += f" (output so far kept in {partial})"
         print(f"colony: error: {message}", file=sys.stderr)
         return 2
+
+
+def configure_logging(quiet: bool, verbose: bool) -> None:
+    """Library modules log through ``logging``: WARNING with --quiet, INFO by default, DEBUG
+    with --verbose; records go to stderr as ``colony: message``."""
+    level = logging.WARNING if quiet else logging.DEBUG if verbose else logging.INFO
+    logging.basicConfig(level=level, format="colony: %(message)s", stream=sys.stderr)
+    for noisy in ("numba", "matplotlib", "PIL", "distributed", "fsspec"):
+        logging.getLogger(noisy).setLevel(max(level, logging.WARNING))
 
 
 if __name__ == "__main__":

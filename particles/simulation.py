@@ -27,9 +27,11 @@ the loads sigma.
 
 from __future__ import annotations
 
+import errno
 import json
 import math
 import os
+import shutil
 import signal
 import sys
 import threading
@@ -425,7 +427,32 @@ def initial_state(config: ParticleConfig) -> ParticleState:
     """One particle of length 1 at the origin, or the particles of ``config.init``."""
     if config.init is None:
         return ParticleState.from_arrays([0.0], [0.0], [0.0], [1.0])
-    return ParticleState.from_arrays(*output.read_init(config.init))
+    try:
+        arrays = output.read_init(config.init)
+    except UnicodeDecodeError:
+        raise ValueError(f"init file {config.init} is not a text CSV file") from None
+    try:
+        return ParticleState.from_arrays(*arrays)
+    except ValueError as err:
+        raise ValueError(f"init file {config.init}: {err}") from None
+
+
+def check_initial(config: ParticleConfig) -> ParticleState:
+    """The initial state, checked: no overlap beyond ``config.tol``, and a ``radius`` goal
+    larger than the initial colony radius. Raises ValueError (one line) before any step."""
+    config.validate()
+    state = initial_state(config)
+    c = detect(state, 0.0)
+    if c.gap.size and c.gap.min() < -config.tol:
+        k = int(np.argmin(c.gap))
+        raise ValueError(
+            f"init file {config.init}: particles {c.i[k]} and {c.j[k]} overlap by "
+            f"{-c.gap[k]:.3g} (tolerance tol = {config.tol:.3g})")
+    r0 = colony_radius(state)
+    if config.radius is not None and config.radius <= r0:
+        raise ValueError(f"radius {config.radius:g} is not larger than the initial colony "
+                         f"radius {r0:.6g}: nothing to grow")
+    return state
 
 
 def _done(config: ParticleConfig, state: ParticleState, t: float) -> bool:
@@ -450,15 +477,35 @@ too long (README, "Time step"; lam = 1e-4, N >= 6e4: at dt = 0.005 60 % of the s
 went into failed attempts)."""
 
 
+#: Free space a run keeps on its output's file system: it stops with ENOSPC before a write
+#: could fill it (a trajectory write into a full tmpfs can end the process with SIGBUS).
+RESERVE_BYTES = 4 * 2**20
+
+
+def ensure_space(out: Path, n_particles: int, checkpoint: Path | None = None) -> None:
+    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes
+    (a frame and a checkpoint of ``n_particles``, at most the last checkpoint's size twice)."""
+    need = RESERVE_BYTES + 200 * n_particles
+    if checkpoint is not None and checkpoint.exists():
+        need += 2 * checkpoint.stat().st_size
+    free = shutil.disk_usage(out).free
+    if free < need:
+        raise OSError(errno.ENOSPC, f"no space left on {out} ({free / 2**20:.1f} MB free, "
+                      f"{need / 2**20:.1f} MB needed for the next output)")
+
+
 def _save_checkpoint(path: Path, config, state, t, nstep, rng, warm, history, frames,
                      dt_next) -> None:
     meta = {"config": asdict(config), "t": t, "step": nstep, "next_id": state.next_id,
             "rng": rng.bit_generator.state, "history": history, "frames": frames,
             "dt_next": dt_next}
     tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, meta=np.array(json.dumps(meta)), warm_keys=warm[0], warm_gamma=warm[1],
-             **state.arrays())
-    os.replace(tmp, path)
+    try:
+        np.savez(tmp, meta=np.array(json.dumps(meta)), warm_keys=warm[0], warm_gamma=warm[1],
+                 **state.arrays())
+        os.replace(tmp, path)
+    finally:  # a failed write (e.g. a full disk) leaves the previous checkpoint as it was
+        tmp.unlink(missing_ok=True)
 
 
 def _saved_config(meta: dict) -> dict:
@@ -573,7 +620,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
             dt_next = min(dt_next, config.dt) if config.adaptive_dt else config.dt
             output.write_config(out, config, step=nstep, policy=STEP_POLICY_FIELDS)
     else:
-        state = initial_state(config)
+        state = check_initial(config)
         t, nstep, history = 0.0, 0, []
         rng = np.random.default_rng(config.seed)
         warm = (np.zeros(0, dtype=np.int64), np.zeros(0))
@@ -622,10 +669,12 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
                     f"colony has {state.n} particles > max_particles {config.max_particles}")
             if out is not None:
                 if nstep % config.output_every == 0:
+                    ensure_space(out, state.n, ckpt)
                     output.append_frame(traj, state, nstep)
                     frames = [frames[0] + 1, nstep]
                 now = _time.monotonic()
                 if now - last_ckpt >= config.checkpoint_seconds:
+                    ensure_space(out, state.n, ckpt)
                     _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames,
                                      dt_next)
                     output.write_history(out, history)
@@ -640,6 +689,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
         stop.restore()
         bar.close()
     if out is not None:
+        ensure_space(out, state.n, ckpt)
         if finished and frames[1] != nstep:
             output.append_frame(traj, state, nstep)
             frames = [frames[0] + 1, nstep]

@@ -44,16 +44,6 @@ def test_config_errors(toml, sets, match):
         cli.build_config(_Config, toml, sets, {})
 
 
-def test_stage_publish(tmp_path):
-    out = tmp_path / "run"
-    partial = cli.stage(out, overwrite=False)
-    (partial / "a.csv").write_text("x\n1\n")
-    cli.publish(partial, out)
-    assert (out / "a.csv").exists() and not partial.exists()
-    with pytest.raises(ValueError, match="exists"):
-        cli.stage(out, overwrite=False)
-
-
 def _colony(*args):
     return subprocess.run(
         [sys.executable, "-m", "cases.cli", *args], capture_output=True, text=True, timeout=300

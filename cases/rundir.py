@@ -1,0 +1,398 @@
+"""Run folders: where a run may write, what it may remove, what it records.
+
+A run of ``colony continuum|particles --out DIR`` writes into ``DIR.partial/`` and renames it
+to ``DIR`` when everything is written (:func:`publish`), so ``DIR`` is never half-written.
+Every run folder holds ``run.json``, the run's provenance (:func:`record`), which also marks
+the folder as written by this tool:
+
+- ``engine``, ``config`` (resolved), ``package_version``, ``git_commit`` (when the sources are a
+  git checkout), ``seed`` (particles), ``status`` (running, stopped, failed, finished), ``error``;
+- ``sessions``: one entry per command that worked on the run (a stopped run resumed is a second
+  session): ``command``, ``start``, ``end`` (UTC, ISO 8601), ``wall_seconds``, ``cpu_seconds``,
+  ``peak_memory_mb`` (the process's peak resident size), ``status``, ``error``.
+
+Safety rules (:func:`check_target`, :func:`prepare_stage`), checked before any work:
+
+- ``DIR`` may not be ``/``, the home folder, the working directory or one of its parents, nor a
+  file; its parent must be writable;
+- ``--overwrite`` removes only a folder this tool wrote: its ``run.json`` lists every entry
+  (or, for folders written before ``run.json`` existed, it holds ``config.json`` and only names
+  this tool writes), and it is removed only after the new run is complete;
+- a ``DIR.partial/`` left by a stopped run is resumed only by a run of the same engine and
+  configuration (execution settings such as ``threads`` may differ); another configuration is
+  refused with a message saying how to start afresh (``--overwrite`` clears it); a stage that
+  holds no checkpoint is cleared, so the published folder holds exactly what one run wrote;
+- the file system must have :data:`MIN_FREE_BYTES` free; a run that fills it ends with
+  "no space left on DIR" (:func:`no_space_message`), its last checkpoint intact.
+"""
+
+from __future__ import annotations
+
+import errno
+import json
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import time
+from contextlib import contextmanager
+from dataclasses import asdict
+from datetime import datetime, timezone
+from importlib import metadata
+from pathlib import Path
+
+RECORD = "run.json"
+#: Entries either engine (or ``cases.cli``) writes into a run folder; temporary files included.
+OUTPUT_NAMES = frozenset({
+    RECORD, "config.json", "history.csv", "profile.csv", "boundary.csv", "rings.csv",
+    "fields.pvd", "fields", "mean_length.png", "particles.csv", "trajectory.gsd", "colony.png",
+    "checkpoint.npz",
+})
+#: Suffixes of the temporary files a writer replaces atomically (``x.tmp``, ``x.tmp.npz``).
+TEMPORARY_SUFFIXES = (".tmp", ".tmp.npz", ".gsd.tmp")
+#: A run refuses to start with less free space than this on the output's file system.
+MIN_FREE_BYTES = 32 * 2**20
+#: Configuration fields that do not change a run's result (a stopped run resumes under others).
+EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
+
+
+class RunFolderError(ValueError):
+    """An output folder that may not be used or replaced (one-line message)."""
+
+
+def _written_by_us(name: str) -> bool:
+    return name in OUTPUT_NAMES or name.endswith(TEMPORARY_SUFFIXES)
+
+
+def read_record(folder: Path) -> dict | None:
+    """The ``run.json`` of ``folder``, or None when it has none (or it is unreadable)."""
+    try:
+        return json.loads((Path(folder) / RECORD).read_text())
+    except (OSError, ValueError):
+        return None
+
+
+def foreign_entries(folder: Path) -> list[str]:
+    """Entries of ``folder`` this tool did not write (empty: the folder is recognisably ours).
+
+    Ours: ``run.json`` lists every entry (published runs), or every entry has a name this
+    tool writes and ``run.json`` or ``config.json`` is present (stages, older runs).
+    """
+    folder = Path(folder)
+    names = sorted(p.name for p in folder.iterdir())
+    record = read_record(folder)
+    listed = set(record.get("files", ())) | {RECORD} if record and "files" in record else None
+    if listed is not None:
+        return [n for n in names if n not in listed]
+    if record is None and "config.json" not in names:
+        return names or []
+    foreign = [n for n in names if not _written_by_us(n)]
+    fields = folder / "fields"
+    if fields.is_dir():
+        foreign += [f"fields/{p.name}" for p in sorted(fields.iterdir()) if p.suffix != ".vtu"]
+    return foreign
+
+
+def _protected(path: Path) -> str | None:
+    """Why ``path`` (resolved) may never be a run's output folder, or None."""
+    cwd = Path.cwd().resolve()
+    if path == Path(path.anchor):
+        return "it is the root folder"
+    if path == Path.home().resolve():
+        return "it is the home folder"
+    if cwd == path or path in cwd.parents:
+        return "it is the working directory or one of its parents"
+    return None
+
+
+def check_target(out: Path, overwrite: bool) -> Path:
+    """Check ``out`` as a run's output folder before any work; returns it resolved.
+
+    Raises RunFolderError when ``out`` is protected (:func:`_protected`), a file, exists
+    without ``overwrite``, or exists with ``overwrite`` but holds entries this tool did not
+    write; or when its parent cannot be written.
+    """
+    target = Path(os.path.abspath(out))
+    target = target.parent.resolve() / target.name if target.name else target.resolve()
+    why = _protected(target.resolve() if target.exists() else target)
+    if why:
+        raise RunFolderError(f"refusing --out {out}: {why}; give a new folder for the run")
+    if target.exists() and not target.is_dir():
+        raise RunFolderError(f"--out {out} is a file, not a folder")
+    if target.exists():
+        if not overwrite:
+            raise RunFolderError(f"output folder {out} exists (use --overwrite to replace it)")
+        foreign = foreign_entries(target)
+        if foreign:
+            raise RunFolderError(
+                f"refusing --overwrite of {out}: it holds {_names(foreign)}, which colony did "
+                "not write; move them away or choose another --out")
+    parent = _existing(target.parent)
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise RunFolderError(f"cannot write the output folder {out}: {parent} is not writable")
+    return target
+
+
+def _names(names: list[str]) -> str:
+    shown = ", ".join(names[:3])
+    return shown + (f" and {len(names) - 3} more" if len(names) > 3 else "")
+
+
+def config_differences(saved: dict, config: dict, ignore=()) -> list[str]:
+    """Names of the configuration fields whose values differ (execution fields ignored)."""
+    keys = (set(saved) | set(config)) - set(EXECUTION_FIELDS) - set(ignore)
+    return sorted(k for k in keys if saved.get(k) != config.get(k))
+
+
+def _clear(folder: Path) -> None:
+    """Remove a folder whose every entry this tool wrote (checked by the caller)."""
+    for entry in folder.iterdir():
+        if entry.is_dir() and not entry.is_symlink():
+            shutil.rmtree(entry)
+        else:
+            entry.unlink()
+    folder.rmdir()
+
+
+def partial_of(out: Path) -> Path:
+    """The staging folder ``DIR.partial`` of the output folder ``DIR``."""
+    return out.with_name(out.name + ".partial")
+
+
+def prepare_stage(out: Path, overwrite: bool, engine: str, config, resumable=(),
+                  step_policy=()) -> Path:
+    """Check ``out`` and return its staging folder ``out.partial``, created or reused.
+
+    A stage left by a stopped run is reused when it holds a checkpoint of the same engine and
+    configuration (``resumable``: names of checkpoint files; ``step_policy``: fields that may
+    differ, the engine checks them); a stage without a checkpoint is cleared; a stage of another
+    engine or configuration is refused unless ``overwrite``, which clears it. Nothing is
+    removed that this tool did not write.
+    """
+    out = check_target(out, overwrite)
+    partial = partial_of(out)
+    if partial.exists() and not partial.is_dir():
+        raise RunFolderError(f"{partial} is a file; move it away or choose another --out")
+    if partial.exists():
+        foreign = foreign_entries(partial)
+        if foreign:
+            raise RunFolderError(
+                f"{partial} holds {_names(foreign)}, which colony did not write; move them "
+                "away or choose another --out")
+        saved_engine, saved = _stage_identity(partial)
+        checkpoint = any((partial / name).exists() for name in resumable)
+        if saved_engine is not None and not overwrite:
+            if saved_engine != engine:
+                raise RunFolderError(
+                    f"{partial} holds a stopped {saved_engine} run; give its command to resume "
+                    "it, or --overwrite to start this run afresh (removes it)")
+            diff = config_differences(saved, asdict(config), ignore=step_policy)
+            if diff and checkpoint:
+                hint = (" or --change-step-policy to resume it with the new step"
+                        if engine == "particles" and set(diff) <= {"dt", "adaptive_dt"} else "")
+                raise RunFolderError(
+                    f"{partial} holds a stopped run whose configuration differs in "
+                    f"{', '.join(diff)}; give its command to resume it{hint}, or --overwrite "
+                    "to start afresh (removes it)")
+        if overwrite or not checkpoint or saved_engine is None:
+            _clear(partial)
+    check_free_space(_existing(partial))
+    partial.mkdir(parents=True, exist_ok=True)
+    return partial
+
+
+def _existing(path: Path) -> Path:
+    """``path`` or its nearest existing parent."""
+    while not path.exists():
+        path = path.parent
+    return path
+
+
+def _stage_identity(folder: Path) -> tuple[str | None, dict]:
+    """(engine, configuration) of a stage from its run.json or config.json; (None, {})."""
+    record = read_record(folder)
+    if record and "engine" in record:
+        return record["engine"], record.get("config", {})
+    try:
+        config = json.loads((folder / "config.json").read_text())
+    except (OSError, ValueError):
+        return None, {}
+    config.pop("step_policy_changes", None)
+    return ("particles" if "solver" in config else "continuum"), config
+
+
+def publish(partial: Path, out: Path) -> None:
+    """Move the finished stage to ``out``; a replaced ``out`` is removed only afterwards.
+
+    ``run.json`` gets the list of published entries (what a later ``--overwrite`` may remove).
+    """
+    record = read_record(partial) or {}
+    record["files"] = sorted(p.name for p in partial.iterdir() if p.name != RECORD)
+    write_record(partial, record)
+    old = None
+    if out.exists():
+        old = out.with_name(out.name + ".replaced")
+        if old.exists():
+            _clear(old)
+        out.rename(old)
+    partial.rename(out)
+    if old is not None:
+        _clear(old)
+
+
+def check_free_space(folder: Path, need: int = MIN_FREE_BYTES) -> None:
+    """Refuse (OSError ENOSPC, one line) when ``folder``'s file system has less than ``need``."""
+    free = shutil.disk_usage(folder).free
+    if free < need:
+        raise OSError(errno.ENOSPC, no_space_message(folder, free, need))
+
+
+def no_space_message(folder: Path, free: int | None = None, need: int | None = None) -> str:
+    """The one-line message of a full file system."""
+    if free is None:
+        free = shutil.disk_usage(folder).free
+    text = f"no space left on {folder} ({free / 2**20:.1f} MB free"
+    if need is not None:
+        text += f", a run needs at least {need / 2**20:.0f} MB"
+    return text + ")"
+
+
+def is_no_space(err: BaseException, folder: Path | None) -> bool:
+    """Whether ``err`` comes from a full file system (ENOSPC, or a writer's vaguer error)."""
+    if isinstance(err, OSError) and err.errno in (errno.ENOSPC, errno.EDQUOT):
+        return True
+    if folder is None:
+        return False
+    try:
+        return shutil.disk_usage(folder).free < 2**20
+    except OSError:
+        return False
+
+
+# --------------------------------------------------------------------------- provenance
+
+
+def git_commit() -> str | None:
+    """The git commit of the sources (``+dirty`` when they differ from it), or None."""
+    root = Path(__file__).resolve().parent.parent
+    if not (root / ".git").exists():
+        return None
+    try:
+        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
+                              text=True, timeout=10, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--",
+                                "continuum", "particles", "cases"], capture_output=True,
+                               text=True, timeout=10).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return None
+    return head + ("+dirty" if dirty else "")
+
+
+def package_version() -> str:
+    try:
+        return metadata.version("colony-mechanics")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+def _now() -> str:
+    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+
+
+def write_record(folder: Path, record: dict) -> None:
+    """Write ``run.json`` atomically."""
+    tmp = Path(folder) / (RECORD + ".tmp")
+    tmp.write_text(json.dumps(record, indent=2, default=str) + "\n")
+    os.replace(tmp, Path(folder) / RECORD)
+
+
+def _cpu_seconds() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+@contextmanager
+def record(folder: Path, engine: str, config, argv: list[str] | None = None):
+    """Record a session of the run in ``folder/run.json`` while the body runs.
+
+    The status is ``running`` during the body, then ``finished``, ``stopped`` (Ctrl-C,
+    SIGTERM) or ``failed`` with the error's first line. A record that cannot be written at the
+    end (e.g. a full disk) is left as it was.
+    """
+    folder = Path(folder)
+    previous = read_record(folder) or {}
+    config_dict = asdict(config)
+    run = {
+        "engine": engine, "config": config_dict, "package_version": package_version(),
+        "git_commit": git_commit(), "seed": config_dict.get("seed"), "status": "running",
+        "error": None, "sessions": previous.get("sessions", []),
+    }
+    session = {"command": list(sys.argv if argv is None else argv), "start": _now(),
+               "status": "running"}
+    run["sessions"] = run["sessions"] + [session]
+    write_record(folder, run)
+    t0, cpu0 = time.monotonic(), _cpu_seconds()
+
+    def close(status: str, error: str | None) -> None:
+        peak = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0  # KiB on Linux
+        session.update(end=_now(), wall_seconds=round(time.monotonic() - t0, 3),
+                       cpu_seconds=round(_cpu_seconds() - cpu0, 3),
+                       peak_memory_mb=round(peak, 1), status=status, error=error)
+        run.update(status=status, error=error)
+        try:
+            write_record(folder, run)
+        except OSError:
+            pass
+
+    try:
+        yield run
+    except (KeyboardInterrupt, SystemExit) as err:
+        close("stopped", f"stopped by {'SIGINT' if isinstance(err, KeyboardInterrupt) else 'SIGTERM'}")
+        raise
+    except BaseException as err:
+        close("failed", (str(err).strip().splitlines() or [type(err).__name__])[0])
+        raise
+    close("finished", None)
+
+
+def describe(folder: Path) -> str:
+    """Human-readable summary of a run folder's ``run.json`` (``colony info DIR``)."""
+    folder = Path(folder)
+    if not folder.is_dir() and partial_of(folder).is_dir():
+        folder = partial_of(folder)
+    if not folder.is_dir():
+        raise RunFolderError(f"no run folder {folder}")
+    run = read_record(folder)
+    if run is None:
+        raise RunFolderError(f"{folder} has no {RECORD}: not a run folder of colony")
+    lines = [f"run folder      {folder}",
+             f"engine          {run.get('engine')}",
+             f"status          {run.get('status')}" + (f": {run['error']}" if run.get("error")
+                                                       else ""),
+             f"package         colony-mechanics {run.get('package_version')}, git "
+             f"{run.get('git_commit') or 'unknown'}"]
+    config = run.get("config", {})
+    lines.append("configuration   " + ", ".join(f"{k}={v}" for k, v in config.items()))
+    for i, s in enumerate(run.get("sessions", []), 1):
+        lines.append(
+            f"session {i}       {s.get('start')} .. {s.get('end', '-')}, {s.get('status')}, wall "
+            f"{s.get('wall_seconds', '-')} s, cpu {s.get('cpu_seconds', '-')} s, peak memory "
+            f"{s.get('peak_memory_mb', '-')} MB")
+        lines.append(f"  command       {' '.join(s.get('command', []))}")
+    last = _last_history_row(folder)
+    if last:
+        lines.append("last step       " + ", ".join(f"{k}={v}" for k, v in last.items()))
+    return "\n".join(lines)
+
+
+def _last_history_row(folder: Path) -> dict:
+    path = folder / "history.csv"
+    if not path.is_file():
+        return {}
+    lines = path.read_text().splitlines()
+    if len(lines) < 2:
+        return {}
+    keys, values = lines[0].split(","), lines[-1].split(",")
+    wanted = ("t", "radius", "n_particles", "n_nodes", "max_pressure", "max_stress")
+    return {k: v for k, v in zip(keys, values) if k in wanted}

@@ -1,0 +1,91 @@
+"""How large a continuum run's mesh gets, and whether it fits in memory, before any meshing.
+
+The mesh has boundary spacing h = min(h_max, h_N(A)) (``mesh.h_for_nodes``) and interior size
+s(d) = min(c h, h + g d) at distance d from the edge (c = ``interior_coarsening``, g =
+``grading``). An equilateral mesh of size s has 2 / (sqrt(3) s^2) nodes per unit area, so a domain
+of area A and perimeter P has about
+
+    N = 2 / sqrt(3) [ P / g (1/h - 1/(c h)) + max(A - P d*, 0) / (c h)^2 ],  d* = (c - 1) h / g
+
+nodes (the graded band of width d* along the edge, then the coarse interior; c = 1: A / h^2).
+Measured against runs at lam = 1e-2 (``tests/test_budget.py``): within 10 % at radius 40.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+from continuum import mesh as M
+
+__all__ = ["BudgetError", "estimate_nodes", "available_memory", "check_memory"]
+
+#: Resident bytes per mesh node of a running solver (mesh, CSR matrices, AMG hierarchy, Psi on
+#: the default 40 length cells, transfer matrices), measured: peak RSS minus the imported
+#: modules' at radius 100 (lam = 1e-2, ~3.2e4 nodes), rounded up.
+BYTES_PER_NODE = 8_000
+#: Resident bytes of the imported modules before any mesh (measured, rounded up).
+BASE_BYTES = 400 * 2**20
+
+
+class BudgetError(ValueError):
+    """A run whose mesh cannot fit in this machine's memory (one-line message)."""
+
+
+def estimate_nodes(area: float, perimeter: float, config) -> float:
+    """Node count N of the graded mesh of a domain (formula in the module docstring)."""
+    h = min(config.h_max, M.h_for_nodes(area, config.n_nodes))
+    c, g = config.interior_coarsening, config.grading
+    if c <= 1.0:
+        return 2.0 / math.sqrt(3.0) * area / h**2
+    band = (c - 1.0) * h / g
+    graded = perimeter / g * (1.0 / h - 1.0 / (c * h))
+    interior = max(area - perimeter * band, 0.0) / (c * h) ** 2
+    if perimeter * band > area:  # the band covers the domain: at most the uniform mesh
+        return 2.0 / math.sqrt(3.0) * min(area / h**2, graded)
+    return 2.0 / math.sqrt(3.0) * (graded + interior)
+
+
+def available_memory() -> int:
+    """Bytes of memory available to a new allocation (MemAvailable, else physical memory)."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except OSError:
+        pass
+    return os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+
+
+def largest_nodes(config) -> tuple[float, str]:
+    """Largest estimated node count of the run and when it is reached ("initial" or "final").
+
+    A ``radius`` run ends with area pi R^2 and the initial shape's perimeter scaled by
+    sqrt(A_final / A_initial); a ``time`` run is estimated at its initial size only.
+    """
+    polygon = config._shape_polygon()
+    area = abs(M.polygon_area(polygon))
+    closed = list(polygon) + [polygon[0]]
+    perimeter = sum(math.dist(a, b) for a, b in zip(closed[:-1], closed[1:]))
+    n_initial = estimate_nodes(area, perimeter, config)
+    if config.radius is None:
+        return n_initial, "initial"
+    final_area = math.pi * config.radius**2
+    n_final = estimate_nodes(final_area, perimeter * math.sqrt(final_area / area), config)
+    return (n_final, "final") if n_final > n_initial else (n_initial, "initial")
+
+
+def check_memory(config, memory: int | None = None) -> float:
+    """Raise BudgetError when the run's largest mesh would not fit in ``memory`` bytes
+    (default: available memory); returns the estimated node count."""
+    nodes, when = largest_nodes(config)
+    need = BASE_BYTES + BYTES_PER_NODE * nodes
+    memory = available_memory() if memory is None else memory
+    if need > memory:
+        raise BudgetError(
+            f"shape {config.shape} needs about {nodes:.3g} mesh nodes at its {when} size "
+            f"(~{need / 2**30:.3g} GiB) at h_max = {config.h_max:g}, more than the "
+            f"{memory / 2**30:.3g} GiB available; raise h_max or interior_coarsening, or "
+            "shrink the shape")
+    return nodes
