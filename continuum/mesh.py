@@ -338,8 +338,11 @@ def load_polygon_csv(path) -> np.ndarray:
             except (ValueError, IndexError):
                 raise PolygonError(f"{path}: cannot read x,y from the line {row}") from None
     xy = np.array(rows, dtype=float).reshape(-1, 2)
-    if len(xy) < 4 or not np.array_equal(xy[0], xy[-1]):
+    if len(xy) < 2 or not np.array_equal(xy[0], xy[-1]):
         raise PolygonError(
             f"polygon in {path} is not closed: the last vertex must repeat the first"
         )
+    if len(xy) < 4:
+        raise PolygonError(f"polygon in {path} has {len(xy) - 1} distinct vertices; a polygon "
+                           "needs at least 3 (then the first repeated)")
     return check_polygon(xy)
