@@ -18,6 +18,22 @@ size grows away from the edge up to c h (graded mesh, fewer nodes where nothing 
 Psi is stored per material element (per node, continuum.sizes); at a remesh the density per
 current area, Psi exp(-G) (the area stretch of a material element is exp(G) since
 div u = g), is interpolated and multiplied back by exp(G_new).
+
+Determinism: a configuration gives the same bits in any process (history, fields, files).
+The one random ingredient, pyamg's spectral-radius estimate in the AMG setup, runs with a
+fixed seed (continuum.pressure.amg_hierarchy); Triangle's meshing is deterministic and
+independent of earlier calls; BLAS runs on one thread (limit_blas_threads).
+
+Checkpoints (``run(config, out)``): every ``checkpoint_seconds`` of wall time, after the last
+step of a call (``max_steps_this_call``) and after the step during which SIGINT or SIGTERM
+arrived, ``out/checkpoint.npz`` is written atomically. It holds everything the following
+steps depend on (``_Colony.snapshot``: mesh, p, u, g, G, Psi, the warm start p_prev and
+dt_prev, the counters and the matrix the pressure solver's AMG hierarchy was built from,
+which the resumed solver rebuilds identically) and the run's bookkeeping (history, the VTU
+frame list, the next frame time, the configuration). ``run`` with the same configuration (up
+to EXECUTION_FIELDS) on that folder resumes from it, removes the frames written after it,
+and ends bit-identical to an uninterrupted run; writing checkpoints changes no state, so the
+result does not depend on when they happen.
 """
 
 from __future__ import annotations
@@ -636,8 +652,6 @@ def run(
     PressureDivergence
         No pressure solution (e.g. lam < 0 beyond the critical size).
     """
-    from tqdm import tqdm
-
     from continuum import output
 
     config.validate()
@@ -649,6 +663,25 @@ def run(
             raise ValueError(f"output folder does not exist: {out}")
         if config.write_fields:
             writer = output.FieldWriter(out)
+    stop = _StopRequest().install()
+    try:
+        state = _steps(config, out, writer, progress, max_steps_this_call, stop)
+    finally:
+        stop.restore()
+    stop.act()
+    return state
+
+
+def _steps(
+    config: ContinuumConfig, out: Path | None, writer, progress: bool,
+    max_steps_this_call: int | None, stop: _StopRequest,
+) -> ContinuumState:
+    """The body of ``run``: start or resume (``_start``), step until the goal, a stop request
+    or ``max_steps_this_call`` steps, write checkpoints and, at the goal, the final outputs."""
+    from tqdm import tqdm
+
+    from continuum import output
+
     col, history, next_frame, done = _start(config, out, writer)
     by_radius = config.radius is not None
     goal = config.radius if by_radius else config.time
@@ -659,7 +692,6 @@ def run(
         unit="R" if by_radius else "t",
         leave=False,
     )
-    stop = _StopRequest().install()
     last_checkpoint = _time.monotonic()
     steps_here = 0
     try:
@@ -688,16 +720,14 @@ def run(
                 last_checkpoint = _time.monotonic()
             if stop.signum is not None or pause:
                 break
-        state = col.state(history, finished=done)
-        if out is not None and done:
-            output.write_history(out, history)
-            output.write_boundary(out, state.boundary)
-            if writer is not None:
-                writer.write(col.t, col.points, col.tris, state.fields)
     finally:
-        stop.restore()
         bar.close()
-    stop.act()
+    state = col.state(history, finished=done)
+    if out is not None and done:
+        output.write_history(out, history)
+        output.write_boundary(out, state.boundary)
+        if writer is not None:
+            writer.write(col.t, col.points, col.tris, state.fields)
     return state
 
 

@@ -198,6 +198,40 @@ def test_periodic_checkpoints_do_not_change_the_result(reference, tmp_path):
     assert len(meta["history"]) == len(state.history) - 1  # the last step before the goal
 
 
+def interrupt_at(monkeypatch, step: int, signum=signal.SIGINT) -> None:
+    """Make the next run receive ``signum`` while it remeshes or steps its ``step``-th step."""
+    import continuum.simulation as S
+
+    advance, calls = S._advance, [0]
+
+    def advance_and_signal(col, cfg):
+        calls[0] += 1
+        if calls[0] == step:
+            signal.raise_signal(signum)
+        return advance(col, cfg)
+
+    monkeypatch.setattr(S, "_advance", advance_and_signal)
+
+
+@pytest.mark.parametrize("where", ["remesh", "last"])
+def test_sigint_finishes_the_step_checkpoints_and_resumes(reference, tmp_path, monkeypatch,
+                                                          where):
+    """SIGINT during a remeshing step, or during the last step (the checkpoint then records
+    a finished run, whose final outputs the resumed call writes again): KeyboardInterrupt
+    after that step's checkpoint; the resumed run equals the uninterrupted one."""
+    history = reference[1].history
+    step = {"remesh": next(i for i, r in enumerate(history) if r["remesh"]),
+            "last": len(history) - 1}[where]
+    interrupt_at(monkeypatch, step)
+    with pytest.raises(KeyboardInterrupt):
+        run(config(), out=tmp_path)
+    monkeypatch.undo()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    meta = json.loads(str(np.load(tmp_path / CHECKPOINT)["meta"]))
+    assert len(meta["history"]) == step + 1 and meta["done"] == (where == "last")
+    assert_same_run(reference, tmp_path, run(config(), out=tmp_path))
+
+
 SIGTERM_SCRIPT = """
 import sys
 sys.path.insert(0, {tests!r})
