@@ -14,8 +14,9 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
   the difference of the two outermost rings G = k ln 2, the contours of the growth phase,
   cases.analysis.continuum_wavelength, and continuum.radial.ring_radii at the continuum's final
   radius, cases.fig4.exact_wavelength; particles: the last two peaks of the radial mean-length
-  profile), and whether the particle colony has rings at all: the azimuthal coherence C of its final length pattern and its
-  significance z (:func:`cases.analysis.ring_coherence`; z >= analysis.RING_Z: rings);
+  profile), and whether the particle colony has rings at all: the azimuthal coherence C of its
+  final length pattern and its significance z (:func:`cases.analysis.ring_coherence`;
+  z >= analysis.RING_Z: rings);
 and the power-law exponents fitted against lam (lam > 0, finite values) of the wavelengths and
 maximum stresses, beside the paper's statements; the particle wavelength's over the lam whose
 colony has rings only (elsewhere the peak finder measures noise). Nothing is tuned: every

@@ -90,7 +90,8 @@ def test_linear_field_exact():
     x, y = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n))
     pts = np.column_stack([x.ravel(), y.ravel()])
     idx = np.arange(n * n).reshape(n, n)
-    a, b, c, d = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
+    a, b = idx[:-1, :-1].ravel(), idx[:-1, 1:].ravel()
+    c, d = idx[1:, :-1].ravel(), idx[1:, 1:].ravel()
     tri = np.concatenate([np.column_stack([a, b, d]), np.column_stack([a, d, c])])
     G = 3.3 * LN2 * pts[:, 0]  # rings at x_k = k / 3.3, k = 1, 2, 3
     tab = ring_table(pts, tri, G, center=(0.0, 0.5))
