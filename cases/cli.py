@@ -31,7 +31,9 @@ import importlib
 import logging
 import math
 import os
+import signal
 import sys
+import threading
 import tomllib
 from pathlib import Path
 
@@ -388,6 +390,10 @@ def _dispatch(args) -> int:
     return 0
 
 
+def _terminate(signum, frame):
+    raise SystemExit(128 + signum)
+
+
 def _stage_of(args) -> Path | None:
     """The stage folder of a run command (None for other commands or unusable --out)."""
     out = getattr(args, "out", None)
@@ -401,17 +407,33 @@ def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``colony`` console script; returns the exit status."""
     args = parser().parse_args(argv)
     configure_logging(getattr(args, "quiet", False), getattr(args, "verbose", False))
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
+    try:
+        return _report(args)
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, previous)
+
+
+def _report(args) -> int:
+    """Run the command; every failure becomes one line on stderr and an exit status."""
     partial = _stage_of(args)
-    kept = (f"; the last checkpoint is kept in {partial}, give the same command to resume"
-            if partial is not None else "")
+
+    def kept() -> str:
+        if partial is None or not (partial / "checkpoint.npz").exists():
+            return ""
+        return f"; the last checkpoint is kept in {partial}, give the same command to resume"
+
     try:
         return _dispatch(args)
     except KeyboardInterrupt:
-        print(f"colony: interrupted (SIGINT){kept}", file=sys.stderr)
+        print(f"colony: interrupted (SIGINT){kept()}", file=sys.stderr)
         return 130
-    except SystemExit as err:  # SIGTERM during a run: the engine stopped after a whole step
+    except SystemExit as err:  # SIGTERM: the engine stopped after a whole step
         if isinstance(err.code, int) and err.code > 128:
-            print(f"colony: terminated (signal {err.code - 128}){kept}", file=sys.stderr)
+            print(f"colony: terminated (signal {err.code - 128}){kept()}", file=sys.stderr)
+            return err.code
         raise
     except (ValueError, RuntimeError, OSError) as err:
         message = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
