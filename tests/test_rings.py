@@ -3,7 +3,8 @@
 (a), (b): a manufactured radial phase G(r) interpolated on disc meshes of decreasing size h; its
 level sets are circles of radii r_k (G(r_k) = k ln 2, brentq to 1e-14), so the contours' mean
 radius and length have exact values r_k and 2 pi r_k; the P1 interpolation error is O(h^2) and
-so are both errors (measured orders 1.95 and 2.04 on h = 1 ... 0.125, R = 10). (c): a short
+so are both errors (measured orders 2.00 and 2.01 on h = 0.8 ... 0.1, R = 6; max errors at
+h = 0.1: 3.2e-4 and 2.7e-4). (c): a short
 continuum run against the 1D radial reference continuum.radial.ring_radii.
 """
 
