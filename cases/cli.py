@@ -317,6 +317,18 @@ def parser() -> argparse.ArgumentParser:
     i = sub.add_parser("info", help="print a run folder's provenance (run.json)")
     i.add_argument("dir", help="run folder (or its stopped DIR.partial)")
 
+    pp = sub.add_parser("plot", help="redraw a run's pictures and R(t) from its saved outputs")
+    pp.add_argument("dir", help="run folder")
+    pp.add_argument("--out", default=None, help="folder of the pictures (default DIR)")
+
+    pm = sub.add_parser("movie", help="MP4 of a run's saved frames (trajectory.gsd or VTU)")
+    pm.add_argument("dir", help="run folder")
+    pm.add_argument("--out", default=None, help="movie file (default DIR/movie.mp4)")
+    pm.add_argument("--fps", type=float, default=12.0, help="frames per second (default 12)")
+    pm.add_argument("--max-frames", type=int, default=None,
+                    help="at most this many frames, evenly spaced (default all)")
+    _verbosity(pm)
+
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
     k.add_argument("name", choices=CASES)
     k.add_argument("--scale", choices=("smoke", "medium", "paper"), default="smoke")
@@ -368,6 +380,20 @@ def _dispatch(args) -> int:
         print(f"particle run written to {args.out}")
     elif args.command == "info":
         print(describe(Path(args.dir)))
+    elif args.command == "plot":
+        from cases.viewer import plot_run
+
+        for path in plot_run(Path(args.dir), args.out):
+            print(path)
+    elif args.command == "movie":
+        from cases.viewer import movie_run
+
+        if not (math.isfinite(args.fps) and args.fps > 0):
+            raise UsageError(f"--fps must be a positive number, got {args.fps}")
+        if args.max_frames is not None and args.max_frames < 1:
+            raise UsageError(f"--max-frames must be >= 1, got {args.max_frames}")
+        print(movie_run(Path(args.dir), args.out or Path(args.dir) / "movie.mp4", fps=args.fps,
+                        max_frames=args.max_frames, progress=progress))
     else:
         module = importlib.import_module(f"cases.{args.name}")
         out = Path(args.out or f"runs/case-{args.name}-{args.scale}")

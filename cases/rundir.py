@@ -47,7 +47,7 @@ RECORD = "run.json"
 OUTPUT_NAMES = frozenset({
     RECORD, "config.json", "history.csv", "profile.csv", "boundary.csv", "rings.csv",
     "fields.pvd", "fields", "mean_length.png", "particles.csv", "trajectory.gsd", "colony.png",
-    "checkpoint.npz",
+    "checkpoint.npz", "radius.png", "profile.png", "movie.mp4",
 })
 #: Suffixes of the temporary files a writer replaces atomically (``x.tmp``, ``x.tmp.npz``).
 TEMPORARY_SUFFIXES = (".tmp", ".tmp.npz", ".gsd.tmp")
@@ -83,8 +83,8 @@ def foreign_entries(folder: Path) -> list[str]:
     names = sorted(p.name for p in folder.iterdir())
     record = read_record(folder)
     listed = set(record.get("files", ())) | {RECORD} if record and "files" in record else None
-    if listed is not None:
-        return [n for n in names if n not in listed]
+    if listed is not None:  # plus what ``colony plot|movie`` add later
+        return [n for n in names if n not in listed and not _written_by_us(n)]
     if record is None and "config.json" not in names:
         return names or []
     foreign = [n for n in names if not _written_by_us(n)]

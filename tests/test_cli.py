@@ -163,3 +163,19 @@ def test_particles_resume_with_another_step_only_when_asked(tmp_path):
     config = json.loads((out / "config.json").read_text())
     assert config["dt"] == 0.005 and config["step_policy_changes"] == [
         {"step": 20, "dt": [0.01, 0.005]}]
+
+
+def test_plot_and_movie_of_a_run(tmp_path):
+    """``colony plot DIR`` and ``colony movie DIR`` redraw a finished run; the folder stays
+    replaceable by --overwrite; a folder that is not a run is one line, exit 2."""
+    out = tmp_path / "c"
+    assert cli.main(["continuum", "--lam", "1e-2", "--radius", "1.5", "--out", str(out),
+                     "--quiet", "--output-every", "0.2", "--set", "n_nodes=200"]) == 0
+    assert cli.main(["plot", str(out)]) == 0
+    assert (out / "radius.png").stat().st_size > 0
+    assert cli.main(["movie", str(out), "--max-frames", "3", "--quiet"]) == 0
+    assert (out / "movie.mp4").stat().st_size > 0
+    assert cli.main(["continuum", "--lam", "1e-2", "--radius", "1.5", "--out", str(out),
+                     "--quiet", "--overwrite", "--set", "n_nodes=200"]) == 0
+    res = _colony("movie", str(tmp_path))
+    assert res.returncode == 2 and res.stderr.count("\n") == 1
