@@ -155,6 +155,7 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
 
 def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True):
     """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG."""
+    from continuum.output import write_rings
     from continuum.simulation import run
 
     def body(partial):
@@ -162,9 +163,10 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
         profile = field_profile(state.points, state.triangles,
                                 {"mean_length": state.fields["mean_length"],
                                  "mean_length_psi": state.fields["mean_length_psi"],
-                                 "pressure": state.fields["p"]},
+                                 "pressure": state.fields["p"], "G": state.fields["G"]},
                                 edge_width=CONTINUUM_EDGE_WIDTH)
         write_csv(partial / "profile.csv", profile)
+        write_rings(partial, state.points, state.triangles, state.fields["G"])
         _draw_continuum(state, partial / "mean_length", config.lam)
         _remove_checkpoints(partial)
         return state

@@ -88,8 +88,13 @@ def test_continuum_end_to_end(tmp_path):
         "fields.pvd",
         "config.json",
         "mean_length.png",
+        "rings.csv",
+        "run.json",
     ):
         assert (out / name).is_file(), name
+    assert {"k", "mean_radius", "min_radius", "max_radius", "length"} <= set(
+        _header(out / "rings.csv"))
+    assert {"G", "mean_length_phase"} <= set(_header(out / "profile.csv"))
     assert {"t", "radius", "area", "max_pressure"} <= set(_header(out / "history.csv"))
     assert {"r", "mean_length", "pressure"} <= set(_header(out / "profile.csv"))
     assert _header(out / "boundary.csv") == ["x", "y"]
