@@ -8,9 +8,16 @@ the step's contact solve (held over the step), and the length is updated exactly
 so at lam = 0 the total length is exactly exp(t) times its initial value (division keeps length).
 
 Division: a particle with l_n >= 2 becomes two of length l_n / 2 centred at x_n +- (l_n / 4) p_n
-(their outer tips are the parent's, their inner tips touch at x_n), with angles
+(their outer tips are the mother's, their inner tips touch at x_n), with angles
 theta_n + eps * U(-1, 1), an independent uniform perturbation per daughter of amplitude
-eps = ``division_noise`` (radians) drawn from the run's seeded generator.
+eps = ``division_noise`` (radians) drawn from the run's seeded generator.  Both daughters get
+new ids, parent = the mother's id and generation = the mother's generation + 1 (initial
+particles: parent -1, generation 0).  So g_n is the number of divisions on the line of n back
+to its initial ancestor a, and since division halves the length,
+
+    l_n(t) = l_a(0) 2^(-g_n) prod_steps exp(dt exp(-lam sigma)),
+
+sigma at each step the load of the ancestor of n then alive.
 """
 
 from __future__ import annotations
@@ -36,8 +43,11 @@ def growth_increment(length: np.ndarray, sigma: np.ndarray, lam: float, dt: floa
 def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
     """Divide every particle with l_n >= 2, in place; returns the number of divisions.
 
-    Daughter 1 takes the parent's index, daughter 2 is appended; both get new ids.  Random
-    numbers are drawn in index order (two per dividing particle), so runs are reproducible.
+    Daughter 1 takes the mother's index, daughter 2 is appended; both get new ids (for m
+    divisions of mothers i_1 < ... < i_m, daughter 1 of i_k gets next_id + k - 1 and daughter 2
+    next_id + m + k - 1), parent = the mother's id and generation = the mother's generation
+    + 1.  Random numbers are drawn in index order (two per dividing particle), so runs are
+    reproducible.
     """
     idx = np.flatnonzero(state.length >= DIVISION_LENGTH)
     m = idx.size
@@ -51,12 +61,16 @@ def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
     ox = 0.5 * half * np.cos(th)
     oy = 0.5 * half * np.sin(th)
     new_ids = state.next_id + np.arange(2 * m, dtype=np.int64)
+    mother = state.ids[idx]
+    gen = state.generation[idx] + 1
     state.next_id += 2 * m
     state.x[idx] = x + ox
     state.y[idx] = y + oy
     state.theta[idx] = th + eps[:, 0]
     state.length[idx] = half
     state.ids[idx] = new_ids[:m]
+    state.parent[idx] = mother
+    state.generation[idx] = gen
     state.stress[idx] = 0.0
-    state.append(x - ox, y - oy, th + eps[:, 1], half, new_ids[m:])
+    state.append(x - ox, y - oy, th + eps[:, 1], half, new_ids[m:], mother, gen)
     return m

@@ -14,7 +14,7 @@ One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
    max(PASS_ITERATION_FLOOR, iterations of step 2) iterations, else OverlapError or
    ContactSolveError, upon which the step is redone from the same state as two steps of dt/2
    (``robust_step``, nested up to dt/16);
-5. divide particles with l >= 2 (growth.py).
+5. divide particles with l >= 2 (growth.py; the daughters record parent and generation).
 
 With ``adaptive_dt`` the next step's length follows the cost of this step's passes
 (:func:`next_dt`); ``dt`` is then the first and the largest step.
@@ -202,6 +202,9 @@ class Colony:
         One row per step, keys output.HISTORY_COLUMNS.
     finished : bool
         False when the run stopped early (``stop_after``) and can be resumed.
+    parent, generation : int64 arrays (N,)
+        Lineage (state.ParticleState): the mother's id (-1 for an initial particle) and the
+        number of divisions since the initial ancestor; None: -1 and 0.
     """
 
     x: np.ndarray
@@ -213,11 +216,13 @@ class Colony:
     t: float
     history: list = field(default_factory=list)
     finished: bool = True
+    parent: np.ndarray | None = None
+    generation: np.ndarray | None = None
 
     @property
     def state(self) -> ParticleState:
         return ParticleState(self.x, self.y, self.theta, self.length, self.stress, self.ids,
-                             int(self.ids.max()) + 1)
+                             int(self.ids.max()) + 1, self.parent, self.generation)
 
     @property
     def n(self) -> int:
@@ -520,6 +525,12 @@ def checkpoint_config(path: Path) -> ParticleConfig:
 
 
 def _load_checkpoint(path: Path, config, change_step_policy: bool = False):
+    """(state, t, step, rng, warm, history, frames, dt_next) saved by :func:`_save_checkpoint`.
+
+    A checkpoint written before the lineage was tracked has no ``parent`` and ``generation``
+    arrays: the particles then present are loaded as initial ones (parent -1, generation 0),
+    and their daughters count generations from them.
+    """
     with np.load(path) as z:
         meta = json.loads(str(z["meta"]))
         saved = _saved_config(meta)
@@ -535,8 +546,9 @@ def _load_checkpoint(path: Path, config, change_step_policy: bool = False):
                     if set(wrong) <= set(STEP_POLICY_FIELDS) else "")
             raise ValueError(f"checkpoint {path} belongs to a different configuration "
                              f"(differs in {', '.join(wrong)}){hint}")
+        lineage = {k: z[k] for k in ("parent", "generation") if k in z.files}
         st = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
-                           int(meta["next_id"]))
+                           int(meta["next_id"]), **lineage)
         warm = (z["warm_keys"], z["warm_gamma"])
     rng = np.random.default_rng(config.seed)
     rng.bit_generator.state = meta["rng"]
@@ -630,7 +642,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
             output.write_config(out, config)
             if traj.exists():
                 traj.unlink()
-            output.append_frame(traj, state, 0)
+            output.append_frame(traj, state, 0, t=t)
             frames = [1, 0]
     total = config.time if config.time is not None else config.radius
     bar = tqdm(total=total, disable=not (progress and sys.stderr.isatty()), unit="",
@@ -670,7 +682,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
             if out is not None:
                 if nstep % config.output_every == 0:
                     ensure_space(out, state.n, ckpt)
-                    output.append_frame(traj, state, nstep)
+                    output.append_frame(traj, state, nstep, t=t)
                     frames = [frames[0] + 1, nstep]
                 now = _time.monotonic()
                 if now - last_ckpt >= config.checkpoint_seconds:
@@ -691,7 +703,7 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
     if out is not None:
         ensure_space(out, state.n, ckpt)
         if finished and frames[1] != nstep:
-            output.append_frame(traj, state, nstep)
+            output.append_frame(traj, state, nstep, t=t)
             frames = [frames[0] + 1, nstep]
         _save_checkpoint(ckpt, config, state, t, nstep, rng, warm, history, frames, dt_next)
         output.write_history(out, history)
@@ -701,4 +713,4 @@ def run(config: ParticleConfig, out: Path | None = None, progress: bool = False,
     if stop.signum is not None:
         raise SystemExit(128 + stop.signum)
     return Colony(state.x, state.y, state.theta, state.length, state.stress, state.ids, t,
-                  history, finished)
+                  history, finished, state.parent, state.generation)

@@ -1,8 +1,10 @@
 """Particle state in flat arrays that grow with division.
 
 Particle n: centre (x_n, y_n), angle theta_n (axis p_n = (cos, sin)), tip-to-tip length l_n,
-axial load sigma_n (``stress``) and a unique integer id (ids are never reused: they identify
-contacts between steps for the solver's warm start).
+axial load sigma_n (``stress``), a unique integer id (ids are never reused: they identify
+contacts between steps for the solver's warm start) and its lineage: ``parent`` = the id of the
+particle whose division made it (-1 for an initial particle) and ``generation`` = the number of
+divisions between it and its initial ancestor (0 for an initial particle; growth.divide).
 """
 
 from __future__ import annotations
@@ -17,7 +19,23 @@ B = 0.5
 
 @dataclass
 class ParticleState:
-    """Flat arrays of the current particles (see module docstring)."""
+    """Flat arrays of the current particles (see module docstring).
+
+    Attributes
+    ----------
+    x, y, theta, length, stress : float64 arrays (N,)
+    ids : int64 array (N,)
+        Unique ids; ``next_id`` is the next unused one.
+    next_id : int
+    parent : int64 array (N,)
+        Id of the mother (the particle whose division made this one), -1 for an initial particle.
+    generation : int64 array (N,)
+        Divisions since the initial ancestor: 0 for an initial particle, the mother's + 1.
+
+    ``parent`` and ``generation`` None (e.g. a state built from arrays saved before they
+    existed) are set to -1 and 0 for every particle: the particles then present count as
+    initial ones.
+    """
 
     x: np.ndarray
     y: np.ndarray
@@ -26,10 +44,22 @@ class ParticleState:
     stress: np.ndarray
     ids: np.ndarray
     next_id: int
+    parent: np.ndarray | None = None
+    generation: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        n = self.x.shape[0]
+        if self.parent is None:
+            self.parent = np.full(n, -1, dtype=np.int64)
+        if self.generation is None:
+            self.generation = np.zeros(n, dtype=np.int64)
 
     @classmethod
     def from_arrays(cls, x, y, theta, length) -> "ParticleState":
-        """New state; ids 0..N-1, loads zero.  Raises ValueError on inconsistent input."""
+        """New state; ids 0..N-1, loads zero, parent -1, generation 0.
+
+        Raises ValueError on inconsistent input.
+        """
         arrs = [np.array(a, dtype=np.float64, ndmin=1) for a in (x, y, theta, length)]
         n = arrs[0].shape[0]
         if any(a.ndim != 1 or a.shape[0] != n for a in arrs):
@@ -46,22 +76,31 @@ class ParticleState:
     def n(self) -> int:
         return int(self.x.shape[0])
 
-    def append(self, x, y, theta, length, ids) -> None:
-        """Append particles (zero load)."""
+    def append(self, x, y, theta, length, ids, parent=None, generation=None) -> None:
+        """Append particles (zero load; parent -1 and generation 0 unless given)."""
+        m = len(x)
+        parent = np.full(m, -1) if parent is None else parent
+        generation = np.zeros(m) if generation is None else generation
         self.x = np.concatenate([self.x, x])
         self.y = np.concatenate([self.y, y])
         self.theta = np.concatenate([self.theta, theta])
         self.length = np.concatenate([self.length, length])
         self.stress = np.concatenate([self.stress, np.zeros(len(x))])
         self.ids = np.concatenate([self.ids, np.asarray(ids, dtype=np.int64)])
+        self.parent = np.concatenate([self.parent, np.asarray(parent, dtype=np.int64)])
+        self.generation = np.concatenate([self.generation,
+                                          np.asarray(generation, dtype=np.int64)])
 
     def copy(self) -> "ParticleState":
         return ParticleState(self.x.copy(), self.y.copy(), self.theta.copy(), self.length.copy(),
-                             self.stress.copy(), self.ids.copy(), self.next_id)
+                             self.stress.copy(), self.ids.copy(), self.next_id,
+                             self.parent.copy(), self.generation.copy())
 
     def arrays(self) -> dict[str, np.ndarray]:
+        """The per-particle arrays by attribute name (what a checkpoint saves)."""
         return {"x": self.x, "y": self.y, "theta": self.theta, "length": self.length,
-                "stress": self.stress, "ids": self.ids}
+                "stress": self.stress, "ids": self.ids, "parent": self.parent,
+                "generation": self.generation}
 
 
 def centroid(state: ParticleState) -> tuple[float, float]:
