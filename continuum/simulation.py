@@ -39,6 +39,7 @@ result does not depend on when they happen.
 from __future__ import annotations
 
 import json
+import logging
 import math
 import os
 import signal
@@ -51,6 +52,7 @@ from pathlib import Path
 import numpy as np
 
 from continuum import mesh as M
+from continuum.budget import check_memory
 from continuum.motion import Locator, gradient_corrected_matrix, remesh_reason, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.radial import R0
@@ -60,6 +62,7 @@ from continuum.velocity import nodal_velocity
 __all__ = ["ContinuumConfig", "ContinuumState", "run", "initial_boundary"]
 
 LN2 = math.log(2.0)
+log = logging.getLogger(__name__)
 
 
 @dataclass
@@ -505,6 +508,8 @@ def _step_dt(col: _Colony, config: ContinuumConfig) -> tuple[float, bool]:
 def _advance(col: _Colony, config: ContinuumConfig) -> tuple[dict, bool]:
     """One step of a run: remesh if due, then a Heun step; returns (history row, goal reached)."""
     reason = col.maybe_remesh()
+    if reason is not None:
+        log.debug("remeshed at t = %.6g (%s): %d nodes", col.t, reason, len(col.points))
     dt, last = _step_dt(col, config)
     dt = col.step(dt)
     row = col.history_row(dt, reason)
@@ -523,8 +528,12 @@ def _save_checkpoint(
     meta = {"config": asdict(config), "colony": scalars, "history": history,
             "frames": frames, "next_frame": next_frame, "done": done}
     tmp = path.with_name(path.name + ".tmp.npz")
-    np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
-    os.replace(tmp, path)
+    try:
+        np.savez(tmp, meta=np.array(json.dumps(meta)), **arrays)
+        os.replace(tmp, path)
+    finally:  # a failed write (e.g. a full disk) leaves the previous checkpoint as it was
+        tmp.unlink(missing_ok=True)
+    log.debug("checkpoint at t = %.6g written to %s", col.t, path)
 
 
 def _check_resumable(path: Path, saved: dict, config: ContinuumConfig) -> None:
@@ -605,10 +614,12 @@ def _start(config: ContinuumConfig, out: Path | None, writer) -> tuple:
     ckpt = None if out is None else out / CHECKPOINT
     if ckpt is not None and ckpt.exists():
         col, history, frames, next_frame, done = _load_checkpoint(ckpt, config)
+        log.info("resuming from %s at t = %.6g (step %d)", ckpt, col.t, len(history) - 1)
         if writer is not None:
             writer.frames = frames
             _remove_later_frames(out, frames)
         return col, history, next_frame, done
+    check_memory(config)
     if out is not None:
         output.write_config(out, config)
     col = _Colony(config)
