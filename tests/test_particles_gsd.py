@@ -36,6 +36,8 @@ def _states():
     b.stress = np.append(b.stress, 0.0)
     b.ids = np.array([0, 3, 2, 4])
     b.next_id = 5
+    b.parent = np.where(b.ids > 2, 1, -1)
+    b.generation = (b.ids > 2).astype(np.int64)
     return [(a, 0, 0.0), (b, 10, 0.25)]
 
 
@@ -75,6 +77,7 @@ def test_frames_read_back(tmp_path):
 def test_time_from_history_without_log_time(tmp_path):
     path = tmp_path / "trajectory.gsd"
     for state, step, _ in _states():
+        state.parent = state.generation = None  # as written before lineage was tracked
         append_frame(path, state, step)  # t not given
     (tmp_path / "history.csv").write_text("step,t\n5,0.1\n10,0.3\n")
     frames = list(read_trajectory(path))
