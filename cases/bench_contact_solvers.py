@@ -10,13 +10,14 @@ For each state the growth step of model.md is solved at the same tolerance by ev
 
 States (``--sizes``, target particle numbers):
 
-- ``synthetic`` (default): a dense disc of rods made by :func:`ring_packing`: concentric rings
-  of tangential rods (random tip-to-tip lengths in [1, 1.9), seeded), end-to-end gaps and
+- ``synthetic`` (default): a dense disc of rods made by ``particles.packings.ring_packing``:
+  concentric rings of tangential rods (random tip-to-tip lengths in [1, 1.9), seeded),
+  end-to-end gaps and
   ring-to-ring clearances of 1e-3 b-units jittered by +-50%, so no two rods overlap and the
   colony is jammed under one growth step: growth along each ring pushes on the next ring out,
   a 2D-coupled, pressure-like load path;
 - ``--grown FILE.npz`` (repeatable): saved engine states (arrays x, y, theta, length),
-  e.g. from ``particles.simulation.run(ParticleConfig(lam=1e-2, radius=R))``, or ring
+  e.g. from ``particles.run(particles.Config(lam=1e-2, radius=R))``, or ring
   packings grown by the engine for a short time (jammed, most contacts loaded).  States are
   grouped into families by the leading letters of their file names for the fitted exponents.
 
@@ -99,68 +100,13 @@ import numpy as np
 
 from particles.apgd import solve_contacts_apgd
 from particles.contact_solver import linearised_gap, solve_contacts
-from particles.geometry import B, find_contacts, generalised_forces, loads
-from particles.neighbours import candidate_pairs
+from particles.geometry import axial_stress, detect_contacts
+from particles.packings import ring_packing, warm_problem
 from particles.twolevel import solve_contacts_twolevel
 
 SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1),
            "twolevel": (solve_contacts_twolevel, 1)}
 """name -> (solver, gradient evaluations per iteration)."""
-
-
-def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 1.0,
-                 lmax: float = 1.9, r0: float = 3.0) -> tuple[np.ndarray, ...]:
-    """Dense non-overlapping disc of rods on concentric rings (module docstring).
-
-    Ring m has radius r_m (rod centre lines are chords of it); rods of segment length
-    L = l - b subtend 2 asin(L / (2 r)); consecutive rods are separated along the ring so
-    that their facing endpoints are b + g apart (g = gap * U(0.5, 1.5)); the leftover angle
-    of each ring is spread over its end gaps.  The next ring lies at
-    r_{m+1} = r_m + b + g + Lmax^2 / (8 r_m) (chord sagitta), so rods of adjacent rings
-    never overlap.  Rings are added until n_target rods are placed.
-
-    Returns
-    -------
-    x, y, theta, length : arrays
-    """
-    rng = np.random.default_rng(seed)
-    xs, ys, ts, ls = [], [], [], []
-    r = r0
-    count = 0
-    while count < n_target:
-        lengths, angles = [], []
-        used = 0.0
-        while True:
-            ln = rng.uniform(lmin, lmax)
-            seg = 2.0 * np.arcsin(min(1.0, (ln - B) / (2.0 * r)))
-            sep = 2.0 * np.arcsin(min(1.0, (B + gap * rng.uniform(0.5, 1.5)) / (2.0 * r)))
-            if used + seg + sep > 2.0 * np.pi:
-                break
-            lengths.append(ln)
-            angles.append((seg, sep))
-            used += seg + sep
-        if len(lengths) < 3:
-            r += B + gap + (lmax - B) ** 2 / (8.0 * r)
-            continue
-        extra = (2.0 * np.pi - used) / len(lengths)
-        phi = rng.uniform(0.0, 2.0 * np.pi)
-        for ln, (seg, sep) in zip(lengths, angles):
-            mid = phi + 0.5 * seg
-            rc = r * np.cos(0.5 * seg)
-            xs.append(rc * np.cos(mid))
-            ys.append(rc * np.sin(mid))
-            ts.append(mid + 0.5 * np.pi)
-            ls.append(ln)
-            phi += seg + sep + extra
-        count += len(lengths)
-        r += B + gap * rng.uniform(0.5, 1.5) + (lmax - B) ** 2 / (8.0 * r)
-    return np.array(xs), np.array(ys), np.array(ts), np.array(ls)
-
-
-def contacts_of(x, y, theta, length, margin):
-    """Contacts with gap <= margin (cell lists + geometry, as the engine)."""
-    pairs = candidate_pairs(x, y, length, margin)
-    return find_contacts(x, y, theta, length, pairs, margin)
 
 
 def residual(c, length, dt, lam, gamma) -> float:
@@ -171,27 +117,6 @@ def residual(c, length, dt, lam, gamma) -> float:
                 + 12 / length[c.j] ** 3 * tj**2)
     q = linearised_gap(c, length, dt, lam, gamma)
     return float(np.max(np.abs(np.minimum(akk * gamma, q))))
-
-
-def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):
-    """One engine update with forces gamma, then the next step's contacts and warm start."""
-    n = x.shape[0]
-    ids = np.arange(n, dtype=np.int64)
-    fx, fy, tz = generalised_forces(c, gamma, n)
-    sigma = loads(c, gamma, n)
-    x2 = x + dt * fx / length
-    y2 = y + dt * fy / length
-    th2 = theta + dt * 12.0 * tz / length**3
-    l2 = length * np.exp(dt * np.exp(-lam * sigma))
-    c2 = contacts_of(x2, y2, th2, l2, margin)
-    k1 = c.keys(ids)
-    k2 = c2.keys(ids)
-    order = np.argsort(k1)
-    pos = np.clip(np.searchsorted(k1[order], k2), 0, len(k1) - 1)
-    hit = k1[order][pos] == k2
-    g0 = np.zeros(len(c2))
-    g0[hit] = gamma[order[pos[hit]]]
-    return (x2, y2, th2, l2), c2, g0
 
 
 def measure(name, c, length, dt, lam, gamma0, tol, repeat):
@@ -235,7 +160,7 @@ def main(argv=None) -> None:
     args = p.parse_args(argv)
     # compile every kernel once on a tiny state so no timing includes Numba compilation
     small = ring_packing(50, seed=1)
-    cs = contacts_of(*small, args.margin)
+    cs = detect_contacts(*small, args.margin)
     for name in args.solvers:
         SOLVERS[name][0](cs, small[3], args.dt, args.lam, None, 1e-3)
     print(f"# load: {os.getloadavg()}")
@@ -246,7 +171,7 @@ def main(argv=None) -> None:
     for label, st, tmake in states(args):
         x, y, theta, length = st
         n = x.shape[0]
-        c = contacts_of(x, y, theta, length, args.margin)
+        c = detect_contacts(x, y, theta, length, args.margin)
         for tol in args.tol:
             # reference for the warm start and the load comparison, at tol / ref_factor
             rtol = tol / args.ref_factor
@@ -257,12 +182,12 @@ def main(argv=None) -> None:
             gref2, _ = ref_solve(c2, l2, args.dt, args.lam, g0, rtol, 10_000_000)
             for start, cc, ll, gg, ref in (("cold", c, length, None, gref),
                                            ("warm", c2, l2, g0, gref2)):
-                sref = loads(cc, ref, n)
+                sref = axial_stress(cc, ref, n)
                 for name in args.solvers:
                     gamma, its, grads, sec = measure(name, cc, ll, args.dt, args.lam, gg, tol,
                                                      args.repeat)
                     res = residual(cc, ll, args.dt, args.lam, gamma)
-                    dsig = float(np.abs(loads(cc, gamma, n) - sref).max() / sref.max())
+                    dsig = float(np.abs(axial_stress(cc, gamma, n) - sref).max() / sref.max())
                     row = dict(state=label, N=n, K=len(cc), start=start, tol=tol, solver=name,
                                iterations=its, gradients=grads, seconds=sec, residual=res,
                                rel_load_error=dsig, load=os.getloadavg()[0])

@@ -8,11 +8,11 @@ run, which is far cheaper to reuse than to regrow; such a state starts with zero
 no warm start, so its first step is a cold solve (the medians hide it).
 
 From each state every solver of ``--solvers`` (default bbpgd and apgd: the same states, the same
-tolerance) times ``--steps`` steps of ``particles.simulation.step`` and reports medians of
+tolerance) times ``--steps`` steps of ``particles.stepping.step`` and reports medians of
 seconds per step, solver iterations per step (re-solve passes included), contacts, the split of
 the time between neighbour search, geometry, solver and update, and the exponents fitted to them
 (np.polyfit of log y against log N).  ``--threads 1 2`` repeats every measurement on each
-number of Numba threads (``ParticleConfig.threads``; the iterates do not depend on it, so the
+number of Numba threads (``particles.Config.threads``; the iterates do not depend on it, so the
 iteration counts must agree) and reports the speed-up.  ``--alternate K`` measures instead
 each number of threads K times, alternating, every measurement in a fresh process, and reports
 medians and ranges: on a shared virtual machine the speed-up of a second thread differs from
@@ -36,10 +36,11 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
+from particles.config import Config
 from particles.growth import divide
 from particles.output import read_init
-from particles.simulation import SOLVERS, ParticleConfig, step
-from particles.state import ParticleState, colony_radius
+from particles.state import ParticleState
+from particles.stepping import SOLVERS, step
 
 DEFAULT_FOLDER = Path("runs/bench_particles")
 
@@ -63,7 +64,7 @@ def load_state(path: Path):
         return st, float(z["t"]), warm, rng
 
 
-def grow_states(config: ParticleConfig, sizes: list[int], folder: Path) -> list[Path]:
+def grow_states(config: Config, sizes: list[int], folder: Path) -> list[Path]:
     """Saved states of one colony at the first step where N >= each size (reusing saved ones)."""
     folder.mkdir(parents=True, exist_ok=True)
     tag = f"lam{config.lam:g}_dt{config.dt:g}_seed{config.seed}"
@@ -85,12 +86,12 @@ def grow_states(config: ParticleConfig, sizes: list[int], folder: Path) -> list[
             divide(state, rng, config.division_noise)
             t += config.dt
         _save(paths[k], state, t, warm, rng)
-        print(f"grown N={state.n} t={t:.2f} R={colony_radius(state):.1f} "
+        print(f"grown N={state.n} t={t:.2f} R={state.enclosing_radius():.1f} "
               f"({time.perf_counter() - t0:.0f} s so far)", flush=True)
     return paths
 
 
-def measure(path: Path, config: ParticleConfig, steps: int) -> dict:
+def measure(path: Path, config: Config, steps: int) -> dict:
     """Median cost per step over ``steps`` steps from a saved state."""
     state, t, warm, rng = load_state(path)
     n0 = state.n
@@ -138,7 +139,8 @@ def _table(res: list[dict]) -> None:
 def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -> dict:
     """{threads: {N: [seconds per step of each repetition]}} of the first solver, each
     measurement a fresh ``python -m cases.bench_particles ARGV --threads T`` process, the
-    numbers of threads alternating."""
+    numbers of threads alternating.
+    """
     secs: dict = {t: {} for t in threads}
     for rep in range(repeats):
         for t in threads:
@@ -183,7 +185,7 @@ def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
     for path in a.state:
         if not path.is_file():
             ap.error(f"state file not found: {path}")
-    base = ParticleConfig(lam=a.lam, time=1e9)
+    base = Config(lam=a.lam, time=1e9)
     if a.dt is not None:
         base.dt = a.dt
     base.validate()

@@ -4,7 +4,7 @@ The main contact solve costs about the same in total whatever dt (its iterations
 dt), while the re-detection passes that remove the overlaps left by the linearised step grow
 from a few percent of it to more than all of it once dt is too long for the colony's speeds,
 which grow as lam falls.  For each lam of ``--lams`` and each policy of ``--policies``
-(``fixed:DT`` or ``adaptive:DT_MAX``, see particles.simulation.next_dt) one colony is grown from
+(``fixed:DT`` or ``adaptive:DT_MAX``, see particles.stepping.next_dt) one colony is grown from
 one cell to ``--radius`` and the table reports CPU seconds, steps, the solver iterations of
 the main solves, of the passes and of failed attempts (redone as half steps), and t at the
 radius (the result, which the step must not change beyond its first-order error).
@@ -46,10 +46,11 @@ from pathlib import Path
 
 import numpy as np
 
-import particles.simulation as simulation
+import particles.stepping as stepping
 from cases import analysis as A
+from particles import Config, run
+from particles.checkpoint import checkpoint_config, load_checkpoint
 from particles.growth import divide
-from particles.simulation import ParticleConfig, run
 
 COLUMNS = ("lam", "policy", "uncapped", "cpu_s", "wall_s", "steps", "halved", "main_iterations",
            "pass_iterations", "failed_iterations", "t_at_radius", "n_particles")
@@ -73,17 +74,17 @@ def parse_policy(text: str) -> tuple[bool, float]:
 def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> dict:
     """One colony from one cell to ``radius`` under ``policy``; its costs and result."""
     adaptive, dt = parse_policy(policy)
-    config = ParticleConfig(lam=lam, radius=radius, dt=dt, adaptive_dt=adaptive)
+    config = Config(lam=lam, radius=radius, dt=dt, adaptive_dt=adaptive)
     config.validate()
-    floor = simulation.PASS_ITERATION_FLOOR
+    floor = stepping.PASS_ITERATION_FLOOR
     if uncapped:
-        simulation.PASS_ITERATION_FLOOR = config.max_iterations
+        stepping.PASS_ITERATION_FLOOR = config.max_iterations
     try:
         w0, c0 = time.perf_counter(), time.process_time()
         colony = run(config)
         cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     finally:
-        simulation.PASS_ITERATION_FLOOR = floor
+        stepping.PASS_ITERATION_FLOOR = floor
     h = colony.history
 
     def total(key):
@@ -93,15 +94,17 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
             "steps": len(h), "halved": sum(r["substeps"] > 1 for r in h),
             "main_iterations": total("iterations") - total("pass_iterations"),
             "pass_iterations": total("pass_iterations"),
-            "failed_iterations": total("failed_iterations"), "t_at_radius": colony.t,
-            "n_particles": colony.n}
+            "failed_iterations": total("failed_iterations"), "t_at_radius": colony.state.t,
+            "n_particles": colony.state.n}
 
 
 def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
     """Advance the state of checkpoint ``path`` by ``duration`` under ``policy`` (module
-    docstring); the run's configuration otherwise.  Iterations are per unit time."""
-    config = simulation.checkpoint_config(Path(path))
-    state, t0, _, rng, warm, *_ = simulation._load_checkpoint(Path(path), config)
+    docstring); the run's configuration otherwise.  Iterations are per unit time.
+    """
+    config = checkpoint_config(Path(path))
+    state, *_ = load_checkpoint(Path(path), config)
+    t0, rng, warm = state.t, state.rng, state.warm
     adaptive, dt_max = parse_policy(policy)
     config = replace(config, dt=dt_max, adaptive_dt=adaptive)
     t, dt, rows, turns = t0, dt_max, [], []
@@ -109,12 +112,12 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
     while t < t0 + duration * (1 - 1e-9):
         dt = min(dt, t0 + duration - t)
         theta = state.theta.copy()
-        info, warm = simulation.robust_step(state, config, dt, warm)
+        info, warm = stepping.robust_step(state, config, dt, warm)
         turns.append(np.abs(state.theta - theta))
         divide(state, rng, config.division_noise)
         rows.append(info)
         t += dt
-        dt = simulation.next_dt(dt, info, dt_max) if adaptive else dt_max
+        dt = stepping.next_dt(dt, info, dt_max) if adaptive else dt_max
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     turns = np.concatenate(turns)
 
@@ -135,7 +138,8 @@ def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
     """Per step-policy segment of the run folder ``run`` (module docstring): first and last
     step, N range, dt range, steps, halved steps, iterations per unit time (main, passes and
     failed attempts; failed counted 0 where the history predates the column) and the failed
-    share."""
+    share.
+    """
     run = Path(run)
     h = A.read_csv(run / "history.csv")
     changes = json.loads((run / "config.json").read_text()).get("step_policy_changes", [])
@@ -229,7 +233,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         ap.error(f"no checkpoint file {a.checkpoint}")
     if not a.duration > 0:
         ap.error(f"--duration must be positive, got {a.duration}")
-    run(ParticleConfig(lam=1e-2, radius=2.0))  # compile the kernels outside the timings
+    run(Config(lam=1e-2, radius=2.0))  # compile the kernels outside the timings
     a.out.parent.mkdir(parents=True, exist_ok=True)
     rows = []
     if a.checkpoint is not None:

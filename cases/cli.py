@@ -12,7 +12,7 @@
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
     colony case NAME --from-data [--data-set medium|paper] [--out DIR]
 
-Every run is configured by one dataclass (``ContinuumConfig`` / ``ParticleConfig``), built from
+Every run is configured by one dataclass (``continuum.Config`` / ``particles.Config``), built from
 the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
 flags; the run writes it back as ``config.json`` next to its results.
 
@@ -179,13 +179,16 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
 def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
                   change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
-    from particles.simulation import STEP_POLICY_FIELDS, check_initial, run
+    from particles import run
+    from particles.config import STEP_POLICY_FIELDS
+    from particles.simulation import check_initial
 
     def body(partial):
         colony = run(config, out=partial, progress=progress,
-                     change_step_policy=change_step_policy)
+                     change_step_policy=change_step_policy).state
         profile = particle_profile(colony.x, colony.y, colony.length, colony.stress,
-                                   edge_width=PARTICLE_EDGE_WIDTH, radius=colony.radius())
+                                   edge_width=PARTICLE_EDGE_WIDTH,
+                                   radius=colony.enclosing_radius())
         write_csv(partial / "profile.csv", profile)
         _draw_particles(colony, partial / "colony", config.lam)
         _remove_checkpoints(partial)  # the run is complete: nothing to resume
@@ -370,14 +373,14 @@ def _dispatch(args) -> int:
         run_continuum(config, Path(args.out), args.overwrite, progress)
         print(f"continuum run written to {args.out}")
     elif args.command == "particles":
-        from particles.simulation import ParticleConfig
+        import particles
 
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
                  "dt": _finite("dt", args.dt), "adaptive_dt": args.adaptive_dt,
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads}
-        config = build_config(ParticleConfig, args.config, args.set, flags)
+        config = build_config(particles.Config, args.config, args.set, flags)
         run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy)
         print(f"particle run written to {args.out}")
     elif args.command == "info":

@@ -205,7 +205,7 @@ def engine_pairs(lams: Sequence[float], engines: Sequence[str] = ENGINES
 def run_engine(params: dict, folder: Path) -> None:
     """Sweep ``run_fn`` for either engine: ``params = {"engine": ..., "lam": ..., **config}``.
 
-    The remaining keys are the fields of ``ContinuumConfig`` / ``ParticleConfig``
+    The remaining keys are the fields of ``continuum.Config`` / ``particles.Config``
     (docs/DESIGN.md); the engine writes its output contract into ``folder``.
     """
     params = dict(params)
@@ -214,8 +214,7 @@ def run_engine(params: dict, folder: Path) -> None:
         from continuum.simulation import ContinuumConfig as Config
         from continuum.simulation import run
     elif engine == "particles":
-        from particles.simulation import ParticleConfig as Config
-        from particles.simulation import run
+        from particles import Config, run
     else:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     config = Config(**params)

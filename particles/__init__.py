@@ -1,1 +1,62 @@
-"""particles package (see docs/DESIGN.md)."""
+"""particles: growing, dividing sphero-cylinders with hard contacts (model.md, "Discrete model").
+
+A Numba engine as a library: a configuration (:class:`Config`), a simulation object that steps
+one explicit state (:class:`Simulation`, :class:`ParticleState`, :class:`StepRecord`), a run
+loop with outputs, checkpoints and signals (:func:`run`), initial configurations and the
+colony measures.
+
+>>> import particles
+>>> sim = particles.Simulation(particles.Config(lam=1e-2, seed=1))
+>>> record = sim.step()
+>>> state = sim.advance(radius=6.0)
+>>> print(state.n, state.t, state.stress.max())  # doctest: +SKIP
+
+Modules by concept: ``config`` (Config), ``state`` (ParticleState), ``neighbours`` (cell
+lists), ``geometry`` (contacts, D gamma, the axial stress sigma = G gamma), ``contact_solver``,
+``apgd``, ``twolevel`` (the per-step convex problem), ``growth`` (growth law, division rule),
+``stepping`` (one step, halving, adaptive dt), ``simulation`` (Simulation, run),
+``checkpoint``, ``output`` (files), ``packings`` (initial configurations), ``measures``
+(colony radii).
+"""
+
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version
+
+from .config import Config
+from .contact_solver import ContactSolveError
+from .geometry import B, axial_stress
+from .growth import divide, grow
+from .measures import enclosing_radius, hull_radius
+from .output import read_trajectory
+from .packings import from_csv, ring_packing, single_cell
+from .simulation import ParticleLimitError, Simulation, StepRecord, run
+from .state import ParticleState
+from .stepping import OverlapError
+
+try:
+    __version__ = version("colony-mechanics")
+except PackageNotFoundError:  # not installed (a source tree on sys.path)
+    __version__ = "0+unknown"
+
+__all__ = [
+    "B",
+    "Config",
+    "ContactSolveError",
+    "OverlapError",
+    "ParticleLimitError",
+    "ParticleState",
+    "Simulation",
+    "StepRecord",
+    "__version__",
+    "axial_stress",
+    "divide",
+    "enclosing_radius",
+    "from_csv",
+    "grow",
+    "hull_radius",
+    "read_trajectory",
+    "ring_packing",
+    "run",
+    "single_cell",
+]

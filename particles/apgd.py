@@ -1,7 +1,7 @@
 """Per-step contact problem by Jacobi-scaled APGD with adaptive restart, in Numba.
 
 Same problem, residual and stopping test as contact_solver.py (BBPGD), so the two are
-interchangeable (``ParticleConfig.solver``).  One time step is the convex problem over the
+interchangeable (``Config.solver``).  One time step is the convex problem over the
 contact forces gamma >= 0 (model.md, with the exact exponential length increment of
 contact_solver.py)
 
@@ -61,7 +61,7 @@ from .contact_solver import finish, incidence, particle_sums, prepare, problem_a
 from .geometry import Contacts
 
 NAME = "apgd"
-"""Name under which the engine may register this solver (ParticleConfig.solver)."""
+"""Name under which the engine may register this solver (Config.solver)."""
 
 
 @njit(cache=True)

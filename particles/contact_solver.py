@@ -12,10 +12,10 @@ whose gradient is the linearised gap at t + dt,
 M = diag(1/l_n, 1/l_n, 12/l_n^3) is the mobility (xi = 1), D the contact Jacobian, G the
 growth-load matrix (geometry.py).  The growth term is the one of model.md with its rate
 dt l_n exp(-lam sigma_n) replaced by the exact exponential length increment
-l_n (exp(dt exp(-lam sigma_n)) - 1) that the step then applies (simulation.py), so the solve
+l_n (exp(dt exp(-lam sigma_n)) - 1) that the step then applies (stepping.py), so the solve
 predicts exactly the growth that happens; the two agree to O(dt^2).  The term is convex for any
 lam >= 0 (its gradient is monotone in gamma), and lam = 0 is its linear limit.  Growth is thus
-coupled to the loads inside the solve, not lagged.
+coupled to the stress inside the solve, not lagged.
 
 Iteration (SimToolbox BCQPSolver::solveBBPGD): gamma <- max(0, gamma - alpha grad), alpha
 alternating the two Barzilai-Borwein steps, first step 1 / max|projected gradient|.  Stop when
@@ -27,7 +27,7 @@ is <= tol.  Both arguments of the min are gaps (a_kk gamma_k is the gap opened b
 so tol is a length: every linearised gap is >= -tol and every loaded contact closes to within tol.
 
 Threads: the loops of an iteration run in parallel over contacts and particles (Numba prange,
-``ParticleConfig.threads``).  D gamma and G gamma are gathered particle by particle on two or
+``Config.threads``).  D gamma and G gamma are gathered particle by particle on two or
 more threads (:func:`gather`) and scattered contact by contact on one (:func:`scatter`); both
 add in increasing contact order, and the sums of the BB step run over fixed blocks (BLOCK), so
 the iterates do not depend on the number of threads.
@@ -99,7 +99,8 @@ def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int 
 
     On one thread (``threads``, default numba.get_num_threads()) the lists are left empty and
     the kernels scatter contact by contact instead: serially that is faster (fewer bytes per
-    iteration; README "Threads"), and it adds in the same order."""
+    iteration; README "Threads"), and it adds in the same order.
+    """
     if (numba.get_num_threads() if threads is None else threads) == 1:
         return np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))
     return _incidence(c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, n)
@@ -108,7 +109,8 @@ def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int 
 @njit(cache=True)
 def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
     """Serial :func:`particle_sums`: adds each contact's force, torque and load to its two
-    particles, contacts in increasing order."""
+    particles, contacts in increasing order.
+    """
     for p in range(vx.shape[0]):
         vx[p] = 0.0
         vy[p] = 0.0
@@ -134,7 +136,8 @@ def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
 def gather(gam, start, idx, coef, vx, vy, om, sig):
     """Parallel :func:`particle_sums`: each particle sums its contacts from the incidence
     lists (:func:`incidence`) in increasing order, so no two threads write one entry and the
-    sums equal those of :func:`scatter` bit for bit (x - y = x + (-y) exactly)."""
+    sums equal those of :func:`scatter` bit for bit (x - y = x + (-y) exactly).
+    """
     for p in prange(vx.shape[0]):
         fx = 0.0
         fy = 0.0
@@ -158,7 +161,8 @@ def gather(gam, start, idx, coef, vx, vy, om, sig):
 def particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
     """Per-particle force, torque and load of contact forces gam: (vx, vy, om) = D gam,
     sig = G gam (written into the four work arrays of shape (N,)); :func:`gather` when the
-    incidence lists are given, else :func:`scatter`."""
+    incidence lists are given, else :func:`scatter`.
+    """
     if idx.shape[0] > 0:
         gather(gam, start, idx, coef, vx, vy, om, sig)
     else:
@@ -205,7 +209,8 @@ so the sums, hence the iterates, are the same for any number of threads."""
 @njit(cache=True, parallel=True)
 def _bb_update(gam, x1, g0, g1, part):
     """gam <- x1, g0 <- g1; returns (s.s, s.y, y.y) for s = x1 - gam, y = g1 - g0, summed
-    by blocks of BLOCK (part: work array of shape (nblocks, 3))."""
+    by blocks of BLOCK (part: work array of shape (nblocks, 3)).
+    """
     m = gam.shape[0]
     nb = part.shape[0]
     for b in prange(nb):
@@ -236,7 +241,8 @@ def _bb_update(gam, x1, g0, g1, part):
 @njit(cache=True, parallel=True)
 def _projected_step(gam, g, alpha, out):
     """out = max(0, gam - alpha g); returns max_k |gam_k - out_k| (alpha = 1: the largest
-    projected gradient)."""
+    projected gradient).
+    """
     r = 0.0
     for k in prange(gam.shape[0]):
         v = gam[k] - alpha * g[k]
@@ -253,7 +259,8 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
     the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
     alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1 when tol is
     not reached.  hist[it] = residual after iteration it (hist[0]: start); qout = q(gam)
-    on return.  (start, idx, coef): :func:`incidence` of the contacts."""
+    on return.  (start, idx, coef): :func:`incidence` of the contacts.
+    """
     n = mt.shape[0]
     m = gam.shape[0]
     vx = np.empty(n)
@@ -301,7 +308,8 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
 def _bbpgd(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
            growth, akk, tol, maxiter, hist):
     """BBPGD from max(0, gam) to the residual tol: :func:`bb_smooth` without an iteration cap
-    short of maxiter, first step 1 / max |projected gradient| (Dai & Fletcher 2005)."""
+    short of maxiter, first step 1 / max |projected gradient| (Dai & Fletcher 2005).
+    """
     for k in range(gam.shape[0]):
         if gam[k] < 0.0:
             gam[k] = 0.0

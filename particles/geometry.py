@@ -1,4 +1,4 @@
-"""Contact geometry of sphero-cylinders: closest points, gaps, normals, arms, growth loads.
+"""Contact geometry of sphero-cylinders: closest points, gaps, normals, arms, the axial stress.
 
 Particle n has centre x_n, axis p_n = (cos theta_n, sin theta_n), tip-to-tip length l_n and
 inner segment of length L_n = l_n - b.  For a candidate pair (i, j), i < j, the four
@@ -11,7 +11,7 @@ contact found from both sides is kept once).  Each contact k carries
 - gap phi_k = |c_j - c_i| - b, c the contact points on the two segments;
 - normal n_k = (c_j - c_i) / |c_j - c_i| (from i to j; force gamma_k pushes j along +n_k);
 - arms r_i = c_i - x_i, r_j = c_j - x_j (torque arms);
-- growth loads G_ik = -d phi_k / d l_i = (s_i / L_i) p_i . n_k and
+- growth coefficients G_ik = -d phi_k / d l_i = (s_i / L_i) p_i . n_k and
   G_jk = -d phi_k / d l_j = -(s_j / L_j) p_j . n_k, where s is the arc position of the contact
   point from the centre (the point moves by s/L per unit growth).  At a true closest point this is
   model.md's G = |s| |p . n| / L: (1/2)|p . n| at a segment end, 0 at an interior point.
@@ -23,6 +23,10 @@ contact found from both sides is kept once).  Each contact k carries
 
 Crossing segments (distance 0, which the overlap tolerance rules out in a run) are reported
 with gap -b.
+
+From contact forces gamma >= 0 this module gives the generalised forces F = D gamma
+(:func:`generalised_forces`) and the axial stress sigma = G gamma (:func:`axial_stress`), the
+load that slows growth (growth.py).  ``B`` is the particle diameter b of the whole package.
 """
 
 from __future__ import annotations
@@ -30,8 +34,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .neighbours import candidate_pairs
+
 B = 0.5
-"""Particle diameter b."""
+"""Particle diameter b (model.md units l0 = tau = xi = 1, b = 1/2); the package's one definition."""
 
 
 @njit(cache=True)
@@ -234,7 +240,8 @@ class Contacts:
     rix, riy, rjx, rjy : arrays
         Arms from the centres to the contact points.
     gi, gj : arrays
-        Growth loads G_ik = -d phi_k / d l_i and G_jk = -d phi_k / d l_j.
+        Growth coefficients G_ik = -d phi_k / d l_i and G_jk = -d phi_k / d l_j (the entries
+        of G in sigma = G gamma).
     """
 
     __slots__ = ("i", "j", "code", "gap", "nx", "ny", "rix", "riy", "rjx", "rjy", "gi", "gj")
@@ -275,6 +282,21 @@ def find_contacts(
     return Contacts(ires[:m], res[:m])
 
 
+def detect_contacts(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray,
+                    margin: float) -> Contacts:
+    """Contacts with gap phi_k <= margin: candidate pairs by cell lists, then :func:`find_contacts`.
+
+    Parameters
+    ----------
+    x, y, theta, length : arrays (N,)
+        Centres, angles and tip-to-tip lengths l_n > b.
+    margin : float
+        Largest gap phi_k kept.
+    """
+    pairs = candidate_pairs(x, y, length, margin)
+    return find_contacts(x, y, theta, length, pairs, margin)
+
+
 def contact_points(c: Contacts, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
     """Contact points (cix, ciy, cjx, cjy) on the two segments."""
     return x[c.i] + c.rix, y[c.i] + c.riy, x[c.j] + c.rjx, y[c.j] + c.rjy
@@ -293,8 +315,26 @@ def generalised_forces(c: Contacts, gamma: np.ndarray, n: int) -> tuple[np.ndarr
     return fx, fy, tz
 
 
-def loads(c: Contacts, gamma: np.ndarray, n: int) -> np.ndarray:
-    """Axial loads sigma = G gamma: sigma_n = sum over n's contacts of G_nk gamma_k."""
+def axial_stress(c: Contacts, gamma: np.ndarray, n: int) -> np.ndarray:
+    """Axial stress (load) sigma = G gamma of every particle, the quantity of the growth law.
+
+    sigma_n = sum over n's contacts k of G_nk gamma_k, G_nk = -d phi_k / d l_n: the generalised
+    force conjugate to the length l_n (model.md); (1/2) gamma_k |p_n . n_k| for a contact at a
+    segment end.  Called ``stress`` everywhere in the package (``ParticleState.stress``,
+    particles.csv, the trajectory's ``log/particles/stress``).
+
+    Parameters
+    ----------
+    c : Contacts
+    gamma : array (M,)
+        Contact forces gamma_k >= 0.
+    n : int
+        Number of particles N.
+
+    Returns
+    -------
+    sigma : array (N,)
+    """
     return np.bincount(c.i, c.gi * gamma, n) + np.bincount(c.j, c.gj * gamma, n)
 
 
@@ -302,8 +342,6 @@ def max_overlap(
     x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray, b: float = B
 ) -> float:
     """Largest overlap b - (segment distance) over all pairs (0 when none overlap)."""
-    from .neighbours import candidate_pairs
-
     pi, pj = candidate_pairs(x, y, length, 0.0)
     return float(_max_overlap_kernel(x, y, theta, length, pi, pj, b))
 

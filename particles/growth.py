@@ -1,6 +1,7 @@
-"""Growth law and division.
+"""The growth law and the division rule.
 
-Between divisions dl_n/dt = l_n exp(-lam sigma_n).  Over one step the loads sigma_n are those of
+Growth law: between divisions dl_n/dt = l_n exp(-lam sigma_n), sigma_n the axial stress
+(geometry.axial_stress, ``ParticleState.stress``).  Over one step the stress sigma_n is that of
 the step's contact solve (held over the step), and the length is updated exactly:
 
     l_n(t + dt) = l_n(t) exp(dt exp(-lam sigma_n)),
@@ -17,7 +18,7 @@ to its initial ancestor a, and since division halves the length,
 
     l_n(t) = l_a(0) 2^(-g_n) prod_steps exp(dt exp(-lam sigma)),
 
-sigma at each step the load of the ancestor of n then alive.
+sigma at each step the stress of the ancestor of n then alive.
 """
 
 from __future__ import annotations
@@ -30,18 +31,38 @@ DIVISION_LENGTH = 2.0
 """Particles divide when l_n >= 2 (twice the birth length l0 = 1)."""
 
 
-def grow(length: np.ndarray, sigma: np.ndarray, lam: float, dt: float) -> np.ndarray:
-    """Exact exponential update l * exp(dt exp(-lam sigma)) with the loads held over the step."""
-    return length * np.exp(dt * np.exp(-lam * sigma))
+def growth_rate(stress: np.ndarray, lam: float) -> np.ndarray:
+    """Specific growth rate g_n = (dl_n/dt) / l_n = exp(-lam sigma_n)."""
+    return np.exp(-lam * stress)
 
 
-def growth_increment(length: np.ndarray, sigma: np.ndarray, lam: float, dt: float) -> np.ndarray:
+def grow(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.ndarray:
+    """Lengths after a step: l(t + dt) = l exp(dt exp(-lam sigma)), sigma held over the step.
+
+    Parameters
+    ----------
+    length : array (N,)
+        l_n at the start of the step.
+    stress : array (N,)
+        Axial stress sigma_n of the step.
+    lam : float
+        Stress sensitivity lambda >= 0.
+    dt : float
+        Step length.
+    """
+    return length * np.exp(dt * growth_rate(stress, lam))
+
+
+def growth_increment(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.ndarray:
     """l(t + dt) - l(t) = l (exp(dt exp(-lam sigma)) - 1), computed without cancellation."""
-    return length * np.expm1(dt * np.exp(-lam * sigma))
+    return length * np.expm1(dt * growth_rate(stress, lam))
 
 
 def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
-    """Divide every particle with l_n >= 2, in place; returns the number of divisions.
+    """The division rule: every particle with l_n >= 2 becomes two, in place.
+
+    Daughters of length l_n / 2 centred at x_n +- (l_n / 4) p_n, angles theta_n + eps U(-1, 1)
+    (eps = ``noise``), stress zero until the next solve.  Returns the number of divisions.
 
     Daughter 1 takes the mother's index, daughter 2 is appended; both get new ids (for m
     divisions of mothers i_1 < ... < i_m, daughter 1 of i_k gets next_id + k - 1 and daughter 2

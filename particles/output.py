@@ -1,4 +1,7 @@
-"""Run outputs: config.json, history.csv, particles.csv, trajectory.gsd.
+"""Run outputs: config.json, history.csv, particles.csv, trajectory.gsd; the run's writer.
+
+:class:`RunOutput` is what ``particles.run`` hands each step to: a trajectory frame every
+``output_every`` steps, the history and the particles at the end, the free-space checks.
 
 trajectory.gsd follows the HOOMD schema (gsd.hoomd) and is laid out so that OVITO (3.x, File >
 Load File or ``ovito.io.import_file``) draws every particle as the sphero-cylinder it is, with no
@@ -35,8 +38,10 @@ opens the file in OVITO's Python module (optional dependency ``ovito``) and
 from __future__ import annotations
 
 import csv
+import errno
 import json
 import os
+import shutil
 from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -54,7 +59,7 @@ HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "m
 
 def write_config(out: Path, config, step: int | None = None,
                  policy: tuple[str, ...] = ()) -> None:
-    """config.json: the run's ParticleConfig fields.
+    """config.json: the run's ``Config`` fields.
 
     ``step`` given (a run resumed there with a changed step policy): the ``policy`` fields that
     differ from the config.json in ``out`` are appended to its ``step_policy_changes``, a list of
@@ -83,6 +88,24 @@ def write_history(out: Path, history: list[dict]) -> None:
             values = [row.get(c, "") for c in HISTORY_COLUMNS]  # "": not recorded then
             w.writerow([repr(v) if isinstance(v, float) else v for v in values])
     os.replace(tmp, out / "history.csv")
+
+
+#: Free space a run keeps on its output's file system: it stops with ENOSPC before a write
+#: could fill it (a trajectory write into a full tmpfs can end the process with SIGBUS).
+RESERVE_BYTES = 4 * 2**20
+
+
+def ensure_space(out: Path, n_particles: int, checkpoint: Path | None = None) -> None:
+    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes
+    (a frame and a checkpoint of ``n_particles``, at most the last checkpoint's size twice).
+    """
+    need = RESERVE_BYTES + 200 * n_particles
+    if checkpoint is not None and checkpoint.exists():
+        need += 2 * checkpoint.stat().st_size
+    free = shutil.disk_usage(out).free
+    if free < need:
+        raise OSError(errno.ENOSPC, f"no space left on {out} ({free / 2**20:.1f} MB free, "
+                      f"{need / 2**20:.1f} MB needed for the next output)")
 
 
 def write_particles(out: Path, state: ParticleState) -> None:
@@ -201,6 +224,58 @@ def truncate_trajectory(path: Path, n_frames: int) -> None:
         for fr in frames:
             t.append(fr)
     os.replace(tmp, path)
+
+
+class RunOutput:
+    """The writers of a run folder: trajectory frames, history.csv, particles.csv, config.json.
+
+    ``frames`` = [frames written, step of the last frame] (saved in checkpoints, so that a
+    resumed run first truncates its trajectory to the frames of its checkpoint).
+    """
+
+    def __init__(self, out: Path, output_every: int):
+        self.out = Path(out)
+        self.output_every = output_every
+        self.trajectory = self.out / "trajectory.gsd"
+        self.checkpoint = self.out / "checkpoint.npz"
+        self.frames = [0, -1]
+
+    def start(self, config, state: ParticleState) -> None:
+        """A new run: config.json, and the trajectory restarted with the frame of step 0."""
+        write_config(self.out, config)
+        if self.trajectory.exists():
+            self.trajectory.unlink()
+        self.frame(state)
+
+    def resume(self, frames: list[int]) -> None:
+        """A run resumed from a checkpoint: keep the trajectory's first ``frames[0]`` frames."""
+        self.frames = list(frames)
+        truncate_trajectory(self.trajectory, self.frames[0])
+
+    def frame(self, state: ParticleState) -> None:
+        """Append the frame of ``state`` (step ``state.step``, time ``state.t``)."""
+        append_frame(self.trajectory, state, state.step, t=state.t)
+        self.frames = [self.frames[0] + 1, state.step]
+
+    def ensure_space(self, state: ParticleState) -> None:
+        """:func:`ensure_space` before the next write of ``state``."""
+        ensure_space(self.out, state.n, self.checkpoint)
+
+    def after_step(self, state: ParticleState) -> None:
+        """A frame every ``output_every`` steps."""
+        if state.step % self.output_every == 0:
+            self.ensure_space(state)
+            self.frame(state)
+
+    def last_frame(self, state: ParticleState) -> None:
+        """The frame of the final state, unless written already."""
+        if self.frames[1] != state.step:
+            self.frame(state)
+
+    def results(self, state: ParticleState, history: list[dict]) -> None:
+        """history.csv and particles.csv of the current state."""
+        write_history(self.out, history)
+        write_particles(self.out, state)
 
 
 @dataclass

@@ -1,29 +1,44 @@
-"""Particle state in flat arrays that grow with division.
+"""The state of a particle simulation: one mutable object, what a checkpoint saves.
 
 Particle n: centre (x_n, y_n), angle theta_n (axis p_n = (cos, sin)), tip-to-tip length l_n,
-axial load sigma_n (``stress``), a unique integer id (ids are never reused: they identify
-contacts between steps for the solver's warm start) and its lineage: ``parent`` = the id of the
-particle whose division made it (-1 for an initial particle) and ``generation`` = the number of
-divisions between it and its initial ancestor (0 for an initial particle; growth.divide).
+axial stress sigma_n = (G gamma)_n (``stress``, geometry.axial_stress; the load of the growth
+law), a unique integer id (ids are never reused: they identify contacts between steps for the
+solver's warm start) and its lineage: ``parent`` = the id of the particle whose division made
+it (-1 for an initial particle) and ``generation`` = the number of divisions between it and its
+initial ancestor (0 for an initial particle; growth.divide).
+
+Beyond the particles the state holds what the next step depends on: the time t, the step
+count, the random generator of the division noise, the previous step's contact forces by
+contact identity (the warm start) and the length of the next step (adaptive dt).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
-B = 0.5
-"""Particle diameter b (model.md units)."""
+from .geometry import B
+from .measures import enclosing_radius, hull_radius
+
+__all__ = ["B", "ParticleState"]
+
+#: Per-particle arrays of a state, by attribute name (what checkpoints and copies hold).
+PARTICLE_ARRAYS = ("x", "y", "theta", "length", "stress", "ids", "parent", "generation")
+
+
+def _no_contacts() -> np.ndarray:
+    return np.zeros(0, dtype=np.int64)
 
 
 @dataclass
 class ParticleState:
-    """Flat arrays of the current particles (see module docstring).
+    """The particles and the time-stepping state of a simulation (see module docstring).
 
     Attributes
     ----------
     x, y, theta, length, stress : float64 arrays (N,)
+        Centres, angles, tip-to-tip lengths l_n and axial stress sigma_n.
     ids : int64 array (N,)
         Unique ids; ``next_id`` is the next unused one.
     next_id : int
@@ -31,6 +46,17 @@ class ParticleState:
         Id of the mother (the particle whose division made this one), -1 for an initial particle.
     generation : int64 array (N,)
         Divisions since the initial ancestor: 0 for an initial particle, the mother's + 1.
+    t : float
+        Time.
+    step : int
+        Steps taken since t = 0.
+    rng : numpy.random.Generator or None
+        Generator of the division noise (``Simulation`` seeds it with ``Config.seed``).
+    warm_keys, warm_gamma : arrays
+        Contact identities (geometry.Contacts.keys) and forces gamma of the last step's main
+        solve: the next solve's warm start.
+    dt_next : float or None
+        Length of the next step (None: ``Config.dt``).
 
     ``parent`` and ``generation`` None (e.g. a state built from arrays saved before they
     existed) are set to -1 and 0 for every particle: the particles then present count as
@@ -46,6 +72,12 @@ class ParticleState:
     next_id: int
     parent: np.ndarray | None = None
     generation: np.ndarray | None = None
+    t: float = 0.0
+    step: int = 0
+    rng: np.random.Generator | None = None
+    warm_keys: np.ndarray = field(default_factory=_no_contacts)
+    warm_gamma: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    dt_next: float | None = None
 
     def __post_init__(self) -> None:
         n = self.x.shape[0]
@@ -55,8 +87,8 @@ class ParticleState:
             self.generation = np.zeros(n, dtype=np.int64)
 
     @classmethod
-    def from_arrays(cls, x, y, theta, length) -> "ParticleState":
-        """New state; ids 0..N-1, loads zero, parent -1, generation 0.
+    def from_arrays(cls, x, y, theta, length) -> ParticleState:
+        """New state at t = 0; ids 0..N-1, stress zero, parent -1, generation 0.
 
         Raises ValueError on inconsistent input.
         """
@@ -74,10 +106,30 @@ class ParticleState:
 
     @property
     def n(self) -> int:
+        """Number of particles N."""
         return int(self.x.shape[0])
 
+    @property
+    def warm(self) -> tuple[np.ndarray, np.ndarray]:
+        """(warm_keys, warm_gamma): the warm start of the next solve."""
+        return self.warm_keys, self.warm_gamma
+
+    @warm.setter
+    def warm(self, value: tuple[np.ndarray, np.ndarray]) -> None:
+        self.warm_keys, self.warm_gamma = value
+
+    def enclosing_radius(self) -> float:
+        """Radius of the smallest disc about the centroid holding every particle
+        (measures.enclosing_radius): the colony radius.
+        """
+        return enclosing_radius(self.x, self.y, self.theta, self.length)
+
+    def hull_radius(self) -> float:
+        """sqrt(convex hull area / pi) (measures.hull_radius)."""
+        return hull_radius(self.x, self.y, self.theta, self.length)
+
     def append(self, x, y, theta, length, ids, parent=None, generation=None) -> None:
-        """Append particles (zero load; parent -1 and generation 0 unless given)."""
+        """Append particles (zero stress; parent -1 and generation 0 unless given)."""
         m = len(x)
         parent = np.full(m, -1) if parent is None else parent
         generation = np.zeros(m) if generation is None else generation
@@ -91,66 +143,17 @@ class ParticleState:
         self.generation = np.concatenate([self.generation,
                                           np.asarray(generation, dtype=np.int64)])
 
-    def copy(self) -> "ParticleState":
-        return ParticleState(self.x.copy(), self.y.copy(), self.theta.copy(), self.length.copy(),
-                             self.stress.copy(), self.ids.copy(), self.next_id,
-                             self.parent.copy(), self.generation.copy())
+    def copy(self) -> ParticleState:
+        """An independent copy (arrays copied; the generator copied with its state)."""
+        rng = None
+        if self.rng is not None:
+            rng = np.random.default_rng()
+            rng.bit_generator.state = self.rng.bit_generator.state
+        return ParticleState(**{k: getattr(self, k).copy() for k in PARTICLE_ARRAYS},
+                             next_id=self.next_id, t=self.t, step=self.step, rng=rng,
+                             warm_keys=self.warm_keys.copy(), warm_gamma=self.warm_gamma.copy(),
+                             dt_next=self.dt_next)
 
     def arrays(self) -> dict[str, np.ndarray]:
         """The per-particle arrays by attribute name (what a checkpoint saves)."""
-        return {"x": self.x, "y": self.y, "theta": self.theta, "length": self.length,
-                "stress": self.stress, "ids": self.ids, "parent": self.parent,
-                "generation": self.generation}
-
-
-def centroid(state: ParticleState) -> tuple[float, float]:
-    """Area-weighted centroid of the particles (area_n = L_n b + pi b^2 / 4)."""
-    w = (state.length - B) * B + np.pi * B * B / 4
-    return float(np.sum(w * state.x) / w.sum()), float(np.sum(w * state.y) / w.sum())
-
-
-def tips(state: ParticleState) -> tuple[np.ndarray, np.ndarray]:
-    """Segment end points (2N, 2 coordinates)."""
-    h = 0.5 * (state.length - B)
-    c = np.cos(state.theta) * h
-    s = np.sin(state.theta) * h
-    return np.concatenate([state.x + c, state.x - c]), np.concatenate([state.y + s, state.y - s])
-
-
-def colony_radius(state: ParticleState) -> float:
-    """Radius of the smallest disc about the centroid holding every particle.
-
-    max over segment ends e of |e - centroid| + b/2 (the farthest point of a sphero-cylinder
-    from any point is on the cap of one of its ends).
-    """
-    cx, cy = centroid(state)
-    ex, ey = tips(state)
-    return float(np.max(np.hypot(ex - cx, ey - cy)) + B / 2)
-
-
-def hull_radius(state: ParticleState) -> float:
-    """sqrt(A / pi), A the area of the convex hull of the particles.
-
-    The hull of the union of sphero-cylinders is the hull H of the segment ends dilated by b/2:
-    A = |H| + perimeter(H) b/2 + pi b^2/4 (exact, Steiner formula).
-    """
-    ex, ey = tips(state)
-    pts = np.column_stack([ex, ey])
-    area, perim = _hull_area_perimeter(pts)
-    return float(np.sqrt((area + perim * B / 2 + np.pi * B * B / 4) / np.pi))
-
-
-def _hull_area_perimeter(pts: np.ndarray) -> tuple[float, float]:
-    """Area and perimeter of the convex hull of points (monotone chain; degenerate -> 0, 2*len)."""
-    p = np.unique(pts, axis=0)
-    if p.shape[0] < 3:
-        d = np.ptp(p, axis=0)
-        return 0.0, 2.0 * float(np.hypot(*d))
-    from scipy.spatial import ConvexHull, QhullError
-
-    try:
-        h = ConvexHull(p)
-    except QhullError:  # collinear points
-        d = p[np.argmax(p @ (p[-1] - p[0]))] - p[np.argmin(p @ (p[-1] - p[0]))]
-        return 0.0, 2.0 * float(np.hypot(*d))
-    return float(h.volume), float(h.area)
+        return {k: getattr(self, k) for k in PARTICLE_ARRAYS}

@@ -9,7 +9,7 @@ gamma >= 0
 
 and stop when res = max_k |min(a_kk gamma_k, q_k)| <= tol.
 
-Idea: at large N the loads behave like a discretised pressure Poisson problem, so the error
+Idea: at large N the stress behaves like a discretised pressure Poisson problem, so the error
 left by projected-gradient iterations is smooth in space.  One cycle is
 
 1. ``nu`` BBPGD iterations (the smoother; the BB step history restarts every cycle);
@@ -20,7 +20,7 @@ left by projected-gradient iterations is smooth in space.  One cycle is
        g_c = P^T (gamma * q),  H_c = A^T (dt D^T M D + G^T C G) A,  A = diag(gamma) P,
        C = diag(l_n lam r_n exp(r_n)),  r_n = dt exp(-lam sigma_n)
 
-   (the growth term linearised at the current loads), c = -H_c^{-1} g_c by a sparse direct
+   (the growth term linearised at the current stress), c = -H_c^{-1} g_c by a sparse direct
    solve, gamma <- max(0, gamma + A c).  Multiplicative, so inactive contacts stay inactive and
    the correction acts only on the current load network.
 
@@ -43,7 +43,7 @@ from .contact_solver import bb_smooth, finish, incidence, prepare
 from .geometry import B, Contacts
 
 NAME = "twolevel"
-"""Name under which the engine may register this solver (ParticleConfig.solver)."""
+"""Name under which the engine may register this solver (Config.solver)."""
 
 
 @njit(cache=True)
@@ -109,7 +109,8 @@ def contact_points(c: Contacts, n: int) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 def hat_prolongation(zx: np.ndarray, zy: np.ndarray, mask: np.ndarray, h: float) -> sp.csr_matrix:
     """P_kJ = phi_J(z_k): bilinear hat functions of a square grid of spacing h covering the
-    masked points (rows of unmasked contacts are zero; nodes without support are dropped)."""
+    masked points (rows of unmasked contacts are zero; nodes without support are dropped).
+    """
     if not h > 0:
         raise ValueError(f"coarse spacing h must be positive, got {h}")
     m = zx.shape[0]

@@ -151,13 +151,14 @@ def test_case_from_committed_data(tmp_path, data_set):
 
 def test_particles_resume_with_another_step_only_when_asked(tmp_path):
     """A stopped run (checkpoint in DIR.partial) given another --dt: refused with a one-line
-    error naming --change-step-policy; with it, resumed and the change recorded."""
-    from particles.simulation import ParticleConfig, run
+    error naming --change-step-policy; with it, resumed and the change recorded.
+    """
+    from particles import Config, run
 
     out = tmp_path / "p"
     partial = tmp_path / "p.partial"
     partial.mkdir()
-    run(ParticleConfig(lam=1e-2, radius=3.0, seed=3), partial, stop_after=20)
+    run(Config(lam=1e-2, radius=3.0, seed=3), partial, stop_after=20)
     args = ("particles", "--lam", "1e-2", "--radius", "3", "--seed", "3", "--dt", "0.005",
             "--out", str(out), "--quiet")
     res = _colony(*args)

@@ -131,7 +131,7 @@ def test_stage_of_another_engine_is_refused_until_overwrite(capsys, tmp_path):
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
     partial.mkdir()
-    from particles.simulation import ParticleConfig, run
+    from particles import Config, run
 
     run(ParticleConfig(lam=1e-2, radius=3.0), partial, stop_after=5)
     before = tree(partial)
@@ -146,7 +146,7 @@ def test_stage_of_another_configuration_is_refused(capsys, tmp_path):
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
     partial.mkdir()
-    from particles.simulation import ParticleConfig, run
+    from particles import Config, run
 
     run(ParticleConfig(lam=2e-2, radius=2.0), partial, stop_after=5)
     status, err = colony(capsys, *SMALL_PARTICLES, "--out", str(out))
@@ -179,8 +179,10 @@ def test_no_space_before_the_run(capsys, tmp_path, monkeypatch):
 def test_no_space_during_the_run_keeps_the_last_checkpoint(capsys, tmp_path, monkeypatch):
     """The disk fills after a checkpoint: the run stops with one line before writing into the
     full file system (a trajectory write there can end the process with SIGBUS), the
-    checkpoint is intact and the run resumes from it once space is back."""
-    import particles.simulation as sim
+    checkpoint is intact and the run resumes from it once space is back.
+    """
+    import particles.checkpoint as checkpoint
+    import particles.output as sim
 
     out = tmp_path / "run"
     real = sim.shutil.disk_usage
@@ -208,9 +210,10 @@ def test_no_space_during_the_run_keeps_the_last_checkpoint(capsys, tmp_path, mon
 
 
 def test_failed_checkpoint_write_leaves_the_previous_one(tmp_path, monkeypatch):
-    import particles.simulation as sim
+    import particles
+    import particles.checkpoint as sim
 
-    sim.run(sim.ParticleConfig(lam=1e-2, radius=3.0), tmp_path, stop_after=5)
+    particles.run(particles.Config(lam=1e-2, radius=3.0), tmp_path, stop_after=5)
     before = (tmp_path / "checkpoint.npz").read_bytes()
 
     def full(*args, **kwargs):
@@ -218,7 +221,7 @@ def test_failed_checkpoint_write_leaves_the_previous_one(tmp_path, monkeypatch):
 
     monkeypatch.setattr(sim.np, "savez", full)
     with pytest.raises(OSError):
-        sim.run(sim.ParticleConfig(lam=1e-2, radius=3.0), tmp_path, stop_after=3)
+        particles.run(particles.Config(lam=1e-2, radius=3.0), tmp_path, stop_after=3)
     assert (tmp_path / "checkpoint.npz").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir() if ".tmp" in p.name) == []
 

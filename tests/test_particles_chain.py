@@ -25,7 +25,7 @@ from scipy.optimize import brentq, root
 
 from particles.apgd import solve_contacts_apgd
 from particles.contact_solver import linearised_gap, solve_contacts
-from particles.geometry import find_contacts, loads
+from particles.geometry import axial_stress, find_contacts
 from particles.neighbours import candidate_pairs
 from particles.twolevel import solve_contacts_twolevel
 
@@ -90,7 +90,7 @@ def test_chain_lam0_tridiagonal(n, solve):
     a = np.diag(diag) + np.diag(off, 1) + np.diag(off, -1)
     bound = np.abs(np.linalg.inv(a)).sum(axis=1).max() * tol  # |gamma - gref| <= |A^-1| res
     assert np.max(np.abs(gamma - gref)) <= bound
-    sig = loads(c, gamma, n)
+    sig = axial_stress(c, gamma, n)
     gfull = np.concatenate([[0.0], gref, [0.0]])
     np.testing.assert_allclose(sig, 0.5 * (gfull[:-1] + gfull[1:]), atol=bound, rtol=0)
     assert hist[-1] <= tol and len(hist) > 2
@@ -137,7 +137,7 @@ def test_long_chain_matches_1d_continuum_second_order(lam_r2, solve):
         x, c = chain(lengths)
         dt = 1e-7
         gamma, _ = solve(c, lengths, dt, lam, tol=1e-16 * radius**2)
-        sig = loads(c, gamma, n)
+        sig = axial_stress(c, gamma, n)
         p = continuum_1d(x, radius, lam)
         errs.append(np.max(np.abs(sig - p)) / p.max())
     rate = np.polyfit(np.log(ns), np.log(errs), 1)[0]

@@ -3,8 +3,8 @@
 The exact chain answers are checked for both solvers in tests/test_particles_chain.py.
 References here:
 - dense packings (a small colony grown by the engine, concentric rings of
-  cases.bench_contact_solvers):
-  KKT conditions of E to the tolerance and the unique quantities of the solution (loads
+  particles.packings.ring_packing):
+  KKT conditions of E to the tolerance and the unique quantities of the solution (stress
   sigma = G gamma for lam > 0, displacements dt M D gamma for every lam) equal to BBPGD's.
 """
 
@@ -13,8 +13,7 @@ import numpy as np
 import pytest
 from test_particles_chain import chain
 
-from cases.bench_contact_solvers import contacts_of, ring_packing, warm_problem
-from particles import simulation
+import particles
 from particles.apgd import apgd_kernel, lipschitz_bound, solve_contacts_apgd
 from particles.contact_solver import (
     BLOCK,
@@ -24,7 +23,8 @@ from particles.contact_solver import (
     problem_arrays,
     solve_contacts,
 )
-from particles.geometry import find_contacts, generalised_forces, loads
+from particles.geometry import axial_stress, detect_contacts, find_contacts, generalised_forces
+from particles.packings import ring_packing, warm_problem
 
 
 def diagonal(c, length, dt):
@@ -45,7 +45,7 @@ def assert_kkt(c, length, dt, lam, gamma, tol, growth=True):
 @pytest.fixture(scope="module")
 def grown():
     """A jammed colony grown by the engine (BBPGD, lam = 1e-2) to t = 5: ~150 particles."""
-    col = simulation.run(simulation.ParticleConfig(lam=1e-2, time=5.0, dt=0.01, seed=3))
+    col = particles.run(particles.Config(lam=1e-2, time=5.0, dt=0.01, seed=3)).state
     assert col.n > 100
     return col.x, col.y, col.theta, col.length
 
@@ -58,18 +58,18 @@ def displacement(c, gamma, length, dt):
 @pytest.mark.parametrize("lam", [0.0, 1e-2, 1.0])
 def test_grown_colony_kkt_and_agreement_with_bbpgd(grown, lam):
     x, y, th, length = grown
-    c = contacts_of(x, y, th, length, 0.1)
+    c = detect_contacts(x, y, th, length, 0.1)
     dt = 0.005
     tol = 1e-9
     ga, _ = solve_contacts_apgd(c, length, dt, lam, tol=tol)
     gb, _ = solve_contacts(c, length, dt, lam, tol=tol)
     assert_kkt(c, length, dt, lam, ga, tol)
     assert np.count_nonzero(ga) > len(c) / 3  # a jammed colony: most contacts loaded
-    # unique parts of the solution: displacements (every lam), loads (lam > 0)
+    # unique parts of the solution: displacements (every lam), stress (lam > 0)
     ua, ub = displacement(c, ga, length, dt), displacement(c, gb, length, dt)
     assert np.max(np.abs(ua - ub)) <= 1e-5 * np.max(np.abs(ub))
     if lam > 0:
-        sa, sb = loads(c, ga, x.size), loads(c, gb, x.size)
+        sa, sb = axial_stress(c, ga, x.size), axial_stress(c, gb, x.size)
         assert np.max(np.abs(sa - sb)) <= 1e-4 * np.max(sb)
 
 
@@ -77,7 +77,7 @@ def test_grown_colony_kkt_and_agreement_with_bbpgd(grown, lam):
 def test_warm_start_overlap_removal_and_exact_restart(grown, packing):
     x, y, th, length = grown if packing == "grown" else ring_packing(300, seed=5)
     dt, lam, tol = 0.005, 1e-2, 1e-6
-    c = contacts_of(x, y, th, length, 0.1)
+    c = detect_contacts(x, y, th, length, 0.1)
     g, _ = solve_contacts(c, length, dt, lam, tol=tol / 10)
     (x2, y2, th2, l2), c2, g0 = warm_problem(x, y, th, length, c, g, dt, lam, 0.1)
     gw, hw = solve_contacts_apgd(c2, l2, dt, lam, g0, tol)
@@ -92,7 +92,7 @@ def test_warm_start_overlap_removal_and_exact_restart(grown, packing):
 
 def test_lipschitz_estimate_matches_dense_eigenvalue(grown):
     x, y, th, length = grown
-    c = contacts_of(x, y, th, length, 0.1)
+    c = detect_contacts(x, y, th, length, 0.1)
     dt, lam = 0.005, 0.5
     m = len(c)
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
@@ -119,7 +119,7 @@ def test_lipschitz_estimate_matches_dense_eigenvalue(grown):
 
 def test_too_long_step_is_recovered_by_halving(grown):
     x, y, th, length = grown
-    c = contacts_of(x, y, th, length, 0.1)
+    c = detect_contacts(x, y, th, length, 0.1)
     dt, lam, tol = 0.005, 1e-2, 1e-7
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
     lip = lipschitz_bound(c, length, dt, lam)
@@ -135,7 +135,7 @@ def test_too_long_step_is_recovered_by_halving(grown):
 
 def test_failure_raises_contact_solve_error_with_history(grown):
     x, y, th, length = grown
-    c = contacts_of(x, y, th, length, 0.1)
+    c = detect_contacts(x, y, th, length, 0.1)
     with pytest.raises(ContactSolveError) as err:
         solve_contacts_apgd(c, length, 0.005, 1e-2, tol=1e-14, maxiter=5)
     e = err.value
@@ -160,12 +160,12 @@ def test_bad_input_raises_value_error():
 
 def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
     """A small grown colony (lam = 1e-2) with APGD selected by name in the engine."""
-    assert simulation.SOLVERS["apgd"] is solve_contacts_apgd
+    assert particles.stepping.SOLVERS["apgd"] is solve_contacts_apgd
     cfg = dict(lam=1e-2, time=3.0, dt=0.01, division_noise=0.02, seed=1)
-    ca = simulation.run(simulation.ParticleConfig(solver="apgd", **cfg))
-    cb = simulation.run(simulation.ParticleConfig(solver="bbpgd", **cfg))
-    tol = simulation.ParticleConfig(**cfg).tol
-    assert max(r["max_overlap"] for r in ca.history) <= tol
+    a = particles.run(particles.Config(solver="apgd", **cfg))
+    ca, cb = a.state, particles.run(particles.Config(solver="bbpgd", **cfg)).state
+    tol = particles.Config(**cfg).tol
+    assert max(r["max_overlap"] for r in a.history) <= tol
     assert ca.n >= 16
     # same law: total length and number agree to the tolerance-driven scatter
     assert abs(ca.length.sum() / cb.length.sum() - 1) < 0.02
@@ -176,7 +176,7 @@ def test_bench_particles_both_solvers_same_states(tmp_path):
     """cases.bench_particles (issue 4): both solvers on the same grown and CSV states."""
     from cases import bench_particles
 
-    grown = bench_particles.grow_states(simulation.ParticleConfig(lam=1e-2, time=1e9), [60],
+    grown = bench_particles.grow_states(particles.Config(lam=1e-2, time=1e9), [60],
                                         tmp_path)
     state, *_ = bench_particles.load_state(grown[0])
     csv = tmp_path / "colony.csv"
@@ -203,13 +203,13 @@ def test_bench_particles_both_solvers_same_states(tmp_path):
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
-@pytest.mark.parametrize("name", sorted(simulation.SOLVERS))
+@pytest.mark.parametrize("name", sorted(particles.stepping.SOLVERS))
 def test_solvers_give_the_same_iterates_on_any_number_of_threads(name):
     """More contacts than contact_solver.BLOCK, so the blocked sums have several blocks."""
     x, y, th, length = ring_packing(2500, seed=7)
-    c = contacts_of(x, y, th, length, 0.1)
+    c = detect_contacts(x, y, th, length, 0.1)
     assert len(c) > 2 * BLOCK
-    solve = simulation.SOLVERS[name]
+    solve = particles.stepping.SOLVERS[name]
     out = []
     for threads in (1, 2):
         numba.set_num_threads(threads)
@@ -225,7 +225,7 @@ def test_solvers_give_the_same_iterates_on_any_number_of_threads(name):
 
 def test_incidence_lists_every_contact_of_every_particle_in_order():
     x, y, th, length = ring_packing(300, seed=5)
-    c = contacts_of(x, y, th, length, 0.1)
+    c = detect_contacts(x, y, th, length, 0.1)
     n = length.size
     _, _, ti, tj, _ = problem_arrays(c, length, 0.01)
     start, idx, coef = incidence(c, ti, tj, n, threads=2)

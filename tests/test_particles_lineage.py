@@ -1,6 +1,7 @@
 """Lineage of the particles (state.ParticleState.parent, .generation; growth.divide) and the time
 of each trajectory frame (log/Time): checked by invariants of the division tree, not by stored
-trajectories."""
+trajectories.
+"""
 
 import json
 
@@ -8,17 +9,17 @@ import gsd.hoomd
 import numpy as np
 import pytest
 
+from particles import Config, run
 from particles.growth import divide
 from particles.output import read_trajectory
-from particles.simulation import ParticleConfig, run
 from particles.state import ParticleState
 
 
 @pytest.fixture(scope="module")
 def grown(tmp_path_factory):
-    """One cell grown to radius 6 (lam = 1e-2, a frame every 5 steps): (folder, Colony)."""
+    """One cell grown to radius 6 (lam = 1e-2, a frame every 5 steps): (folder, Simulation)."""
     out = tmp_path_factory.mktemp("lineage")
-    colony = run(ParticleConfig(lam=1e-2, radius=6, seed=3, output_every=5), out)
+    colony = run(Config(lam=1e-2, radius=6, seed=3, output_every=5), out)
     return out, colony
 
 
@@ -53,7 +54,8 @@ def test_divide_gives_both_daughters_the_mother_and_generation_plus_one():
 def test_generation_is_the_length_of_the_parent_chain(grown):
     """Following parent ids back through the frames reaches the initial cell (id 0) in exactly
     ``generation`` steps; ids are unique; every mother has exactly two daughters, both of her
-    generation + 1."""
+    generation + 1.
+    """
     out, colony = grown
     frames = list(read_trajectory(out / "trajectory.gsd"))
     for fr in frames:
@@ -73,11 +75,11 @@ def test_generation_is_the_length_of_the_parent_chain(grown):
     for p, kids in children.items():
         assert len(kids) == 2 and all(tree[k][1] == tree[p][1] + 1 for k in kids)
     last = frames[-1]
-    np.testing.assert_array_equal(last.ids, colony.ids)
-    np.testing.assert_array_equal(last.parent, colony.parent)
-    np.testing.assert_array_equal(last.generation, colony.generation)
-    assert colony.parent.dtype == colony.generation.dtype == np.int64
-    assert colony.n >= 64 and colony.generation.max() >= 6
+    np.testing.assert_array_equal(last.ids, colony.state.ids)
+    np.testing.assert_array_equal(last.parent, colony.state.parent)
+    np.testing.assert_array_equal(last.generation, colony.state.generation)
+    assert colony.state.parent.dtype == colony.state.generation.dtype == np.int64
+    assert colony.state.n >= 64 and colony.state.generation.max() >= 6
 
 
 def test_every_frame_carries_the_time_of_its_step(grown):
@@ -93,13 +95,13 @@ def test_every_frame_carries_the_time_of_its_step(grown):
 
 
 def test_resumed_run_has_the_lineage_of_an_uninterrupted_one(tmp_path):
-    cfg = ParticleConfig(lam=1e-2, time=2.2, dt=0.01, seed=2, output_every=7)
+    cfg = Config(lam=1e-2, time=2.2, dt=0.01, seed=2, output_every=7)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
     part.mkdir()
-    a = run(cfg, full)
+    a = run(cfg, full).state
     assert not run(cfg, part, stop_after=120).finished
-    b = run(cfg, part)
+    b = run(cfg, part).state
     for k in ("ids", "parent", "generation"):
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
     assert a.generation.max() >= 2
@@ -117,12 +119,13 @@ def test_resumed_run_has_the_lineage_of_an_uninterrupted_one(tmp_path):
 
 def test_checkpoint_without_lineage_resumes_counting_from_its_particles(tmp_path):
     """A checkpoint written before parent and generation were saved resumes with the same
-    result; its particles count as initial ones (parent -1, generation 0)."""
-    cfg = ParticleConfig(lam=1e-2, time=2.2, dt=0.01, seed=2)
+    result; its particles count as initial ones (parent -1, generation 0).
+    """
+    cfg = Config(lam=1e-2, time=2.2, dt=0.01, seed=2)
     full, old = tmp_path / "full", tmp_path / "old"
     full.mkdir()
     old.mkdir()
-    a = run(cfg, full)
+    a = run(cfg, full).state
     run(cfg, old, stop_after=120)
     ck = old / "checkpoint.npz"
     with np.load(ck) as z:
@@ -133,7 +136,7 @@ def test_checkpoint_without_lineage_resumes_counting_from_its_particles(tmp_path
     del arrays["parent"]
     assert max(saved_gen.values()) >= 1 and meta["step"] == 120
     np.savez(ck, **arrays)
-    b = run(cfg, old)
+    b = run(cfg, old).state
     assert (full / "particles.csv").read_bytes() == (old / "particles.csv").read_bytes()
     np.testing.assert_array_equal(a.ids, b.ids)
     present = np.isin(b.ids, saved_ids)

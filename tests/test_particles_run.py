@@ -8,27 +8,29 @@ import numba
 import numpy as np
 import pytest
 
-import particles.simulation as simulation
+import particles.stepping as stepping
+from particles import Config, run
 from particles.contact_solver import ContactSolveError
 from particles.geometry import generalised_forces, max_overlap
 from particles.growth import divide
-from particles.simulation import MAX_HALVINGS, ParticleConfig, initial_state, next_dt, run, step
-from particles.state import colony_radius
+from particles.simulation import initial_state
+from particles.stepping import MAX_HALVINGS, next_dt, step
 
 
 def test_lam0_total_length_is_exp_t():
-    c = run(ParticleConfig(lam=0.0, time=3.0, dt=0.01))
+    sim = run(Config(lam=0.0, time=3.0, dt=0.01))
+    c = sim.state
     assert c.t == pytest.approx(3.0, abs=1e-12)
     assert abs(c.length.sum() / np.exp(3.0) - 1) < 1e-3
-    t = np.array([r["t"] for r in c.history])
-    total = np.array([r["total_length"] for r in c.history])
+    t = np.array([r["t"] for r in sim.history])
+    total = np.array([r["total_length"] for r in sim.history])
     np.testing.assert_allclose(total, np.exp(t), rtol=1e-12)  # exact exponential update
     assert c.n == 16  # synchronous divisions at t = k ln 2
 
 
 @pytest.mark.parametrize("lam,nmax", [(0.0, 130), (1e-2, 300)])
 def test_every_step_overlap_and_balance(lam, nmax):
-    cfg = ParticleConfig(lam=lam, time=100.0, dt=0.01)
+    cfg = Config(lam=lam, time=100.0, dt=0.01)
     state = initial_state(cfg)
     rng = np.random.default_rng(0)
     warm = (np.zeros(0, dtype=np.int64), np.zeros(0))
@@ -50,24 +52,25 @@ def test_every_step_overlap_and_balance(lam, nmax):
 
 
 def test_determinism_and_seed():
-    a = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.01, seed=3))
-    b = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.01, seed=3))
-    d = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.01, seed=4))
+    a = run(Config(lam=1e-2, time=4.0, dt=0.01, seed=3)).state
+    b = run(Config(lam=1e-2, time=4.0, dt=0.01, seed=3)).state
+    d = run(Config(lam=1e-2, time=4.0, dt=0.01, seed=4)).state
     for k in ("x", "y", "theta", "length", "stress"):
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
     assert a.n > 25 and not np.array_equal(a.theta[: min(a.n, d.n)], d.theta[: min(a.n, d.n)])
 
 
 def test_radius_stop():
-    c = run(ParticleConfig(lam=1e-2, radius=3.0, dt=0.01))
-    assert c.radius() >= 3.0 > c.history[-2]["radius"]
-    assert c.history[-1]["radius"] == c.radius()
-    assert c.hull_radius() <= c.radius()
+    sim = run(Config(lam=1e-2, radius=3.0, dt=0.01))
+    c = sim.state
+    assert c.enclosing_radius() >= 3.0 > sim.history[-2]["radius"]
+    assert sim.history[-1]["radius"] == c.enclosing_radius()
+    assert c.hull_radius() <= c.enclosing_radius()
 
 
 @pytest.mark.parametrize("adaptive,dt,stop", [(False, 0.01, 123), (True, 0.08, 30)])
 def test_outputs_and_checkpoint_resume(tmp_path, adaptive, dt, stop):
-    cfg = ParticleConfig(lam=1e-2, time=3.5, dt=dt, output_every=7, seed=2,
+    cfg = Config(lam=1e-2, time=3.5, dt=dt, output_every=7, seed=2,
                          adaptive_dt=adaptive)
     full = tmp_path / "full"
     part = tmp_path / "part"
@@ -81,7 +84,7 @@ def test_outputs_and_checkpoint_resume(tmp_path, adaptive, dt, stop):
     for name in ("history.csv", "particles.csv", "config.json"):
         assert (full / name).read_bytes() == (part / name).read_bytes(), name
     for k in ("x", "y", "theta", "length", "stress"):
-        np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
+        np.testing.assert_array_equal(getattr(a.state, k), getattr(b.state, k))
     with (
         gsd.hoomd.open(str(full / "trajectory.gsd")) as ta,
         gsd.hoomd.open(str(part / "trajectory.gsd")) as tb,
@@ -90,22 +93,24 @@ def test_outputs_and_checkpoint_resume(tmp_path, adaptive, dt, stop):
         assert len(ta) == len(tb) == 1 + nh // 7 + (nh % 7 != 0)
         fa, fb = ta[-1], tb[-1]
         np.testing.assert_array_equal(fa.particles.position, fb.particles.position)
-        np.testing.assert_allclose(fa.log["particles/length"], a.length.astype(np.float32))
-        np.testing.assert_allclose(fa.log["particles/stress"], a.stress.astype(np.float32))
+        np.testing.assert_allclose(fa.log["particles/length"],
+                                   a.state.length.astype(np.float32))
+        np.testing.assert_allclose(fa.log["particles/stress"],
+                                   a.state.stress.astype(np.float32))
         q = fa.particles.orientation
         np.testing.assert_allclose(
-            2 * np.arctan2(q[:, 3], q[:, 0]), np.angle(np.exp(1j * a.theta)), atol=1e-5
+            2 * np.arctan2(q[:, 3], q[:, 0]), np.angle(np.exp(1j * a.state.theta)), atol=1e-5
         )
-        assert fa.particles.N == a.n and fa.configuration.step == len(a.history)
+        assert fa.particles.N == a.state.n and fa.configuration.step == len(a.history)
     hist = np.genfromtxt(full / "history.csv", delimiter=",", names=True)
     assert hist.size == len(a.history)
     assert np.all(hist["max_overlap"] <= cfg.tol)
     assert json.loads((full / "config.json").read_text())["lam"] == 1e-2
     parts = np.genfromtxt(full / "particles.csv", delimiter=",", names=True)
-    np.testing.assert_array_equal(parts["length"], a.length)
+    np.testing.assert_array_equal(parts["length"], a.state.length)
     # a different configuration refuses the checkpoint
     with pytest.raises(ValueError, match="different configuration"):
-        run(ParticleConfig(lam=1e-3, time=3.5, dt=0.01, output_every=7, seed=2), part)
+        run(Config(lam=1e-3, time=3.5, dt=0.01, output_every=7, seed=2), part)
     if adaptive:  # the step was adapted, and the resumed run continued with the adapted step
         dts = np.array([r["dt"] for r in a.history])
         assert dts[:-1].max() <= cfg.dt and dts[stop:-1].min() < dts[stop - 1] < cfg.dt
@@ -115,8 +120,9 @@ def test_outputs_and_checkpoint_resume(tmp_path, adaptive, dt, stop):
 def test_resume_on_another_number_of_threads(tmp_path):
     """threads and checkpoint_seconds are execution settings: a run stopped on two threads and
     resumed on one, checkpointing at another interval, gives the files of an uninterrupted
-    one-thread run (config.json records the last setting)."""
-    cfg = ParticleConfig(lam=1e-2, time=3.0, dt=0.01, seed=1)
+    one-thread run (config.json records the last setting).
+    """
+    cfg = Config(lam=1e-2, time=3.0, dt=0.01, seed=1)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
     part.mkdir()
@@ -131,8 +137,9 @@ def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
     """A run stopped with a fixed step resumes with --adaptive-dt, then with another fixed dt,
     only under change_step_policy: its first steps are those of the fixed run, the next ones
     adapted, the last ones of the new dt, and config.json records the changes; any other
-    change is refused."""
-    fixed = ParticleConfig(lam=1e-2, time=3.0, dt=0.08, seed=2)
+    change is refused.
+    """
+    fixed = Config(lam=1e-2, time=3.0, dt=0.08, seed=2)
     adaptive = replace(fixed, adaptive_dt=True)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
@@ -157,8 +164,9 @@ def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
 
 def test_checkpoint_of_earlier_version_resumes(tmp_path):
     """A checkpoint written before adaptive_dt (and the pass counts) existed resumes, with the
-    configuration it ran with, and the missing history entries are left blank."""
-    cfg = ParticleConfig(lam=1e-2, time=1.0, dt=0.01, seed=1)
+    configuration it ran with, and the missing history entries are left blank.
+    """
+    cfg = Config(lam=1e-2, time=1.0, dt=0.01, seed=1)
     full, old = tmp_path / "full", tmp_path / "old"
     full.mkdir()
     old.mkdir()
@@ -181,13 +189,14 @@ def test_checkpoint_of_earlier_version_resumes(tmp_path):
 
 def test_next_dt_rules():
     """Halved step -> dt/2; passes costlier than half the main solve -> shrink; cheaper than a
-    quarter -> grow up to dt_max; floor dt_max / 2^(MAX_HALVINGS + 2)."""
+    quarter -> grow up to dt_max; floor dt_max / 2^(MAX_HALVINGS + 2).
+    """
     def info(main, passes, sub=1):
         return {"iterations": main + passes, "pass_iterations": passes, "substeps": sub}
     assert next_dt(0.01, info(100, 10, sub=2), 0.02) == 0.005
-    assert next_dt(0.01, info(100, 60), 0.02) == pytest.approx(simulation.DT_SHRINK * 0.01)
+    assert next_dt(0.01, info(100, 60), 0.02) == pytest.approx(stepping.DT_SHRINK * 0.01)
     assert next_dt(0.01, info(100, 40), 0.02) == 0.01
-    assert next_dt(0.01, info(100, 10), 0.02) == pytest.approx(simulation.DT_GROWTH * 0.01)
+    assert next_dt(0.01, info(100, 10), 0.02) == pytest.approx(stepping.DT_GROWTH * 0.01)
     assert next_dt(0.02, info(100, 0), 0.02) == 0.02
     assert next_dt(1e-9, info(100, 90), 0.02) == 0.02 / 2 ** (MAX_HALVINGS + 2)
 
@@ -195,12 +204,12 @@ def test_next_dt_rules():
 def test_init_file(tmp_path):
     f = tmp_path / "init.csv"
     f.write_text("x,y,theta,length\n0,0,0,1.5\n1.5,0,0,1.5\n")
-    c = run(ParticleConfig(lam=0.0, time=0.1, dt=0.01, init=str(f)))
+    c = run(Config(lam=0.0, time=0.1, dt=0.01, init=str(f))).state
     assert c.n == 2 and c.x[1] - c.x[0] > 1.5
     bad = tmp_path / "bad.csv"
     bad.write_text("x,y,length\n0,0,1\n")
     with pytest.raises(ValueError, match="x,y,theta,length"):
-        run(ParticleConfig(lam=0.0, time=0.1, init=str(bad)))
+        run(Config(lam=0.0, time=0.1, init=str(bad)))
 
 
 @pytest.mark.parametrize(
@@ -222,18 +231,18 @@ def test_init_file(tmp_path):
 )
 def test_validate(kw):
     with pytest.raises(ValueError):
-        ParticleConfig(**kw).validate()
+        Config(**kw).validate()
 
 
 def test_radius_of_single_particle():
-    st = initial_state(ParticleConfig(lam=0.0, time=1.0))
-    assert colony_radius(st) == pytest.approx(0.5)
+    st = initial_state(Config(lam=0.0, time=1.0))
+    assert st.enclosing_radius() == pytest.approx(0.5)
 
 
 @pytest.mark.slow
 def test_radius_40_colony(tmp_path):
     """The issue's acceptance run: lam = 1e-2 to radius 40 (about a minute on 2 cores)."""
-    c = run(ParticleConfig(lam=1e-2, radius=40.0), tmp_path)
+    c = run(Config(lam=1e-2, radius=40.0), tmp_path).state
     assert c.n > 5000
     hist = np.genfromtxt(tmp_path / "history.csv", delimiter=",", names=True)
     assert np.all(hist["max_overlap"] <= 1e-3)
@@ -245,11 +254,11 @@ def test_radius_40_colony(tmp_path):
 
 def test_failed_steps_are_halved():
     """With no re-solve passes allowed, overlapping steps are redone as dt/2 sub-steps."""
-    c = run(ParticleConfig(lam=1e-2, time=4.0, dt=0.02, max_passes=0))
+    c = run(Config(lam=1e-2, time=4.0, dt=0.02, max_passes=0))
     sub = np.array([r["substeps"] for r in c.history])
     assert sub.max() > 1 and np.all(np.array([r["passes"] for r in c.history]) == 0)
     assert max(r["max_overlap"] for r in c.history) <= 1e-3
-    assert c.t == pytest.approx(4.0, abs=1e-12)
+    assert c.state.t == pytest.approx(4.0, abs=1e-12)
     failed = np.array([r["failed_iterations"] for r in c.history])
     assert np.all((failed > 0) == (sub > 1))  # the failed attempts' work is counted
 
@@ -257,20 +266,21 @@ def test_failed_steps_are_halved():
 def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
     """A re-solve pass may take max(PASS_ITERATION_FLOOR, main-solve iterations) iterations: with
     a main solve that does nothing, the overlaps of growth are left to the passes, which succeed
-    within the default floor and fail (ContactSolveError, so the step is halved) within 2."""
-    state = run(ParticleConfig(lam=1e-2, time=3.0, dt=0.02)).state
-    cfg = ParticleConfig(lam=1e-2, time=3.0, dt=0.05)
+    within the default floor and fail (ContactSolveError, so the step is halved) within 2.
+    """
+    state = run(Config(lam=1e-2, time=3.0, dt=0.02)).state
+    cfg = Config(lam=1e-2, time=3.0, dt=0.05)
     warm = (np.zeros(0, dtype=np.int64), np.zeros(0))
 
     def no_main_solve(c, length, dt, lam, gamma0, tol, maxiter, growth):
         if growth:
             return np.zeros(len(c)), np.zeros(1)
-        return simulation.solve_contacts(c, length, dt, lam, gamma0, tol, maxiter, growth)
+        return stepping.solve_contacts(c, length, dt, lam, gamma0, tol, maxiter, growth)
 
-    monkeypatch.setattr(simulation, "SOLVERS", {"bbpgd": no_main_solve})
+    monkeypatch.setattr(stepping, "SOLVERS", {"bbpgd": no_main_solve})
     info, _ = step(state.copy(), cfg, cfg.dt, warm)
     assert info["passes"] > 0 and 2 < info["pass_iterations"] <= info["passes"] * 1000
-    monkeypatch.setattr(simulation, "PASS_ITERATION_FLOOR", 2)
+    monkeypatch.setattr(stepping, "PASS_ITERATION_FLOOR", 2)
     spent = [0]
     with pytest.raises(ContactSolveError, match="in 2 iterations"):
         step(state.copy(), cfg, cfg.dt, warm, spent=spent)
@@ -279,7 +289,8 @@ def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
 
 def test_bench_timestep_small(tmp_path, capsys):
     """cases.bench_timestep (issue 4): every run reaches the radius, the work adds up, the
-    uncapped variant runs, a bad policy is a usage error."""
+    uncapped variant runs, a bad policy is a usage error.
+    """
     from cases import bench_timestep
     out = tmp_path / "b.csv"
     rows = bench_timestep.main(["--radius", "4", "--lams", "1e-2", "--policies", "fixed:0.02",
@@ -298,9 +309,10 @@ def test_bench_timestep_small(tmp_path, capsys):
 def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     """cases.bench_timestep --checkpoint: with the run's own step it continues the run exactly
     (same iterations and particles as the uninterrupted run's next steps); a policy with half
-    the step takes twice the steps; a missing checkpoint is a usage error."""
+    the step takes twice the steps; a missing checkpoint is a usage error.
+    """
     from cases import bench_timestep
-    cfg = ParticleConfig(lam=1e-2, time=3.6, dt=0.02, seed=3)
+    cfg = Config(lam=1e-2, time=3.6, dt=0.02, seed=3)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
     part.mkdir()

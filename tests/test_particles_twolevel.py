@@ -1,20 +1,21 @@
 """Two-level contact solver (particles/twolevel.py): its pieces against exact answers, and the
-whole solve against the KKT conditions, BBPGD's loads and the exact straight chain."""
+whole solve against the KKT conditions, BBPGD's stress and the exact straight chain.
+"""
 
 import numpy as np
 import pytest
 from scipy.linalg import solve_banded
 from scipy.optimize import root
 
-from cases.bench_contact_solvers import contacts_of, ring_packing
 from particles.contact_solver import (
     ContactSolveError,
     linearised_gap,
     problem_arrays,
     solve_contacts,
 )
-from particles.geometry import B, find_contacts, loads
+from particles.geometry import B, axial_stress, detect_contacts, find_contacts
 from particles.neighbours import candidate_pairs
+from particles.packings import ring_packing
 from particles.twolevel import (
     coarse_correction,
     contact_operators,
@@ -29,7 +30,7 @@ DT = 0.005
 @pytest.fixture(scope="module")
 def packing():
     x, y, th, length = ring_packing(300, seed=2)
-    return x, y, th, length, contacts_of(x, y, th, length, 0.1)
+    return x, y, th, length, detect_contacts(x, y, th, length, 0.1)
 
 
 def kkt_residual(c, length, lam, gamma):
@@ -113,7 +114,7 @@ def test_kkt_and_bbpgd_agreement(packing, lam):
     g2, _ = solve_contacts_twolevel(c, length, DT, lam, tol=1e-9, smoothing=10, coarse_h=2.0)
     g1, _ = solve_contacts(c, length, DT, lam, tol=1e-9)
     n = length.shape[0]
-    s1, s2 = loads(c, g1, n), loads(c, g2, n)
+    s1, s2 = axial_stress(c, g1, n), axial_stress(c, g2, n)
     assert np.abs(s1 - s2).max() < 1e-3 * s1.max()
     # warm start from the solution: no iteration
     g3, h3 = solve_contacts_twolevel(c, length, DT, lam, g2, tol=1e-9)

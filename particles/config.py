@@ -1,0 +1,166 @@
+"""Configuration of a particle simulation: ``Config`` (a dataclass) and its validation.
+
+One configuration object per run (model parameter ``lam``, the stop of a run, the step policy,
+the solver and its tolerances, outputs, execution settings); ``output.write_config`` writes it
+to config.json next to the results.  Which fields a checkpoint may resume under other values:
+``EXECUTION_FIELDS`` (always) and ``STEP_POLICY_FIELDS`` (when asked).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numba
+
+from .geometry import B
+from .stepping import SOLVERS
+
+__all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS"]
+
+
+@dataclass
+class Config:
+    """Configuration of a particle run (all quantities in model units, b = 1/2).
+
+    Parameters
+    ----------
+    lam : float
+        Stress sensitivity lambda >= 0 of the growth law dl/dt = l exp(-lam sigma).
+    radius, time : float or None
+        Stop of :func:`particles.run`: when the colony radius (the enclosing radius,
+        measures.enclosing_radius) reaches ``radius`` or when t reaches ``time`` (exactly one
+        for ``run``; both may be None for a ``Simulation``, which ``advance`` stops).
+    dt : float
+        Time step (the last step of a ``time`` run is shortened to land on it); with
+        ``adaptive_dt`` the first and largest step.
+        Default 0.01, measured: lam = 1e-2 to radius 40 (about 6600 particles) took 58 s,
+        53 s and 44 s of wall time at dt = 0.005, 0.01, 0.02 with 0.39, 0.56 and 0.98 re-solve
+        passes per step, reaching radius 40 at t = 10.52, 10.48, 10.52.
+    adaptive_dt : bool
+        Adapt the step to the cost of the re-solve passes (stepping.next_dt); default False
+        (fixed dt).
+    tol : float
+        Largest admitted real overlap b - d after each step (default b/500).
+    seed : int
+        Seed of the division-angle perturbations.
+    division_noise : float
+        Amplitude eps (radians): daughters' angles are theta + eps * U(-1, 1).
+    init : str or None
+        CSV file with columns x,y,theta,length; None: one particle of length 1 at the origin.
+    solver : str
+        Contact solver name, a key of SOLVERS.
+    output_every : int
+        Trajectory frame every this many steps (and the final state).
+    checkpoint_seconds : float
+        Wall time between checkpoints when writing to a folder (like ``threads`` an execution
+        setting: a run may resume with another value).
+    max_particles : int
+        Guard: a run whose colony exceeds this raises ParticleLimitError.
+    solver_tol : float or None
+        Residual tolerance of each solve (a gap, see contact_solver); default tol / 2.
+    contact_margin : float
+        Pairs with gap <= margin enter the solve.
+    max_passes : int
+        Re-detection and re-solve passes allowed per step.
+    max_iterations : int
+        Iteration cap of one solve (ContactSolveError beyond).
+    threads : int
+        Numba threads of the contact solver (its loops over particles and contacts).  The
+        iterates do not depend on it (sums by fixed blocks, contact_solver.BLOCK), so a run
+        may resume with another value and give the same result.
+    """
+
+    lam: float
+    radius: float | None = None
+    time: float | None = None
+    dt: float = 0.01
+    tol: float = B / 500
+    seed: int = 0
+    division_noise: float = 0.02
+    init: str | None = None
+    solver: str = "bbpgd"
+    output_every: int = 10
+    checkpoint_seconds: float = 300.0
+    max_particles: int = 500_000
+    solver_tol: float | None = None
+    contact_margin: float = 0.1
+    max_passes: int = 20
+    max_iterations: int = 200_000
+    adaptive_dt: bool = False
+    threads: int = 1
+
+    def validate(self, require_stop: bool = True) -> None:
+        """Raise ValueError with a one-line message on an inconsistent configuration.
+
+        ``require_stop``: exactly one of ``radius`` and ``time`` (a run); False: at most one
+        (a ``Simulation`` stepped by hand).
+        """
+        def finite(v):
+            return isinstance(v, (int, float)) and math.isfinite(v)
+
+        if not finite(self.lam) or self.lam < 0:
+            raise ValueError(f"lam must be a finite number >= 0 for particles, got {self.lam}")
+        if self.radius is not None and self.time is not None:
+            raise ValueError("give exactly one of radius and time")
+        if require_stop and self.radius is None and self.time is None:
+            raise ValueError("give exactly one of radius and time")
+        if self.radius is not None and (not finite(self.radius) or self.radius <= 0):
+            raise ValueError(f"radius must be positive, got {self.radius}")
+        if self.time is not None and (not finite(self.time) or self.time <= 0):
+            raise ValueError(f"time must be positive, got {self.time}")
+        if not finite(self.dt) or not 0 < self.dt <= 0.1:
+            raise ValueError(f"dt must be in (0, 0.1], got {self.dt}")
+        if not finite(self.tol) or not 0 < self.tol < B:
+            raise ValueError(f"tol must be in (0, b = {B}), got {self.tol}")
+        if self.solver_tol is not None and (not finite(self.solver_tol) or self.solver_tol <= 0):
+            raise ValueError(f"solver_tol must be positive, got {self.solver_tol}")
+        if not isinstance(self.seed, int) or self.seed < 0:
+            raise ValueError(f"seed must be a non-negative integer, got {self.seed}")
+        if not finite(self.division_noise) or not 0 <= self.division_noise <= 0.5:
+            raise ValueError(f"division_noise must be in [0, 0.5] rad, got {self.division_noise}")
+        if self.solver not in SOLVERS:
+            raise ValueError(f"unknown solver {self.solver!r}; choose from {sorted(SOLVERS)}")
+        if not isinstance(self.output_every, int) or self.output_every < 1:
+            raise ValueError(f"output_every must be an integer >= 1, got {self.output_every}")
+        if not finite(self.checkpoint_seconds) or self.checkpoint_seconds < 0:
+            raise ValueError(f"checkpoint_seconds must be >= 0, got {self.checkpoint_seconds}")
+        if not isinstance(self.max_particles, int) or self.max_particles < 1:
+            raise ValueError(f"max_particles must be a positive integer, got {self.max_particles}")
+        if not finite(self.contact_margin) or self.contact_margin < 0:
+            raise ValueError(f"contact_margin must be >= 0, got {self.contact_margin}")
+        if not isinstance(self.max_passes, int) or self.max_passes < 0:
+            raise ValueError(f"max_passes must be an integer >= 0, got {self.max_passes}")
+        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
+            raise ValueError(
+                f"max_iterations must be a positive integer, got {self.max_iterations}")
+        if not isinstance(self.adaptive_dt, bool):
+            raise ValueError(f"adaptive_dt must be true or false, got {self.adaptive_dt!r}")
+        if (not isinstance(self.threads, int)
+                or not 1 <= self.threads <= numba.config.NUMBA_NUM_THREADS):
+            raise ValueError(f"threads must be an integer in [1, "
+                             f"{numba.config.NUMBA_NUM_THREADS}], got {self.threads}")
+        if self.init is not None and not Path(self.init).is_file():
+            raise ValueError(f"init file not found: {self.init}")
+
+    @property
+    def effective_solver_tol(self) -> float:
+        """Residual tolerance of each solve: ``solver_tol``, or tol / 2 when None."""
+        return self.tol / 2 if self.solver_tol is None else self.solver_tol
+
+
+LEGACY_CONFIG = {"adaptive_dt": False}
+"""Values of the configuration fields added after a checkpoint was written, as it ran."""
+
+EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
+"""Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
+
+STEP_POLICY_FIELDS = ("dt", "adaptive_dt")
+"""Configuration fields that change only the step lengths after the checkpoint (the result
+within the time-stepping error): a checkpoint resumes with other values only when asked
+(``run(..., change_step_policy=True)``); the history's dt column records every step as it ran
+and config.json the changes (``output.write_config``).  Where it pays: paper-scale colonies at
+small lam, whose rods turn so fast under stress ~1/lam that a step fixed at the start becomes
+too long (README, "Time step"; lam = 1e-4, N >= 6e4: at dt = 0.005 60 % of the solver work
+went into failed attempts)."""
