@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 from scipy.signal import find_peaks
 
+from continuum import growth as _growth
 from continuum import rings as _rings
 
 __all__ = [
@@ -655,9 +656,8 @@ def field_profile(
 
 def mean_length_from_phase(G: np.ndarray) -> np.ndarray:
     """lbar = 2^frac(G / ln 2): the mean length after growth phase G for Psi0 = delta(l - 1)
-    (nan stays nan)."""
-    q = np.asarray(G, dtype=float) / LN2
-    return 2.0 ** (q - np.floor(q))
+    (nan stays nan; :func:`continuum.growth.mean_length`)."""
+    return _growth.mean_length(G)
 
 
 def profile_ring_radii(r: np.ndarray, G: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

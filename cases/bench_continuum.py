@@ -5,7 +5,7 @@
    each stage are reported: meshing and remeshing (a forced remesh: Triangle + transfer of
    G, Psi and p), assembly (stiffness, load, residual flux, velocity recovery), AMG setup,
    Krylov (PCG iterations), transport (Psi in log2 l).
-2. The target run: lam = 1e-2 from R0 to radius 150 with the default ContinuumConfig (the
+2. The target run: lam = 1e-2 from R0 to radius 150 with the default continuum.Config (the
    settings of ``colony continuum``): wall and CPU time, node count, and the error of the
    ring radii (where G = k ln 2, mean over 24 rays) against the 1D reference
    (continuum.radial.ring_radii), absolute and relative to the local ring spacing.
@@ -28,28 +28,22 @@ STAGES = ("meshing", "assembly", "amg_setup", "krylov", "remeshing", "transport"
 
 def step_costs(n_nodes: int, steps: int = 5, lam: float = 1e-2) -> dict:
     """Median seconds per step of each stage on a disc meshed with about n_nodes nodes."""
-    from continuum.pressure import limit_blas_threads
-    from continuum.simulation import ContinuumConfig, _Colony
+    from continuum import Config, Simulation
 
     R = 20.0
-    cfg = ContinuumConfig(
+    cfg = Config(
         lam=lam, time=1.0, initial_radius=R, n_nodes=n_nodes, h_max=1e9, interior_coarsening=1.0
     )
-    cfg.validate()
-    limit_blas_threads(1)
-    col = _Colony(cfg)
-    from continuum.motion import stable_dt
-
+    sim = Simulation(cfg)
     per_step = {k: [] for k in STAGES}
     for _ in range(steps):
-        before = dict(col.timings)
-        dt = stable_dt(col.points[: col.nb], col.u[: col.nb], cfg.courant)
-        col.step(dt)
-        col.remesh(col.h_target(col.area))  # forced, to time meshing + transfer
+        before = dict(sim.state.timings)
+        sim.step()
+        sim.remesh()  # forced, to time meshing + transfer
         for k in STAGES:
-            per_step[k].append(col.timings[k] - before[k])
+            per_step[k].append(sim.state.timings[k] - before[k])
     out = {k: float(np.median(v)) for k, v in per_step.items()}
-    out["n_nodes"] = len(col.points)
+    out["n_nodes"] = len(sim.state.points)
     out["step_without_remesh"] = sum(
         out[k] for k in ("assembly", "amg_setup", "krylov", "transport")
     )
@@ -66,7 +60,7 @@ def ring_errors(state, lam: float, same: str = "radius") -> list[tuple[int, floa
     from continuum import radial
 
     if same == "radius":
-        R_end = math.sqrt(abs(float(state.history[-1]["area"])) / math.pi)
+        R_end = math.sqrt(abs(state.area) / math.pi)
         ref, ks = radial.ring_radii(lam, radius=R_end, with_index=True)
     else:
         ref, ks = radial.ring_radii(lam, t=state.t, with_index=True)
@@ -94,24 +88,25 @@ def ring_errors(state, lam: float, same: str = "radius") -> list[tuple[int, floa
 
 def target_run(radius: float = 150.0, lam: float = 1e-2, **overrides) -> dict:
     """Default-settings run to ``radius``: times, size, ring-radius errors."""
-    from continuum.simulation import ContinuumConfig, run
+    from continuum import Config, run
 
-    cfg = ContinuumConfig(lam=lam, radius=radius, write_fields=False, **overrides)
+    cfg = Config(lam=lam, radius=radius, write_fields=False, **overrides)
     w0, c0 = time.perf_counter(), time.process_time()
-    state = run(cfg)
+    sim = run(cfg)
+    state, history = sim.state, sim.history
     wall, cpu = time.perf_counter() - w0, time.process_time() - c0
     rings = ring_errors(state, lam)
     rings_t = ring_errors(state, lam, same="time")
     outer = rings[-2:]
     return {
         "rings_same_time": rings_t,
-        "radius_error_at_t": state.history[-1]["radius"]
+        "radius_error_at_t": history[-1]["radius"]
         - float(__import__("continuum.radial", fromlist=["x"]).radius(state.t, lam)),
         "wall_s": wall,
         "cpu_s": cpu,
-        "steps": len(state.history) - 1,
+        "steps": len(history) - 1,
         "n_nodes": len(state.points),
-        "n_remesh": state.history[-1]["n_remesh"],
+        "n_remesh": history[-1]["n_remesh"],
         "timings": state.timings,
         "rings": rings,
         "outer_max_abs_err": max(abs(e) for _, _, e, _ in outer),
@@ -125,7 +120,7 @@ def main(argv=None) -> None:
     ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000, 100000])
     ap.add_argument("--steps", type=int, default=5)
     ap.add_argument("--radius", type=float, default=150.0, help="target run radius (0: skip)")
-    ap.add_argument("--set", nargs="*", default=[], help="ContinuumConfig overrides KEY=VALUE")
+    ap.add_argument("--set", nargs="*", default=[], help="continuum.Config overrides KEY=VALUE")
     args = ap.parse_args(argv)
     if args.sizes:
         print("nodes  " + "  ".join(f"{k:>10s}" for k in STAGES) + "  step(no remesh) [s]")
@@ -142,7 +137,7 @@ def main(argv=None) -> None:
         for kv in args.set:
             k, v = kv.split("=", 1)
             over[k] = type(
-                getattr(__import__("continuum.simulation", fromlist=["x"]).ContinuumConfig, k, 0.0)
+                getattr(__import__("continuum").Config, k, 0.0)
             )(float(v))
         r = target_run(args.radius, **over)
         print(

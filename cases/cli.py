@@ -159,7 +159,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
     from continuum.simulation import run
 
     def body(partial):
-        state = run(config, out=partial, progress=progress)
+        state = run(config, out=partial, progress=progress).state
         profile = field_profile(state.points, state.triangles,
                                 {"mean_length": state.fields["mean_length"],
                                  "mean_length_psi": state.fields["mean_length_psi"],
@@ -230,8 +230,9 @@ def mean_length_image(points, triangles, G, pixels: int = 900):
     X, Y = np.meshgrid(x, y)
     tri = Triangulation(points[:, 0], points[:, 1], triangles)
     g = LinearTriInterpolator(tri, G)(X, Y)
-    q = np.ma.filled(g.astype(float), np.nan) / math.log(2.0)
-    return 2.0 ** (q - np.floor(q)), (lo[0], hi[0], lo[1], hi[1])
+    from continuum.growth import mean_length
+
+    return mean_length(np.ma.filled(g.astype(float), np.nan)), (lo[0], hi[0], lo[1], hi[1])
 
 
 def _draw_continuum(state, stem: Path, lam: float) -> None:
@@ -363,13 +364,13 @@ def _finite(name: str, value):
 def _dispatch(args) -> int:
     progress = not args.__dict__.get("quiet", False)
     if args.command == "continuum":
-        from continuum.simulation import ContinuumConfig
+        import continuum
 
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "shape": args.shape,
                  "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
                  "output_every": _finite("output-every", args.output_every)}
-        config = build_config(ContinuumConfig, args.config, args.set, flags)
+        config = build_config(continuum.Config, args.config, args.set, flags)
         run_continuum(config, Path(args.out), args.overwrite, progress)
         print(f"continuum run written to {args.out}")
     elif args.command == "particles":

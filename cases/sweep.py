@@ -211,8 +211,7 @@ def run_engine(params: dict, folder: Path) -> None:
     params = dict(params)
     engine = params.pop("engine", None)
     if engine == "continuum":
-        from continuum.simulation import ContinuumConfig as Config
-        from continuum.simulation import run
+        from continuum import Config, run
     elif engine == "particles":
         from particles import Config, run
     else:

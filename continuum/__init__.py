@@ -1,8 +1,70 @@
-"""Continuum colony solver (see docs/DESIGN.md).
+"""The continuum colony: moving-boundary Darcy growth with size-distribution transport.
 
-Modules: ``mesh`` (polygons, Triangle meshes), ``pressure`` (Newton + AMG-CG for
--Laplace p = exp(-lam p)), ``velocity`` (u = -grad p: patch recovery, boundary residual flux),
-``motion`` (RK2 node motion, remeshing criteria, gradient-corrected transfer), ``sizes``
-(Psi(x, l, t)), ``radial`` (1D reference), ``simulation`` (``ContinuumConfig``, ``run``),
-``output`` (run folder files).
+On the colony Omega(t): u = -grad p, div u = g = exp(-lam p), p = 0 on the boundary, the
+boundary moving with u; the growth phase G = int g dt and the cell-size distribution Psi(x, l, t)
+carried by the material (docs/model.md). A short use::
+
+    import continuum
+    sim = continuum.Simulation(continuum.Config(lam=1e-2))
+    record = sim.step()                  # a StepRecord: t, dt, remesh, iterations, radius, ...
+    state = sim.advance(radius=5.0)      # the State: mesh, fields, Psi, t, counters
+    print(state.t, state.fields["G"].max(), len(state.points))
+    sim.save("colony.npz")               # Simulation.load("colony.npz") continues bit for bit
+    sim = continuum.run(continuum.Config(lam=1e-2, radius=12), out=folder)  # a run folder
+
+Modules, one concept each:
+
+- ``growth``: the growth law g = exp(-lam p) and the mean length lbar = 2^frac(G / ln 2);
+- ``mesh``: boundary polygons, Triangle meshes of the colony, point location;
+- ``pressure``: Newton + AMG-preconditioned CG for -Laplace p = exp(-lam p), p = 0 on the edge;
+- ``velocity``: u = -grad p (patch recovery inside, residual flux on the boundary), the Darcy
+  flow (p, u, g) at given node positions;
+- ``motion``: Heun's step of the material nodes, G and Psi; the stable dt;
+- ``remesh``: when to remesh, the new mesh, the transfer of G, Psi and p;
+- ``sizes``: Psi(x, l, t) in s = log2 l, transport with the division condition;
+- ``state``: the ``State`` of a colony and the ``StepRecord`` of a step;
+- ``simulation``: ``Config``, ``Simulation``, ``run``;
+- ``checkpoint``: checkpoint files, SIGINT / SIGTERM deferred to the end of a step;
+- ``output``: the run folder's files (history, boundary, rings, VTU frames);
+- ``radial``: the exact 1D reference of a disc colony (R(t), p, u, characteristics, rings);
+- ``rings``: the rings G = k ln 2 of a 2D field (contours and their radii);
+- ``budget``: the size of a run's mesh and memory, estimated before meshing.
 """
+
+from __future__ import annotations
+
+from importlib import metadata as _metadata
+
+from continuum.budget import BudgetError
+from continuum.growth import growth_rate, mean_length
+from continuum.mesh import PolygonError
+from continuum.pressure import PressureDivergence
+from continuum.radial import NoRadialSolution, R0, ring_radii
+from continuum.radial import radius as radial_radius
+from continuum.rings import ring_table
+from continuum.simulation import Config, Simulation, run
+from continuum.state import State, StepRecord
+
+try:
+    __version__ = _metadata.version("colony-mechanics")
+except _metadata.PackageNotFoundError:  # pragma: no cover - running from a source tree
+    __version__ = "0+unknown"
+
+__all__ = [
+    "__version__",
+    "Config",
+    "Simulation",
+    "State",
+    "StepRecord",
+    "run",
+    "growth_rate",
+    "mean_length",
+    "radial_radius",
+    "ring_radii",
+    "ring_table",
+    "R0",
+    "PressureDivergence",
+    "BudgetError",
+    "PolygonError",
+    "NoRadialSolution",
+]

@@ -1,6 +1,6 @@
 """How large a continuum run's mesh gets, and whether it fits in memory, before any meshing.
 
-The mesh has boundary spacing h = min(h_max, h_N(A)) (``mesh.h_for_nodes``) and interior size
+The mesh has boundary spacing h = min(h_max, h_N(A)) (``mesh.target_spacing``) and interior size
 s(d) = min(c h, h + g d) at distance d from the edge (c = ``interior_coarsening``, g =
 ``grading``). An equilateral mesh of size s has 2 / (sqrt(3) s^2) nodes per unit area, so a domain
 of area A and perimeter P has about
@@ -34,7 +34,7 @@ class BudgetError(ValueError):
 
 def estimate_nodes(area: float, perimeter: float, config) -> float:
     """Node count N of the graded mesh of a domain (formula in the module docstring)."""
-    h = min(config.h_max, M.h_for_nodes(area, config.n_nodes))
+    h = M.target_spacing(area, config.h_max, config.n_nodes)
     c, g = config.interior_coarsening, config.grading
     if c <= 1.0:
         return 2.0 / math.sqrt(3.0) * area / h**2
@@ -62,9 +62,10 @@ def largest_nodes(config) -> tuple[float, str]:
     """Largest estimated node count of the run and when it is reached ("initial" or "final").
 
     A ``radius`` run ends with area pi R^2 and the initial shape's perimeter scaled by
-    sqrt(A_final / A_initial); a ``time`` run is estimated at its initial size only.
+    sqrt(A_final / A_initial); a ``time`` run (or a configuration without a goal) is estimated
+    at its initial size only.
     """
-    polygon = config._shape_polygon()
+    polygon = config.initial_boundary()
     area = abs(M.polygon_area(polygon))
     closed = list(polygon) + [polygon[0]]
     perimeter = sum(math.dist(a, b) for a, b in zip(closed[:-1], closed[1:]))

@@ -7,17 +7,31 @@ boundary vertices kept as the first K mesh nodes, in order, and no Steiner point
 the boundary (switch ``Y``), so the boundary nodes of a mesh are always ``range(K)``.
 
 Mesh size: the target edge length h of equilateral triangles; Triangle receives the maximum
-triangle area sqrt(3)/4 h^2 and the minimum angle 28 degrees.
+triangle area sqrt(3)/4 h^2 and the minimum angle 28 degrees. The colony's mesh has the boundary
+spacing h = min(h_max, h_N(A)) (:func:`target_spacing`, h_N from :func:`h_for_nodes`) and, with
+interior coarsening c > 1, the interior size min(c h, h + grading d) at distance d from the edge
+(:func:`colony_mesh`).
+
+Point location (:class:`Locator`): the triangle holding a point and its barycentric coordinates,
+for sampling fields and for transferring them to a new mesh (continuum.remesh).
 """
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import triangle as tr
 from scipy.interpolate import CubicSpline
+from scipy.spatial import cKDTree
 
 __all__ = [
+    "Locator",
     "PolygonError",
+    "colony_mesh",
+    "colony_radius",
+    "mean_element_size",
+    "target_spacing",
     "check_polygon",
     "polygon_area",
     "resample_polygon",
@@ -220,6 +234,36 @@ def h_for_nodes(area: float, n_nodes: float) -> float:
     return float(np.sqrt(2.0 * area / (np.sqrt(3.0) * n_nodes)))
 
 
+def target_spacing(area: float, h_max: float, n_nodes: int) -> float:
+    """Boundary spacing h = min(h_max, h_N(area)) of the colony's mesh (h_N: :func:`h_for_nodes`).
+
+    A fixed node count while the colony is small, a capped spacing later.
+    """
+    return min(h_max, h_for_nodes(area, n_nodes))
+
+
+def colony_radius(boundary: np.ndarray) -> float:
+    """Colony radius R = sqrt(|A| / pi), A the area enclosed by the boundary polygon."""
+    return math.sqrt(abs(polygon_area(boundary)) / math.pi)
+
+
+def mean_element_size(points: np.ndarray, tris: np.ndarray) -> float:
+    """Mean element size sqrt(4 |T|_mean / sqrt(3)): the edge of the mean-area equilateral."""
+    return float(np.sqrt(4.0 * np.mean(triangle_areas(points, tris)) / np.sqrt(3.0)))
+
+
+def colony_mesh(
+    boundary: np.ndarray, h: float, interior_coarsening: float = 1.0, grading: float = 0.25
+) -> tuple[np.ndarray, np.ndarray]:
+    """Mesh of the colony bounded by ``boundary`` (spaced about h) at boundary size h.
+
+    With interior coarsening c > 1 the interior size grows away from the edge up to c h,
+    h(d) = min(c h, h + grading d); c = 1 gives a uniform mesh (:func:`triangulate`).
+    """
+    c = interior_coarsening
+    return triangulate(boundary, h, h_interior=c * h if c > 1 else None, grading=grading)
+
+
 def triangulate(
     boundary: np.ndarray,
     h: float,
@@ -262,8 +306,6 @@ def triangulate(
     a_max = np.sqrt(3.0) / 4.0 * (h_interior if graded else h) ** 2
     out = tr.triangulate({"vertices": boundary, "segments": seg}, f"pq{min_angle:g}a{a_max:.20f}YQ")
     if graded:
-        from scipy.spatial import cKDTree
-
         tree = cKDTree(boundary)
         for _ in range(4):
             pts, tri = out["vertices"], out["triangles"]
@@ -346,3 +388,67 @@ def load_polygon_csv(path) -> np.ndarray:
         raise PolygonError(f"polygon in {path} has {len(xy) - 1} distinct vertices; a polygon "
                            "needs at least 3 (then the first repeated)")
     return check_polygon(xy)
+
+
+class Locator:
+    """Point location in a triangle mesh: containing triangle and barycentric coordinates.
+
+    Candidates are the ``k`` triangles with the nearest centroids (KD-tree); the chosen one
+    maximises the smallest barycentric coordinate, which is >= 0 for a containing triangle
+    (points outside the mesh get their nearest triangle and some negative coordinates).
+    """
+
+    def __init__(self, points: np.ndarray, tris: np.ndarray, k: int = 12):
+        self.points = np.asarray(points, dtype=float)
+        self.tris = np.asarray(tris, dtype=np.int64)
+        self.k = min(k, len(self.tris))
+        self.tree = cKDTree(self.points[self.tris].mean(axis=1))
+
+    def barycentric(self, xy: np.ndarray, cand: np.ndarray) -> np.ndarray:
+        """Barycentric coordinates of points xy (P, 2) in triangles cand (P, k) -> (P, k, 3)."""
+        x = self.points[self.tris[cand]]  # (P, k, 3, 2)
+        a, b, c = x[..., 0, :], x[..., 1, :], x[..., 2, :]
+        v0, v1 = b - a, c - a
+        v2 = xy[:, None, :] - a
+        det = v0[..., 0] * v1[..., 1] - v0[..., 1] * v1[..., 0]
+        l1 = (v2[..., 0] * v1[..., 1] - v2[..., 1] * v1[..., 0]) / det
+        l2 = (v0[..., 0] * v2[..., 1] - v0[..., 1] * v2[..., 0]) / det
+        return np.stack([1.0 - l1 - l2, l1, l2], axis=-1)
+
+    def locate(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Triangle index (P,), barycentric coordinates (P, 3) and an inside flag (P,).
+
+        ``inside`` is True when the point lies in the mesh (all coordinates >= -1e-10).
+        """
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        _, cand = self.tree.query(xy, k=self.k)
+        cand = cand.reshape(len(xy), -1)
+        lam = self.barycentric(xy, cand)
+        score = lam.min(axis=-1)
+        best = np.argmax(score, axis=1)
+        rows = np.arange(len(xy))
+        tri = cand[rows, best]
+        bary = lam[rows, best]
+        inside = score[rows, best] >= -1e-10
+        miss = ~inside
+        if np.any(miss) and self.k < len(self.tris):
+            # wider search for points the nearest centroids did not cover
+            _, c2 = self.tree.query(xy[miss], k=min(8 * self.k, len(self.tris)))
+            l2 = self.barycentric(xy[miss], c2)
+            s2 = l2.min(axis=-1)
+            b2 = np.argmax(s2, axis=1)
+            r2 = np.arange(len(c2))
+            better = s2[r2, b2] > score[miss, best[miss]]
+            idx = np.flatnonzero(miss)[better]
+            tri[idx] = c2[r2, b2][better]
+            bary[idx] = l2[r2, b2][better]
+            inside[idx] = s2[r2, b2][better] >= -1e-10
+        return tri, bary, inside
+
+    def interpolate(self, f: np.ndarray, xy: np.ndarray, outside=np.nan) -> np.ndarray:
+        """P1 interpolation of nodal values f (N,) or (N, k) at points xy; ``outside`` elsewhere."""
+        tri, bary, inside = self.locate(xy)
+        nodes = self.tris[tri]
+        out = np.einsum("pi,pi...->p...", bary, f[nodes])
+        out[~inside] = outside
+        return out

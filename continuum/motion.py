@@ -1,184 +1,106 @@
-"""Lagrangian motion of the mesh nodes, remeshing criteria and transfer of material fields.
+"""Motion of the colony: the material nodes, the growth phase and Psi over one time step.
 
-Motion. Nodes are material points, dx/dt = u(x, t), integrated by Heun's method (RK2):
+Nodes are material points, dx/dt = u(x, t), integrated by Heun's method (RK2,
+:func:`heun_step`):
 
     x* = x^n + dt u(x^n),   x^{n+1} = x^n + dt/2 (u(x^n) + u(x*)),
 
 with the growth phase advanced by the trapezoidal rule along the same paths,
-G^{n+1} = G^n + dt/2 (g(x^n) + g(x*)). Explicit node motion is stable only for
-dt <~ h / u_edge (short boundary wiggles grow, elements invert), so
 
-    dt = courant * h_boundary / max |u_boundary|     (``stable_dt``),
+    G^{n+1} = G^n + dt/2 (g(x^n) + g(x*)),
 
-h_boundary the shortest boundary edge.
+and Psi transported in l at the same mean growth rate (continuum.sizes). u and g at x* come
+from a pressure solve on the moved mesh (continuum.velocity.darcy_flow), warm-started from the
+linear extrapolation in time p^n + (p^n - p^{n-1}) dt / dt_prev. The step is halved (up to
+five times) while the predictor or the corrector would invert an element or the predictor's
+pressure solve fails.
 
-Remeshing (``remesh_reason``) happens when any of these holds:
-  - quality: the worst triangle quality q = 4 sqrt(3)|T| / sum |e|^2 drops below ``q_min``;
-  - boundary resolution: a boundary edge exceeds ``stretch`` * h_target or falls below
-    h_target / ``stretch`` (material near the edge is stretched by up to exp(t));
-  - size: the mean element size sqrt(4 |T|_mean / sqrt(3)) differs from the mean target
-    by more than a factor ``stretch`` (the mesh size follows the domain).
-A remesh resamples the boundary by a periodic cubic spline (O(h^4) displacement, no area
-loss) and meshes the interior anew (continuum.mesh.triangulate).
+Explicit node motion is stable only for dt <~ h / u_edge (short boundary wiggles grow,
+elements invert), so
 
-Transfer. A material field f known at the old nodes x_j is evaluated at a new node x in the
-old triangle T by the gradient-corrected interpolation
+    dt = courant * h_boundary / max |u_boundary|     (:func:`stable_dt`),
 
-    f(x) = sum_{j in T} lambda_j(x) [ f_j + (1/2) (x - x_j) . (grad f)_j ],
-
-lambda_j the barycentric coordinates and (grad f)_j the recovered nodal gradient. It is exact
-for quadratic f with exact gradients (the averaged linear interpolant's O(h^2) error,
-(1/2) sum_j lambda_j (x_j - x)^T H (x_j - x), cancels against the tangent-plane one), so
-repeated remeshing does not bias the phase G (the linear interpolant biases ring radii).
-It is a linear map, a sparse matrix W (n_new x n_old) applied to G and to Psi alike; the plain
-linear (barycentric) matrix is also available. New nodes slightly outside the old polygon
-(spline boundary) are extrapolated from the nearest old triangle.
+h_boundary the shortest boundary edge. :func:`radius_rate` gives dR/dt of R = sqrt(A/pi) from
+the boundary flux, for landing a run on a given radius.
 """
 
 from __future__ import annotations
 
+import math
+import time
+from collections.abc import Callable
+
 import numpy as np
-import scipy.sparse as sp
-from scipy.spatial import cKDTree
 
-from continuum.mesh import boundary_spacing, triangle_areas, triangle_quality
-from continuum.pressure import P1Assembler
-from continuum.velocity import GradientRecovery
+from continuum.mesh import boundary_spacing, polygon_area, triangle_areas
+from continuum.pressure import PressureDivergence
+from continuum.state import State
+from continuum.velocity import boundary_normals
 
-__all__ = [
-    "Locator",
-    "interpolation_matrix",
-    "gradient_corrected_matrix",
-    "remesh_reason",
-    "stable_dt",
-]
+__all__ = ["Flow", "heun_step", "stable_dt", "radius_rate"]
 
-
-class Locator:
-    """Point location in a triangle mesh: containing triangle and barycentric coordinates.
-
-    Candidates are the ``k`` triangles with the nearest centroids (KD-tree); the chosen one
-    maximises the smallest barycentric coordinate, which is >= 0 for a containing triangle
-    (points outside the mesh get their nearest triangle and some negative coordinates).
-    """
-
-    def __init__(self, points: np.ndarray, tris: np.ndarray, k: int = 12):
-        self.points = np.asarray(points, dtype=float)
-        self.tris = np.asarray(tris, dtype=np.int64)
-        self.k = min(k, len(self.tris))
-        self.tree = cKDTree(self.points[self.tris].mean(axis=1))
-
-    def barycentric(self, xy: np.ndarray, cand: np.ndarray) -> np.ndarray:
-        """Barycentric coordinates of points xy (P, 2) in triangles cand (P, k) -> (P, k, 3)."""
-        x = self.points[self.tris[cand]]  # (P, k, 3, 2)
-        a, b, c = x[..., 0, :], x[..., 1, :], x[..., 2, :]
-        v0, v1 = b - a, c - a
-        v2 = xy[:, None, :] - a
-        det = v0[..., 0] * v1[..., 1] - v0[..., 1] * v1[..., 0]
-        l1 = (v2[..., 0] * v1[..., 1] - v2[..., 1] * v1[..., 0]) / det
-        l2 = (v0[..., 0] * v2[..., 1] - v0[..., 1] * v2[..., 0]) / det
-        return np.stack([1.0 - l1 - l2, l1, l2], axis=-1)
-
-    def locate(self, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Triangle index (P,), barycentric coordinates (P, 3) and an inside flag (P,).
-
-        ``inside`` is True when the point lies in the mesh (all coordinates >= -1e-10).
-        """
-        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-        _, cand = self.tree.query(xy, k=self.k)
-        cand = cand.reshape(len(xy), -1)
-        lam = self.barycentric(xy, cand)
-        score = lam.min(axis=-1)
-        best = np.argmax(score, axis=1)
-        rows = np.arange(len(xy))
-        tri = cand[rows, best]
-        bary = lam[rows, best]
-        inside = score[rows, best] >= -1e-10
-        miss = ~inside
-        if np.any(miss) and self.k < len(self.tris):
-            # wider search for points the nearest centroids did not cover
-            _, c2 = self.tree.query(xy[miss], k=min(8 * self.k, len(self.tris)))
-            l2 = self.barycentric(xy[miss], c2)
-            s2 = l2.min(axis=-1)
-            b2 = np.argmax(s2, axis=1)
-            r2 = np.arange(len(c2))
-            better = s2[r2, b2] > score[miss, best[miss]]
-            idx = np.flatnonzero(miss)[better]
-            tri[idx] = c2[r2, b2][better]
-            bary[idx] = l2[r2, b2][better]
-            inside[idx] = s2[r2, b2][better] >= -1e-10
-        return tri, bary, inside
-
-    def interpolate(self, f: np.ndarray, xy: np.ndarray, outside=np.nan) -> np.ndarray:
-        """P1 interpolation of nodal values f (N,) or (N, k) at points xy; ``outside`` elsewhere."""
-        tri, bary, inside = self.locate(xy)
-        nodes = self.tris[tri]
-        out = np.einsum("pi,pi...->p...", bary, f[nodes])
-        out[~inside] = outside
-        return out
-
-
-def interpolation_matrix(locator: Locator, new_points: np.ndarray) -> sp.csr_matrix:
-    """Linear interpolation W_ij = lambda_j(x_i) onto new nodes (extrapolating outside)."""
-    tri, bary, _ = locator.locate(new_points)
-    n_new = len(new_points)
-    rows = np.repeat(np.arange(n_new), 3)
-    cols = locator.tris[tri].ravel()
-    return sp.csr_matrix((bary.ravel(), (rows, cols)), shape=(n_new, len(locator.points)))
-
-
-def gradient_corrected_matrix(
-    locator: Locator, assembler: P1Assembler, new_points: np.ndarray
-) -> sp.csr_matrix:
-    """Gradient-corrected interpolation W = L + (1/2) [(L o dX) Dx + (L o dY) Dy].
-
-    L_ij = lambda_j(x_i) the linear interpolation, (dX)_ij, (dY)_ij the components of
-    x_i - x_j, and Dx, Dy the gradient recovery operators of the old mesh: (W f)_i is
-    sum_j lambda_j(x_i) [f_j + (1/2)(x_i - x_j) . (grad f)_j] (exact for quadratics).
-    """
-    L = interpolation_matrix(locator, new_points).tocoo()
-    rec = GradientRecovery(assembler, locator.points)
-    d = new_points[L.row] - locator.points[L.col]
-    shape = L.shape
-    Lx = sp.csr_matrix((0.5 * L.data * d[:, 0], (L.row, L.col)), shape=shape)
-    Ly = sp.csr_matrix((0.5 * L.data * d[:, 1], (L.row, L.col)), shape=shape)
-    return (L.tocsr() + Lx @ rec.Dx + Ly @ rec.Dy).tocsr()
-
-
-def remesh_reason(
-    points: np.ndarray,
-    tris: np.ndarray,
-    n_boundary: int,
-    h_target: float,
-    q_min: float = 0.35,
-    stretch: float = 1.5,
-    mean_h_target: float | None = None,
-) -> str | None:
-    """Why the mesh must be rebuilt ("quality", "boundary", "size"), or None.
-
-    Parameters
-    ----------
-    points, tris : the current (moved) mesh; n_boundary : boundary nodes 0..K-1.
-    h_target : target boundary edge length.
-    q_min : smallest acceptable triangle quality.
-    stretch : allowed factor between actual and target sizes.
-    mean_h_target : target mean element size (defaults to h_target).
-    """
-    q = triangle_quality(points, tris)
-    if q.min() < q_min:
-        return "quality"
-    e = boundary_spacing(points[:n_boundary])
-    if e.max() > stretch * h_target or e.min() < h_target / stretch:
-        return "boundary"
-    mean_area = float(np.mean(triangle_areas(points, tris)))
-    h_mean = np.sqrt(4.0 * mean_area / np.sqrt(3.0))
-    target = h_target if mean_h_target is None else mean_h_target
-    if not (target / stretch < h_mean < stretch * target):
-        return "size"
-    return None
+Flow = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
+"""(points, p0) -> (p, u, g): the Darcy flow at these node positions (warm start p0)."""
 
 
 def stable_dt(boundary: np.ndarray, u_boundary: np.ndarray, courant: float) -> float:
     """dt = courant * min boundary edge / max |u| on the boundary (explicit motion limit)."""
     umax = float(np.max(np.linalg.norm(u_boundary, axis=1)))
     return courant * float(boundary_spacing(boundary).min()) / max(umax, 1e-300)
+
+
+def radius_rate(boundary: np.ndarray, u_boundary: np.ndarray) -> float:
+    """dR/dt of R = sqrt(A/pi): dA/dt = sum_i (u_i . n_i) L_i over the boundary nodes.
+
+    n_i, L_i the node normals and lumped lengths (continuum.velocity.boundary_normals), so
+    dR/dt = (dA/dt) / (2 pi R).
+    """
+    n, L = boundary_normals(boundary)
+    dA = float(np.sum(np.sum(u_boundary * n, axis=1) * L))
+    R = math.sqrt(polygon_area(boundary) / math.pi)
+    return dA / (2 * math.pi * R)
+
+
+def heun_step(state: State, flow: Flow, dt: float, lam: float) -> float:
+    """Advance ``state`` by one Heun step of size dt (halved while it fails); returns the dt taken.
+
+    In place: points, G, Psi, t, the step count, the warm start (p_prev, dt_prev), and p, u, g
+    solved on the moved mesh. ``flow`` is the Darcy solve (:data:`Flow`).
+
+    Raises
+    ------
+    PressureDivergence
+        Elements invert even for dt / 32, or the pressure solve fails for lam < 0 (no
+        solution beyond the critical size: halving would not help).
+    """
+    tris = state.triangles
+    for _ in range(6):
+        x1 = state.points + dt * state.u
+        guess = state.p
+        if state.p_prev is not None:
+            guess = state.p + (state.p - state.p_prev) * (dt / state.dt_prev)
+        if np.all(triangle_areas(x1, tris) > 0):
+            try:
+                p1, u1, g1 = flow(x1, guess)
+            except PressureDivergence:
+                if lam < 0:
+                    raise
+                dt *= 0.5
+                continue
+            x2 = state.points + 0.5 * dt * (state.u + u1)
+            if np.all(triangle_areas(x2, tris) > 0):
+                break
+        dt *= 0.5
+    else:
+        raise PressureDivergence(f"mesh elements invert even for tiny steps at {state.where()}")
+    t0 = time.perf_counter()
+    g_avg = 0.5 * (state.g + g1)
+    state.points = x2
+    state.G = state.G + dt * g_avg
+    state.sizes.advance(g_avg, dt)
+    state.timings["transport"] += time.perf_counter() - t0
+    state.t += dt
+    state.step += 1
+    state.p_prev, state.dt_prev = state.p, dt
+    state.p, state.u, state.g = flow(state.points, p1)
+    return dt

@@ -1,6 +1,6 @@
 """Run outputs of the continuum engine (docs/DESIGN.md, "Output contract").
 
-- ``config.json``: the run's ContinuumConfig fields;
+- ``config.json``: the run's Config fields;
 - ``history.csv``: one row per time step (t, radius, area, max_pressure, n_nodes, ...);
 - ``boundary.csv``: final boundary polygon, columns x,y;
 - ``fields.pvd`` + ``fields/frame_NNNNN.vtu``: point data p, u, G, mean_length (delta initial
@@ -34,16 +34,15 @@ from __future__ import annotations
 import csv
 import dataclasses
 import json
-import math
 from pathlib import Path
 
 import meshio
 import numpy as np
 
+from continuum.growth import ring_index
+
 __all__ = ["write_config", "write_history", "write_boundary", "write_rings", "FieldWriter",
            "ring_index", "read_frame_time"]
-
-LN2 = math.log(2.0)
 
 
 def _check_finite(name: str, values) -> None:
@@ -102,12 +101,6 @@ def write_rings(out: Path, points: np.ndarray, triangles: np.ndarray, G: np.ndar
             w.writerow([int(table[c][i]) if c in ("k", "n_pieces") else repr(float(table[c][i]))
                         for c in COLUMNS])
     return path
-
-
-def ring_index(G: np.ndarray) -> np.ndarray:
-    """floor(G / ln 2) (int32): the number of rings between a material element and the centre's
-    phase; piecewise constant, jumping by one across each ring G = k ln 2."""
-    return np.floor(np.asarray(G, dtype=float) / LN2).astype(np.int32)
 
 
 def _add_time_value(path: Path, t: float) -> None:

@@ -4,7 +4,8 @@ Discretisation (P1 finite elements on a triangle mesh, nodes 0..K-1 on the bound
 
     F_i(p) = sum_j K_ij p_j - b_i(g(p)) = 0   for interior nodes i,   p_i = 0 on the boundary,
 
-with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the nodes and
+with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the nodes (the
+growth law, :func:`continuum.growth.growth_rate`) and
 b_i(g) = int (sum_j g_j phi_j) phi_i the consistent load of the P1 interpolant of g
 (b = M g, M the consistent mass matrix, element-wise |T|/12 (g_i + sum_{j in T} g_j)).
 
@@ -30,6 +31,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyamg
 import scipy.sparse as sp
+
+from continuum.growth import growth_rate
 
 __all__ = [
     "PressureDivergence",
@@ -361,7 +364,7 @@ class PressureSolver:
         A = self.assembler
         area, grads = A.geometry(points)
         Kd = A.stiffness_data(area, grads)
-        b = A.load(area, np.exp(-self.lam * p))
+        b = A.load(area, growth_rate(p, self.lam))
         return A.matrix(Kd) @ p - b, b
 
     def solve(
@@ -404,7 +407,7 @@ class PressureSolver:
         interior = slice(A.nb, None)
         cause = "lam < 0 beyond the critical size (no solution)" if lam < 0 else "no convergence"
         for it in range(self.max_newton + 1):
-            g = np.exp(-lam * p)
+            g = growth_rate(p, lam)
             b = A.load(area, g)
             r_full = K @ p - b
             F = r_full.copy()
@@ -419,7 +422,7 @@ class PressureSolver:
                 st.newton_iterations = it
                 self.stats = st
                 # kept for the residual flux and the velocity recovery at this solution
-                self.last = {"residual": r_full, "area": area, "grads": grads, "g": g}
+                self.last = {"residual": r_full, "area": area, "grads": grads}
                 return p
             if it == self.max_newton:
                 break

@@ -43,6 +43,8 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 from scipy.interpolate import CubicSpline
 
+from continuum.growth import LN2, mean_length
+
 __all__ = [
     "R0",
     "NoRadialSolution",
@@ -65,10 +67,10 @@ __all__ = [
 ]
 
 B = 0.5
+"""Particle diameter b (units: birth length l0 = 1; model.md)."""
+
 R0 = math.sqrt(B / math.pi)
 """Initial colony radius sqrt(b/pi): the disc with the area of one particle (b = 1/2)."""
-
-LN2 = math.log(2.0)
 
 
 class NoRadialSolution(ValueError):
@@ -285,10 +287,10 @@ class Characteristics:
 def mean_length_from_phase(G: ArrayLike, phase0: float = 0.0) -> NDArray:
     """Mean length of an initial delta(l - 2^phase0) after growth phase G.
 
-    lbar = 2^frac(G / ln 2 + phase0); phase0 = 0 is Psi0 = delta(l - 1).
+    lbar = 2^frac(G / ln 2 + phase0); phase0 = 0 is Psi0 = delta(l - 1)
+    (:func:`continuum.growth.mean_length`).
     """
-    q = np.asarray(G, dtype=float) / LN2 + float(phase0)
-    return 2.0 ** (q - np.floor(q))
+    return mean_length(G, phase0)
 
 
 def _end_state(lam: float, t: float | None, radius_end: float | None, R0: float) -> tuple:

@@ -37,10 +37,11 @@ from numpy.typing import ArrayLike
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from continuum.growth import LN2
+
 __all__ = ["LN2", "COLUMNS", "area_centroid", "contour_segments", "ring_levels", "ring_table",
            "ring_wavelength"]
 
-LN2 = math.log(2.0)
 
 COLUMNS = ("k", "level", "mean_radius", "min_radius", "max_radius", "length", "cx", "cy",
            "n_pieces")

@@ -55,9 +55,10 @@ import numpy as np
 from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
+from continuum.growth import LN2
+
 __all__ = ["LengthGrid", "SizeDistribution", "exact_shift", "lw_mc_step"]
 
-LN2 = math.log(2.0)
 
 
 class LengthGrid:

@@ -19,6 +19,9 @@ residual r_i = sum_j K_ij p_j - b_i equals int_boundary (dp/dn) phi_i ds, so
 L_i the lumped boundary length and n_i the unit normal of the two adjacent edges
 (length-weighted). This flux converges at second order in h (tests), unlike the averaged
 gradient at the boundary.
+
+:func:`darcy_flow` puts the pieces together: at given node positions, the pressure (Newton,
+continuum.pressure), u = -grad p and the growth rate g = exp(-lam p) (continuum.growth).
 """
 
 from __future__ import annotations
@@ -26,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from continuum.pressure import P1Assembler
+from continuum.growth import growth_rate
+from continuum.pressure import P1Assembler, PressureSolver
 
 __all__ = [
     "GradientRecovery",
@@ -35,6 +39,7 @@ __all__ = [
     "boundary_normals",
     "boundary_velocity",
     "nodal_velocity",
+    "darcy_flow",
 ]
 
 
@@ -200,3 +205,27 @@ def nodal_velocity(
     u = -recovered_gradient(assembler.tris, area, grads, p, points)
     u[:n_boundary] = boundary_velocity(residual, points[:n_boundary])
     return u
+
+
+def darcy_flow(
+    solver: PressureSolver, points: np.ndarray, p0: np.ndarray | None = None, where: str = ""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Pressure, velocity and growth rate of the colony whose nodes are at ``points``.
+
+    Solves -Laplace p = exp(-lam p), p = 0 on the boundary (``solver``, topology set by its
+    ``set_mesh``, warm start ``p0``), then u = -grad p (:func:`nodal_velocity`) and
+    g = exp(-lam p). The solve's diagnostics are in ``solver.stats``.
+
+    Returns
+    -------
+    p : ndarray (N,); u : ndarray (N, 2); g : ndarray (N,)
+
+    Raises
+    ------
+    PressureDivergence
+        No pressure solution (see ``PressureSolver.solve``).
+    """
+    p = solver.solve(points, p0, where=where)
+    last = solver.last
+    u = nodal_velocity(solver.assembler, points, p, last["residual"], (last["area"], last["grads"]))
+    return p, u, growth_rate(p, solver.lam)

@@ -3,7 +3,8 @@
 Bit for bit: two runs of one configuration (in one process and in two processes), and a run
 stopped (``max_steps_this_call`` or SIGTERM) and resumed from its checkpoint against the
 uninterrupted run, compared file by file (history.csv, boundary.csv, config.json, fields.pvd,
-every VTU) and array by array (history, points, triangles, every field).
+every VTU) and array by array (history, points, triangles, every field). The returned
+simulation is ``continuum.run``'s.
 
 The small configuration remeshes at steps 14, 17 and 20 of its 21 steps (boundary criterion,
 with h_max = 0.25 and stretch = 1.2) and writes a VTU frame every 0.5 time units (t = 4.07 at
@@ -24,14 +25,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from continuum.simulation import CHECKPOINT, ContinuumConfig, run
+from continuum import Config, Simulation, run
+from continuum.checkpoint import CHECKPOINT
 
 SMALL = dict(lam=1e-2, radius=3.0, n_nodes=100, h_max=0.25, stretch=1.2, output_every=0.5)
 """Remeshes and writes frames within a fraction of a second (module docstring)."""
 
 
-def config(**changes) -> ContinuumConfig:
-    return ContinuumConfig(**{**SMALL, **changes})
+def config(**changes) -> Config:
+    return Config(**{**SMALL, **changes})
 
 
 def folder_digest(folder: Path) -> dict:
@@ -43,10 +45,11 @@ def folder_digest(folder: Path) -> dict:
     }
 
 
-def state_bytes(state) -> dict:
-    """The raw bytes of a returned state's history and arrays."""
+def state_bytes(sim) -> dict:
+    """The raw bytes of a simulation's history and state arrays."""
+    state = sim.state
     out = {
-        "history": np.array([[float(v) for v in row.values()] for row in state.history]).tobytes(),
+        "history": np.array([[float(v) for v in row.values()] for row in sim.history]).tobytes(),
         "points": state.points.tobytes(),
         "triangles": state.triangles.tobytes(),
         "boundary": state.boundary.tobytes(),
@@ -58,7 +61,7 @@ def state_bytes(state) -> dict:
 
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
-    """The uninterrupted run of SMALL: (folder, returned state)."""
+    """The uninterrupted run of SMALL: (folder, returned simulation)."""
     out = tmp_path_factory.mktemp("reference")
     return out, run(config(), out=out)
 
@@ -84,7 +87,7 @@ import hashlib, sys
 import numpy as np
 sys.path.insert(0, {tests!r})
 from test_continuum_restart import config, state_bytes
-from continuum.simulation import run
+from continuum import run
 h = hashlib.sha256()
 for k, v in sorted(state_bytes(run(config())).items()):
     h.update(k.encode()); h.update(v)
@@ -127,7 +130,7 @@ def resumed_run(out: Path, stops: list[int]):
 
 
 def assert_same_run(reference, out: Path, state, skip: tuple = ()) -> None:
-    """Same files (but ``skip``) and same returned bytes as the reference (folder, state)."""
+    """Same files (but ``skip``) and same returned bytes as the reference (folder, simulation)."""
     ref_out, ref_state = reference
     assert state.finished
     files, ref_files = folder_digest(out), folder_digest(ref_out)
@@ -200,17 +203,15 @@ def test_periodic_checkpoints_do_not_change_the_result(reference, tmp_path):
 
 def interrupt_at(monkeypatch, step: int, signum=signal.SIGINT) -> None:
     """Make the next run receive ``signum`` while it remeshes or steps its ``step``-th step."""
-    import continuum.simulation as S
+    advance, calls = Simulation.step, [0]
 
-    advance, calls = S._advance, [0]
-
-    def advance_and_signal(col, cfg):
+    def advance_and_signal(sim, *args, **kwargs):
         calls[0] += 1
         if calls[0] == step:
             signal.raise_signal(signum)
-        return advance(col, cfg)
+        return advance(sim, *args, **kwargs)
 
-    monkeypatch.setattr(S, "_advance", advance_and_signal)
+    monkeypatch.setattr(Simulation, "step", advance_and_signal)
 
 
 @pytest.mark.parametrize("where", ["remesh", "last"])
@@ -236,7 +237,7 @@ SIGTERM_SCRIPT = """
 import sys
 sys.path.insert(0, {tests!r})
 from test_continuum_restart import config
-from continuum.simulation import run
+from continuum import run
 run(config(radius=8.0), out={out!r})
 """
 

@@ -236,10 +236,10 @@ def test_continuum_too_large_for_memory(capsys, tmp_path):
 def test_memory_estimate_against_a_run():
     """The node estimate of continuum.budget against the node count of a run at radius 12."""
     from continuum.budget import estimate_nodes
-    from continuum.simulation import ContinuumConfig, run
+    from continuum import Config, run
 
-    config = ContinuumConfig(lam=1e-2, radius=12.0, write_fields=False)
-    state = run(config)
+    config = Config(lam=1e-2, radius=12.0, write_fields=False)
+    state = run(config).state
     estimate = estimate_nodes(np.pi * 12.0**2, 2 * np.pi * 12.0, config)
     assert abs(estimate / len(state.points) - 1) < 0.15
 

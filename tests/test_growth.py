@@ -1,4 +1,5 @@
-"""Moving-boundary growth against exact solutions (continuum.simulation, continuum.motion).
+"""Moving-boundary growth against exact solutions (continuum.simulation, continuum.motion,
+continuum.remesh).
 
 References: the radial solution R(t), p and the growth phase G along characteristics
 (continuum.radial), and the lam = 0 ellipse, which stays an ellipse with
@@ -13,9 +14,10 @@ from scipy.integrate import solve_ivp
 
 from continuum import mesh as M
 from continuum import radial
-from continuum.motion import Locator, gradient_corrected_matrix, interpolation_matrix
+from continuum.mesh import Locator
 from continuum.pressure import P1Assembler, PressureDivergence
-from continuum.simulation import ContinuumConfig, run
+from continuum.remesh import gradient_corrected_matrix, interpolation_matrix
+from continuum.simulation import Config, run
 
 LN2 = math.log(2.0)
 
@@ -87,8 +89,8 @@ def test_radial_growth_converges_second_order(lam):
     r_init, t_end = 5.0, 1.5
     hs, r_err, p_err, g_err = [], [], [], []
     for n in (250, 1000, 4000):
-        s = run(
-            ContinuumConfig(
+        sim = run(
+            Config(
                 lam=lam,
                 time=t_end,
                 initial_radius=r_init,
@@ -98,11 +100,12 @@ def test_radial_growth_converges_second_order(lam):
                 write_fields=False,
             )
         )
+        s = sim.state
         assert s.t == pytest.approx(t_end, rel=1e-12)
         R_ref = float(radial.radius(t_end, lam, R0=r_init))
         r = np.minimum(np.hypot(*s.points.T), R_ref)
-        hs.append(s.history[-1]["h"])
-        r_err.append(abs(s.history[-1]["radius"] / R_ref - 1))
+        hs.append(sim.history[-1]["h"])
+        r_err.append(abs(sim.history[-1]["radius"] / R_ref - 1))
         p_err.append(
             np.max(np.abs(s.fields["p"] - radial.pressure(r, R_ref, lam)))
             / radial.max_pressure(R_ref, lam)
@@ -134,8 +137,8 @@ def test_ellipse_lam0():
     )
     a_ref, b_ref = sol.y[:, -1]
     s = run(
-        ContinuumConfig(lam=0.0, time=2.0, shape="ellipse:1,0.5", n_nodes=2000, write_fields=False)
-    )
+        Config(lam=0.0, time=2.0, shape="ellipse:1,0.5", n_nodes=2000, write_fields=False)
+    ).state
     a, b = ellipse_axes(s.boundary)
     assert abs(a / a_ref - 1) < 1e-3 and abs(b / b_ref - 1) < 1e-3, (a / a_ref - 1, b / b_ref - 1)
     # and it is still an ellipse: boundary nodes on the moment ellipse to 1e-3
@@ -165,8 +168,9 @@ def test_rings_at_radius_40():
     """lam = 1e-2 from R0 to radius 40 with the default resolution: every ring (G = k ln 2)
     beyond r = 3 within 2% of the local ring spacing of the 1D reference."""
     lam = 1e-2
-    s = run(ContinuumConfig(lam=lam, radius=40.0, write_fields=False))
-    assert s.history[-1]["radius"] == pytest.approx(40.0, rel=1e-4)  # last step lands by Euler
+    sim = run(Config(lam=lam, radius=40.0, write_fields=False))
+    s = sim.state
+    assert sim.history[-1]["radius"] == pytest.approx(40.0, rel=1e-4)  # last step lands by Euler
     ref, k = radial.ring_radii(lam, t=s.t, with_index=True)
     keep = ref > 3.0
     spacing = np.diff(ref)
@@ -184,7 +188,7 @@ def test_negative_lam_past_critical_size_raises():
     """lam = -0.1: R_crit = sqrt(2/0.1) = 4.5; growing toward radius 6 must fail cleanly."""
     with pytest.raises(PressureDivergence, match="critical size"):
         run(
-            ContinuumConfig(
+            Config(
                 lam=-0.1, radius=6.0, initial_radius=3.0, n_nodes=300, write_fields=False
             )
         )
@@ -209,7 +213,7 @@ def test_negative_lam_past_critical_size_raises():
 )
 def test_bad_config(kw, match):
     with pytest.raises(ValueError, match=match):
-        ContinuumConfig(**kw).validate()
+        Config(**kw).validate()
 
 
 def test_polygon_shape_and_outputs(tmp_path):
@@ -224,9 +228,9 @@ def test_polygon_shape_and_outputs(tmp_path):
     out = tmp_path / "run"
     out.mkdir()
     s = run(
-        ContinuumConfig(lam=1e-2, time=0.3, shape=f"polygon:{poly}", n_nodes=400, output_every=0.1),
+        Config(lam=1e-2, time=0.3, shape=f"polygon:{poly}", n_nodes=400, output_every=0.1),
         out=out,
-    )
+    ).state
     assert json.loads((out / "config.json").read_text())["lam"] == 1e-2
     rows = list(csv.DictReader((out / "history.csv").open()))
     assert {"t", "radius", "area", "max_pressure", "n_nodes", "n_remesh"} <= set(rows[0])

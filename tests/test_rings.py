@@ -120,7 +120,7 @@ def test_no_rings_and_bad_input():
         ring_table(pts, tri, np.full(len(pts), np.nan))
 
 
-# Measured (lam = 1e-2, default ContinuumConfig, 1,895 nodes at the end, 2 s): the contour's mean
+# Measured (lam = 1e-2, default continuum.Config, 1,895 nodes at the end, 2 s): the contour's mean
 # radius 11.1467, the 1D reference at the continuum's radius sqrt(area/pi) = 12.0006: 11.1949
 # (difference -0.048); at the continuum's final time t = 6.9768: 11.1597 (-0.013). With
 # n_nodes x 4 and h_max / 2 the difference at equal radius is -0.0118 (solver error, O(h^2)).
@@ -133,10 +133,10 @@ def test_continuum_run_rings_against_radial(tmp_path):
     from cases.analysis import _mesh_area, continuum_frames, read_continuum_frame, read_csv
     from continuum import radial
     from continuum.output import write_rings
-    from continuum.simulation import ContinuumConfig, run
+    from continuum import Config, run
 
     lam = 1e-2
-    state = run(ContinuumConfig(lam=lam, radius=12.0, output_every=100.0), out=tmp_path)
+    state = run(Config(lam=lam, radius=12.0, output_every=100.0), out=tmp_path).state
     path = write_rings(tmp_path, state.points, state.triangles, state.fields["G"])
     rings = read_csv(path)
     assert rings["k"].tolist() == [10.0]

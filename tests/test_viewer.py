@@ -29,10 +29,10 @@ def particle_run(tmp_path_factory):
 
 @pytest.fixture(scope="module")
 def continuum_run(tmp_path_factory):
-    from continuum.simulation import ContinuumConfig, run
+    from continuum import Config, run
 
     out = tmp_path_factory.mktemp("continuum")
-    run(ContinuumConfig(lam=1e-2, radius=2, output_every=0.2), out=out)
+    run(Config(lam=1e-2, radius=2, output_every=0.2), out=out)
     return out
 
 

@@ -1,0 +1,154 @@
+"""Remeshing: when the moving mesh must be rebuilt, the new mesh, and the transfer of the fields.
+
+Criteria (:func:`remesh_reason`). The mesh is rebuilt when any of these holds:
+  - quality: the worst triangle quality q = 4 sqrt(3)|T| / sum |e|^2 drops below ``q_min``;
+  - boundary resolution: a boundary edge exceeds ``stretch`` * h_target or falls below
+    h_target / ``stretch`` (material near the edge is stretched by up to exp(t));
+  - size: the mean element size sqrt(4 |T|_mean / sqrt(3)) differs from the mean target
+    by more than a factor ``stretch`` (the mesh size follows the domain).
+
+New mesh (:func:`remesh`). The boundary is resampled by a periodic cubic spline at the target
+spacing h = min(h_max, h_N(A)) (O(h^4) displacement, no area loss) and the interior meshed anew
+(continuum.mesh.colony_mesh).
+
+Transfer. A material field f known at the old nodes x_j is evaluated at a new node x in the
+old triangle T by the gradient-corrected interpolation
+
+    f(x) = sum_{j in T} lambda_j(x) [ f_j + (1/2) (x - x_j) . (grad f)_j ],
+
+lambda_j the barycentric coordinates and (grad f)_j the recovered nodal gradient. It is exact
+for quadratic f with exact gradients (the averaged linear interpolant's O(h^2) error,
+(1/2) sum_j lambda_j (x_j - x)^T H (x_j - x), cancels against the tangent-plane one), so
+repeated remeshing does not bias the phase G (the linear interpolant biases ring radii).
+It is a linear map, a sparse matrix W (n_new x n_old) applied to G, to p (the warm start of
+the next pressure solve) and to Psi. Psi counts cells per material element, whose area
+stretch is exp(G) (div u = g), so the density per current area Psi exp(-G) is transferred and
+multiplied back by exp(G_new) (:func:`transfer_sizes`); negative values of the interpolant are
+cut to 0. The plain linear (barycentric) matrix is also available. New nodes slightly outside
+the old polygon (spline boundary) are extrapolated from the nearest old triangle.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+
+from continuum import mesh as M
+from continuum.pressure import P1Assembler
+from continuum.sizes import SizeDistribution
+from continuum.state import State
+from continuum.velocity import GradientRecovery
+
+__all__ = [
+    "interpolation_matrix",
+    "gradient_corrected_matrix",
+    "remesh_reason",
+    "transfer_sizes",
+    "remesh",
+]
+
+
+def interpolation_matrix(locator: M.Locator, new_points: np.ndarray) -> sp.csr_matrix:
+    """Linear interpolation W_ij = lambda_j(x_i) onto new nodes (extrapolating outside)."""
+    tri, bary, _ = locator.locate(new_points)
+    n_new = len(new_points)
+    rows = np.repeat(np.arange(n_new), 3)
+    cols = locator.tris[tri].ravel()
+    return sp.csr_matrix((bary.ravel(), (rows, cols)), shape=(n_new, len(locator.points)))
+
+
+def gradient_corrected_matrix(
+    locator: M.Locator, assembler: P1Assembler, new_points: np.ndarray
+) -> sp.csr_matrix:
+    """Gradient-corrected interpolation W = L + (1/2) [(L o dX) Dx + (L o dY) Dy].
+
+    L_ij = lambda_j(x_i) the linear interpolation, (dX)_ij, (dY)_ij the components of
+    x_i - x_j, and Dx, Dy the gradient recovery operators of the old mesh: (W f)_i is
+    sum_j lambda_j(x_i) [f_j + (1/2)(x_i - x_j) . (grad f)_j] (exact for quadratics).
+    """
+    L = interpolation_matrix(locator, new_points).tocoo()
+    rec = GradientRecovery(assembler, locator.points)
+    d = new_points[L.row] - locator.points[L.col]
+    shape = L.shape
+    Lx = sp.csr_matrix((0.5 * L.data * d[:, 0], (L.row, L.col)), shape=shape)
+    Ly = sp.csr_matrix((0.5 * L.data * d[:, 1], (L.row, L.col)), shape=shape)
+    return (L.tocsr() + Lx @ rec.Dx + Ly @ rec.Dy).tocsr()
+
+
+def remesh_reason(
+    points: np.ndarray,
+    tris: np.ndarray,
+    n_boundary: int,
+    h_target: float,
+    q_min: float = 0.35,
+    stretch: float = 1.5,
+    mean_h_target: float | None = None,
+) -> str | None:
+    """Why the mesh must be rebuilt ("quality", "boundary", "size"), or None.
+
+    Parameters
+    ----------
+    points, tris : the current (moved) mesh; n_boundary : boundary nodes 0..K-1.
+    h_target : target boundary edge length.
+    q_min : smallest acceptable triangle quality.
+    stretch : allowed factor between actual and target sizes.
+    mean_h_target : target mean element size (defaults to h_target).
+    """
+    q = M.triangle_quality(points, tris)
+    if q.min() < q_min:
+        return "quality"
+    e = M.boundary_spacing(points[:n_boundary])
+    if e.max() > stretch * h_target or e.min() < h_target / stretch:
+        return "boundary"
+    h_mean = M.mean_element_size(points, tris)
+    target = h_target if mean_h_target is None else mean_h_target
+    if not (target / stretch < h_mean < stretch * target):
+        return "size"
+    return None
+
+
+def transfer_sizes(
+    sizes: SizeDistribution, W: sp.csr_matrix, G_old: np.ndarray, G_new: np.ndarray
+) -> SizeDistribution:
+    """Psi on the new nodes: Psi_new = max(exp(G_new) W (exp(-G_old) Psi), 0).
+
+    Transfers the density per current area Psi exp(-G) (module docstring) with the matrix W.
+    """
+    dens = sizes.transfer(W.multiply(np.exp(-G_old)[None, :]).tocsr())
+    dens.n *= np.exp(G_new)[:, None]
+    np.maximum(dens.n, 0.0, out=dens.n)
+    return dens
+
+
+def remesh(
+    state: State,
+    assembler: P1Assembler,
+    h: float,
+    interior_coarsening: float,
+    grading: float,
+) -> None:
+    """New mesh of the current domain at boundary spacing h; G, Psi and p transferred.
+
+    In place: the mesh of ``state``, its fields G, Psi and p (p, the warm start of the next
+    pressure solve, without the extrapolation in time: ``p_prev`` is dropped), ``n_remesh``
+    and the timings. ``assembler`` is the pressure solver's P1 assembler of the old mesh (its
+    gradient recovery gives W). The velocity and growth rate are left for the caller to solve
+    on the new mesh.
+    """
+    old_points, old_tris = state.points, state.triangles
+    boundary = M.resample_polygon(old_points[: state.n_boundary], spacing=h, min_points=16)
+    t0 = time.perf_counter()
+    points, tris = M.colony_mesh(boundary, h, interior_coarsening, grading)
+    state.set_mesh(points, tris, len(boundary), h)
+    state.timings["meshing"] += time.perf_counter() - t0
+    t0 = time.perf_counter()
+    W = gradient_corrected_matrix(M.Locator(old_points, old_tris), assembler, state.points)
+    G_old = state.G
+    state.G = W @ G_old
+    state.sizes = transfer_sizes(state.sizes, W, G_old, state.G)
+    p0 = W @ state.p
+    state.timings["remeshing"] += time.perf_counter() - t0
+    state.n_remesh += 1
+    state.p, state.p_prev = p0, None

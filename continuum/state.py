@@ -1,0 +1,240 @@
+"""The state of a continuum colony and the record of one time step.
+
+:class:`State` holds everything the following steps depend on (the mesh, the fields and
+Psi, the time, the counters, the warm start of the pressure solve): it is what a checkpoint
+saves and loads (continuum.checkpoint), together with the matrix of the pressure solver's AMG
+hierarchy. :class:`StepRecord` is what ``Simulation.step`` returns: one row of history.csv.
+
+Fields (:attr:`State.fields`), nodal values:
+
+- p, u = -grad p, G = int g dt (the growth phase of each material element);
+- mean_length = 2^frac(G / ln 2): the exact mean length for the model's initial
+  Psi0 = delta(l - 1) (continuum.growth.mean_length), what the figures show;
+- mean_length_psi, number, total_length: moments of the transported size distribution Psi
+  (started from the smooth bump of ``SizeDistribution.bump``; number and total length per
+  current area, i.e. per material element divided by its area stretch exp(G)). The bump smears
+  over many divisions (finite volumes in l), so mean_length_psi is the smoother of the two.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from continuum import mesh as M
+from continuum.growth import mean_length
+from continuum.sizes import SizeDistribution
+
+__all__ = ["State", "StepRecord", "REMESH_CODES", "TIMING_STAGES"]
+
+TIMING_STAGES = ("meshing", "assembly", "amg_setup", "krylov", "remeshing", "transport")
+"""Stages of the accumulated wall-clock seconds in ``State.timings``."""
+
+REMESH_CODES = {None: 0, "quality": 1, "boundary": 2, "size": 3}
+"""The remesh reason as written in history.csv's column ``remesh``."""
+
+
+@dataclass(eq=False)
+class State:
+    """Mesh, fields and counters of a continuum colony at time t (mutable, changed by each step).
+
+    Attributes
+    ----------
+    points : ndarray (N, 2)
+        Node positions (material points); nodes 0..n_boundary-1 are the boundary, in order.
+    triangles : ndarray (M, 3)
+        Counter-clockwise triangles (int64).
+    n_boundary : int
+        Number K of boundary nodes.
+    p, g : ndarray (N,)
+        Pressure and growth rate g = exp(-lam p) at the nodes.
+    u : ndarray (N, 2)
+        Velocity u = -grad p at the nodes.
+    G : ndarray (N,)
+        Growth phase int g dt of each material element.
+    sizes : SizeDistribution
+        Psi per material element (one row per node).
+    t : float
+        Time.
+    step : int
+        Number of time steps taken.
+    n_remesh : int
+        Number of remeshes.
+    newton, krylov : int
+        Newton and Krylov (CG) iterations of all pressure solves so far.
+    h_mesh, h_mean_mesh : float
+        Boundary spacing and mean element size of the mesh when it was built (the remeshing
+        criteria compare the moved mesh with them).
+    p_prev : ndarray (N,) or None
+        Pressure of the previous step (None after a remesh): the warm start extrapolates in time.
+    dt_prev : float
+        The previous step.
+    timings : dict
+        Accumulated wall-clock seconds per stage (``TIMING_STAGES``).
+    """
+
+    points: np.ndarray
+    triangles: np.ndarray
+    n_boundary: int
+    p: np.ndarray
+    u: np.ndarray
+    g: np.ndarray
+    G: np.ndarray
+    sizes: SizeDistribution
+    t: float = 0.0
+    step: int = 0
+    n_remesh: int = 0
+    newton: int = 0
+    krylov: int = 0
+    h_mesh: float = math.nan
+    h_mean_mesh: float = math.nan
+    p_prev: np.ndarray | None = None
+    dt_prev: float = 1.0
+    timings: dict = field(default_factory=lambda: dict.fromkeys(TIMING_STAGES, 0.0))
+
+    def set_mesh(self, points: np.ndarray, triangles: np.ndarray, n_boundary: int,
+                 h: float) -> None:
+        """Take a new mesh built at boundary spacing h (the fields are set by the caller)."""
+        self.points, self.triangles, self.n_boundary = points, triangles, n_boundary
+        self.h_mesh = h
+        self.h_mean_mesh = M.mean_element_size(points, triangles)
+
+    @property
+    def boundary(self) -> np.ndarray:
+        """The boundary polygon, nodes 0..K-1 (a view)."""
+        return self.points[: self.n_boundary]
+
+    @property
+    def area(self) -> float:
+        """Colony area A (shoelace formula over the boundary)."""
+        return M.polygon_area(self.boundary)
+
+    @property
+    def radius(self) -> float:
+        """Colony radius sqrt(A / pi)."""
+        return math.sqrt(self.area / math.pi)
+
+    def where(self) -> str:
+        """Time and area, for error messages."""
+        return f"t={self.t:.6g}, area={self.area:.6g}"
+
+    @property
+    def fields(self) -> dict[str, np.ndarray]:
+        """Nodal fields (new arrays): p, u, G, mean_length, mean_length_psi, number, total_length.
+
+        See the module docstring; number and total length are per current area
+        (Psi moments times exp(-G)).
+        """
+        stretch = np.exp(-self.G)
+        number = self.sizes.number()
+        total = self.sizes.total_length()
+        return {
+            "p": self.p.copy(),
+            "u": self.u.copy(),
+            "G": self.G.copy(),
+            "mean_length": mean_length(self.G),
+            "mean_length_psi": total / number,
+            "number": number * stretch,
+            "total_length": total * stretch,
+        }
+
+    def sample(self, xy: np.ndarray) -> dict[str, np.ndarray]:
+        """P1 interpolation of every field at the points xy (P, 2); NaN outside the domain."""
+        return sample_fields(self.points, self.triangles, self.fields, xy)
+
+    def copy(self) -> State:
+        """A deep copy (later steps of a simulation do not change it)."""
+        return copy.deepcopy(self)
+
+
+def sample_fields(points: np.ndarray, triangles: np.ndarray, fields: dict,
+                  xy: np.ndarray) -> dict[str, np.ndarray]:
+    """P1 interpolation of nodal ``fields`` at the points xy (P, 2); NaN outside the mesh."""
+    loc = M.Locator(points, triangles)
+    tri, bary, inside = loc.locate(np.asarray(xy, dtype=float))
+    nodes = triangles[tri]
+    out = {}
+    for name, f in fields.items():
+        v = np.einsum("pi,pi...->p...", bary, np.asarray(f)[nodes])
+        v[~inside] = np.nan
+        out[name] = v
+    return out
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """What one time step did and where it left the colony: one row of history.csv.
+
+    Attributes
+    ----------
+    t : float
+        Time after the step.
+    radius, area : float
+        Colony radius sqrt(A/pi) and area A.
+    max_pressure : float
+        Largest nodal pressure.
+    n_nodes, n_boundary : int
+        Mesh nodes, boundary nodes.
+    n_remesh : int
+        Remeshes so far.
+    dt : float
+        The step taken (halved from the planned one while elements invert; 0 for the initial
+        record).
+    h : float
+        Boundary spacing of the current mesh when it was built.
+    min_quality : float
+        Worst triangle quality 4 sqrt(3)|T| / sum |e|^2.
+    newton_iterations, krylov_iterations : int
+        Newton and Krylov iterations of all pressure solves so far (cumulative).
+    remesh : str or None
+        Why the mesh was rebuilt before this step ("quality", "boundary", "size"), or None.
+    step : int
+        Steps taken so far (not in history.csv).
+    """
+
+    t: float
+    radius: float
+    area: float
+    max_pressure: float
+    n_nodes: int
+    n_boundary: int
+    n_remesh: int
+    dt: float
+    h: float
+    min_quality: float
+    newton_iterations: int
+    krylov_iterations: int
+    remesh: str | None
+    step: int
+
+    @classmethod
+    def of(cls, state: State, dt: float, remesh: str | None) -> StepRecord:
+        """The record of ``state`` after a step of size dt (remeshed first for ``remesh``)."""
+        area = state.area
+        return cls(
+            t=state.t,
+            radius=math.sqrt(area / math.pi),
+            area=area,
+            max_pressure=float(state.p.max()),
+            n_nodes=len(state.points),
+            n_boundary=state.n_boundary,
+            n_remesh=state.n_remesh,
+            dt=dt,
+            h=state.h_mesh,
+            min_quality=float(M.triangle_quality(state.points, state.triangles).min()),
+            newton_iterations=state.newton,
+            krylov_iterations=state.krylov,
+            remesh=remesh,
+            step=state.step,
+        )
+
+    def row(self) -> dict:
+        """The history.csv row: every attribute but ``step``, ``remesh`` as its code
+        (``REMESH_CODES``: 0 none, 1 quality, 2 boundary, 3 size)."""
+        row = asdict(self)
+        del row["step"]
+        row["remesh"] = REMESH_CODES[self.remesh]
+        return row
