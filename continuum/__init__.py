@@ -39,7 +39,7 @@ from continuum.budget import BudgetError
 from continuum.growth import growth_rate, mean_length
 from continuum.mesh import PolygonError
 from continuum.pressure import PressureDivergence
-from continuum.radial import NoRadialSolution, R0, ring_radii
+from continuum.radial import R0, NoRadialSolution, ring_radii
 from continuum.radial import radius as radial_radius
 from continuum.rings import ring_table
 from continuum.simulation import Config, Simulation, run

@@ -16,7 +16,7 @@ from __future__ import annotations
 import math
 import os
 
-from continuum import mesh as M
+from continuum import mesh
 
 __all__ = ["BudgetError", "estimate_nodes", "available_memory", "check_memory"]
 
@@ -34,7 +34,7 @@ class BudgetError(ValueError):
 
 def estimate_nodes(area: float, perimeter: float, config) -> float:
     """Node count N of the graded mesh of a domain (formula in the module docstring)."""
-    h = M.target_spacing(area, config.h_max, config.n_nodes)
+    h = mesh.target_spacing(area, config.h_max, config.n_nodes)
     c, g = config.interior_coarsening, config.grading
     if c <= 1.0:
         return 2.0 / math.sqrt(3.0) * area / h**2
@@ -66,9 +66,9 @@ def largest_nodes(config) -> tuple[float, str]:
     at its initial size only.
     """
     polygon = config.initial_boundary()
-    area = abs(M.polygon_area(polygon))
+    area = abs(mesh.polygon_area(polygon))
     closed = list(polygon) + [polygon[0]]
-    perimeter = sum(math.dist(a, b) for a, b in zip(closed[:-1], closed[1:]))
+    perimeter = sum(math.dist(a, b) for a, b in zip(closed[:-1], closed[1:], strict=True))
     n_initial = estimate_nodes(area, perimeter, config)
     if config.radius is None:
         return n_initial, "initial"
@@ -78,8 +78,10 @@ def largest_nodes(config) -> tuple[float, str]:
 
 
 def check_memory(config, memory: int | None = None) -> float:
-    """Raise BudgetError when the run's largest mesh would not fit in ``memory`` bytes
-    (default: available memory); returns the estimated node count."""
+    """Raise BudgetError when the run's largest mesh would not fit in memory.
+
+    ``memory`` in bytes, default the available memory. Returns the estimated node count.
+    """
     nodes, when = largest_nodes(config)
     need = BASE_BYTES + BYTES_PER_NODE * nodes
     memory = available_memory() if memory is None else memory

@@ -151,8 +151,10 @@ def check_resumable(path: Path, saved: dict, config) -> None:
 
 
 def remove_later_frames(out: Path, frames: list) -> None:
-    """Delete the VTU frames ``fields/frame_*.vtu`` that are not in ``frames``: those the run
-    wrote after its checkpoint (a resumed run writes them again)."""
+    """Delete the VTU frames ``fields/frame_*.vtu`` that are not in ``frames``.
+
+    Those the run wrote after its checkpoint (a resumed run writes them again).
+    """
     keep = {name for _, name in frames}
     for path in sorted((Path(out) / "fields").glob("frame_*.vtu")):
         if f"fields/{path.name}" not in keep:

@@ -134,13 +134,13 @@ def check_polygon(xy: np.ndarray, check_simple: bool = True) -> np.ndarray:
 
 
 def circle_polygon(radius: float, n: int, center=(0.0, 0.0)) -> np.ndarray:
-    """n vertices of the circle of the given radius, counter-clockwise."""
+    """The n vertices of the circle of the given radius, counter-clockwise."""
     s = 2 * np.pi * np.arange(n) / n
     return np.column_stack([center[0] + radius * np.cos(s), center[1] + radius * np.sin(s)])
 
 
 def ellipse_polygon(a: float, b: float, n: int) -> np.ndarray:
-    """n vertices on the ellipse x^2/a^2 + y^2/b^2 = 1, roughly equally spaced in arc length."""
+    """The n vertices on the ellipse x^2/a^2 + y^2/b^2 = 1, roughly equally spaced in arc length."""
     s = np.linspace(0, 2 * np.pi, 8 * n, endpoint=False)
     dense = np.column_stack([a * np.cos(s), b * np.sin(s)])
     return resample_polygon(dense, n=n)

@@ -44,7 +44,10 @@ Flow = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def stable_dt(boundary: np.ndarray, u_boundary: np.ndarray, courant: float) -> float:
-    """dt = courant * min boundary edge / max |u| on the boundary (explicit motion limit)."""
+    """Stable step dt = courant * min boundary edge / max |u| on the boundary.
+
+    The limit of explicit node motion (module docstring).
+    """
     umax = float(np.max(np.linalg.norm(u_boundary, axis=1)))
     return courant * float(boundary_spacing(boundary).min()) / max(umax, 1e-300)
 

@@ -88,7 +88,7 @@ AMG_SEED = 20240611
 
 
 def amg_hierarchy(A: sp.csr_matrix):
-    """pyamg smoothed-aggregation hierarchy of the SPD matrix A, the same on every call.
+    """The pyamg smoothed-aggregation hierarchy of the SPD matrix A, the same on every call.
 
     pyamg estimates the spectral radius rho(D^-1 S) of the prolongation smoother
     (``approximate_spectral_radius``, Lanczos/Arnoldi) from a random start vector drawn from
@@ -97,12 +97,13 @@ def amg_hierarchy(A: sp.csr_matrix):
     the setup and its previous state is put back afterwards (callers' random streams are not
     disturbed). Not thread-safe with respect to other users of the global generator.
     """
-    saved = np.random.get_state()
-    np.random.seed(AMG_SEED)
+    # pyamg draws from the legacy global generator: seeded here on purpose (docstring)
+    saved = np.random.get_state()  # noqa: NPY002
+    np.random.seed(AMG_SEED)  # noqa: NPY002
     try:
         return pyamg.smoothed_aggregation_solver(A, symmetry="hermitian", max_coarse=200)
     finally:
-        np.random.set_state(saved)
+        np.random.set_state(saved)  # noqa: NPY002
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> float:
@@ -160,7 +161,7 @@ def pcg(
     return x, maxiter, False
 
 
-class PressureDivergence(RuntimeError):
+class PressureDivergence(RuntimeError):  # noqa: N818 - the public name
     """Newton's method for the pressure did not converge (no solution, or non-finite values)."""
 
 
@@ -340,7 +341,7 @@ class PressureSolver:
         for attempt in range(2):
             t0 = time.perf_counter()
             ml = self._amg
-            x, its, ok = pcg(A, rhs, lambda r: vcycle(ml, r), tol)
+            x, its, ok = pcg(A, rhs, lambda r, ml=ml: vcycle(ml, r), tol)
             st.time_krylov += time.perf_counter() - t0
             st.krylov_iterations += its
             if ok and its <= self.reuse_factor:

@@ -73,7 +73,7 @@ R0 = math.sqrt(B / math.pi)
 """Initial colony radius sqrt(b/pi): the disc with the area of one particle (b = 1/2)."""
 
 
-class NoRadialSolution(ValueError):
+class NoRadialSolution(ValueError):  # noqa: N818 - the public name
     """lam < 0 and the disc is larger than the critical radius sqrt(2/|lam|): no solution exists."""
 
 
@@ -94,7 +94,7 @@ def _check_lam(lam: float) -> float:
 
 
 def _w(R: NDArray, lam: float) -> NDArray:
-    """w = sqrt(1 + lam R^2 / 2), raising NoRadialSolution when the root is imaginary."""
+    """The root w = sqrt(1 + lam R^2 / 2), raising NoRadialSolution when the root is imaginary."""
     arg = 1.0 + 0.5 * lam * R * R
     if np.any(arg < 0):
         raise NoRadialSolution(
@@ -110,7 +110,7 @@ def _radius_array(R: ArrayLike) -> NDArray:
     return R
 
 
-def c_of_R(R: ArrayLike, lam: float) -> NDArray | float:
+def c_of_R(R: ArrayLike, lam: float) -> NDArray | float:  # noqa: N802 - the model's c(R)
     """Constant c(R) = 1 / (4 (sqrt(1 + lam R^2/2) + 1)) of the radial solution (lam = 0: 1/8).
 
     This is the cancellation-free form of c = [sqrt(1 + lam R^2/2) - 1] / (2 lam R^2).
@@ -121,7 +121,7 @@ def c_of_R(R: ArrayLike, lam: float) -> NDArray | float:
     return c if c.ndim else float(c)
 
 
-def _D(r: NDArray, R: NDArray, lam: float) -> tuple[NDArray, NDArray]:
+def _D(r: NDArray, R: NDArray, lam: float) -> tuple[NDArray, NDArray]:  # noqa: N802 - D(r)
     """Return (D, c) with D = 1 + lam c (R^2 - r^2) > 0, after checking 0 <= r <= R."""
     if np.any(r < 0) or np.any(r > R * (1 + 1e-12)):
         raise ValueError("radial positions must satisfy 0 <= r <= R")
@@ -188,7 +188,7 @@ def max_pressure(R: ArrayLike, lam: float) -> NDArray | float:
 # ----------------------------------------------------------------------------- R(t)
 
 
-def _F(x: NDArray, lam: float) -> NDArray:
+def _F(x: NDArray, lam: float) -> NDArray:  # noqa: N802 - the model's F(R)
     """F(R) = 2 ln R + w - ln(1 + w) in x = ln R; t(R) = F(R) - F(R0)."""
     w = _w(np.exp(x), lam)
     return 2.0 * x + w - np.log1p(w)
@@ -280,7 +280,7 @@ class Characteristics:
 
     @property
     def mean_length(self) -> NDArray:
-        """lbar = 2^frac(G / ln 2): mean length at the path ends for Psi0 = delta(l - 1)."""
+        """Mean length lbar = 2^frac(G / ln 2) at the path ends for Psi0 = delta(l - 1)."""
         return mean_length_from_phase(self.G)
 
 

@@ -35,7 +35,7 @@ import time
 import numpy as np
 import scipy.sparse as sp
 
-from continuum import mesh as M
+from continuum import mesh
 from continuum.pressure import P1Assembler
 from continuum.sizes import SizeDistribution
 from continuum.state import State
@@ -50,7 +50,7 @@ __all__ = [
 ]
 
 
-def interpolation_matrix(locator: M.Locator, new_points: np.ndarray) -> sp.csr_matrix:
+def interpolation_matrix(locator: mesh.Locator, new_points: np.ndarray) -> sp.csr_matrix:
     """Linear interpolation W_ij = lambda_j(x_i) onto new nodes (extrapolating outside)."""
     tri, bary, _ = locator.locate(new_points)
     n_new = len(new_points)
@@ -60,7 +60,7 @@ def interpolation_matrix(locator: M.Locator, new_points: np.ndarray) -> sp.csr_m
 
 
 def gradient_corrected_matrix(
-    locator: M.Locator, assembler: P1Assembler, new_points: np.ndarray
+    locator: mesh.Locator, assembler: P1Assembler, new_points: np.ndarray
 ) -> sp.csr_matrix:
     """Gradient-corrected interpolation W = L + (1/2) [(L o dX) Dx + (L o dY) Dy].
 
@@ -96,13 +96,13 @@ def remesh_reason(
     stretch : allowed factor between actual and target sizes.
     mean_h_target : target mean element size (defaults to h_target).
     """
-    q = M.triangle_quality(points, tris)
+    q = mesh.triangle_quality(points, tris)
     if q.min() < q_min:
         return "quality"
-    e = M.boundary_spacing(points[:n_boundary])
+    e = mesh.boundary_spacing(points[:n_boundary])
     if e.max() > stretch * h_target or e.min() < h_target / stretch:
         return "boundary"
-    h_mean = M.mean_element_size(points, tris)
+    h_mean = mesh.mean_element_size(points, tris)
     target = h_target if mean_h_target is None else mean_h_target
     if not (target / stretch < h_mean < stretch * target):
         return "size"
@@ -138,13 +138,13 @@ def remesh(
     on the new mesh.
     """
     old_points, old_tris = state.points, state.triangles
-    boundary = M.resample_polygon(old_points[: state.n_boundary], spacing=h, min_points=16)
+    boundary = mesh.resample_polygon(old_points[: state.n_boundary], spacing=h, min_points=16)
     t0 = time.perf_counter()
-    points, tris = M.colony_mesh(boundary, h, interior_coarsening, grading)
+    points, tris = mesh.colony_mesh(boundary, h, interior_coarsening, grading)
     state.set_mesh(points, tris, len(boundary), h)
     state.timings["meshing"] += time.perf_counter() - t0
     t0 = time.perf_counter()
-    W = gradient_corrected_matrix(M.Locator(old_points, old_tris), assembler, state.points)
+    W = gradient_corrected_matrix(mesh.Locator(old_points, old_tris), assembler, state.points)
     G_old = state.G
     state.G = W @ G_old
     state.sizes = transfer_sizes(state.sizes, W, G_old, state.G)

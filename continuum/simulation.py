@@ -44,8 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from continuum import checkpoint
-from continuum import mesh as M
+from continuum import checkpoint, mesh
 from continuum.budget import check_memory
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
@@ -58,6 +57,23 @@ from continuum.velocity import darcy_flow
 __all__ = ["Config", "Simulation", "run", "config_fields"]
 
 log = logging.getLogger(__name__)
+
+
+def _positive(v) -> bool:
+    return isinstance(v, (int, float)) and math.isfinite(v) and v > 0
+
+
+_RULES = [  # (field, test, what the value must be), checked by Config.validate
+    ("n_nodes", lambda v: isinstance(v, int) and v >= 50, "an integer >= 50"),
+    ("interior_coarsening", lambda v: math.isfinite(v) and v >= 1, ">= 1"),
+    ("courant", lambda v: 0 < v <= 1.0, "in (0, 1]"),
+    ("q_min", lambda v: 0 < v < 0.9, "in (0, 0.9)"),
+    ("stretch", lambda v: math.isfinite(v) and v > 1.1, "> 1.1"),
+    ("n_length_cells", lambda v: isinstance(v, int) and v >= 8, "an integer >= 8"),
+    ("output_every", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
+    ("max_steps", lambda v: isinstance(v, int) and v > 0, "a positive integer"),
+    ("checkpoint_seconds", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
+]
 
 
 @dataclass
@@ -131,45 +147,22 @@ class Config:
 
         ``require_stop``: exactly one of ``radius`` and ``time`` is required (else at most one).
         """
-
-        def positive(name):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-
         if not (isinstance(self.lam, (int, float)) and math.isfinite(self.lam)):
             raise ValueError(f"lam must be a finite number, got {self.lam!r}")
         if self.radius is not None and self.time is not None:
             raise ValueError("give exactly one of radius and time, not both")
         if require_stop and self.radius is None and self.time is None:
             raise ValueError("give exactly one of radius and time")
-        for name in ("initial_radius", "h_max", "courant", "bump_width", "grading"):
-            positive(name)
-        if self.radius is not None:
-            positive("radius")
-        if self.time is not None:
-            positive("time")
-        if not (isinstance(self.n_nodes, int) and self.n_nodes >= 50):
-            raise ValueError(f"n_nodes must be an integer >= 50, got {self.n_nodes!r}")
-        if not (math.isfinite(self.interior_coarsening) and self.interior_coarsening >= 1):
-            raise ValueError(f"interior_coarsening must be >= 1, got {self.interior_coarsening!r}")
-        if not 0 < self.courant <= 1.0:
-            raise ValueError(f"courant must be in (0, 1], got {self.courant!r}")
-        if not 0 < self.q_min < 0.9:
-            raise ValueError(f"q_min must be in (0, 0.9), got {self.q_min!r}")
-        if not (math.isfinite(self.stretch) and self.stretch > 1.1):
-            raise ValueError(f"stretch must be > 1.1, got {self.stretch!r}")
-        if not (isinstance(self.n_length_cells, int) and self.n_length_cells >= 8):
-            raise ValueError(f"n_length_cells must be an integer >= 8, got {self.n_length_cells!r}")
-        if not (math.isfinite(self.output_every) and self.output_every >= 0):
-            raise ValueError(f"output_every must be >= 0, got {self.output_every!r}")
-        if not (isinstance(self.max_steps, int) and self.max_steps > 0):
-            raise ValueError(f"max_steps must be a positive integer, got {self.max_steps!r}")
-        if not (math.isfinite(self.checkpoint_seconds) and self.checkpoint_seconds >= 0):
-            raise ValueError(f"checkpoint_seconds must be >= 0, got {self.checkpoint_seconds!r}")
+        positive = ["initial_radius", "h_max", "courant", "bump_width", "grading"]
+        positive += [name for name in ("radius", "time") if getattr(self, name) is not None]
+        rules = [(name, _positive, "a positive finite number") for name in positive]
+        for name, ok, what in rules + _RULES:
+            v = getattr(self, name)
+            if not ok(v):
+                raise ValueError(f"{name} must be {what}, got {v!r}")
         polygon = self.initial_boundary()  # parses and checks the shape
         if self.radius is not None:
-            r_init = M.colony_radius(polygon)
+            r_init = mesh.colony_radius(polygon)
             if self.radius < r_init:
                 raise ValueError(
                     f"radius {self.radius} is smaller than the initial radius {r_init:.6g}"
@@ -177,11 +170,13 @@ class Config:
         return self
 
     def initial_boundary(self) -> np.ndarray:
-        """A dense polygon (256 vertices or the file's) of the initial shape, checked,
-        counter-clockwise."""
+        """A dense polygon of the initial shape (checked, counter-clockwise).
+
+        256 vertices for a circle or an ellipse, the file's for a polygon.
+        """
         s = str(self.shape).strip()
         if s == "circle":
-            return M.circle_polygon(self.initial_radius, 256)
+            return mesh.circle_polygon(self.initial_radius, 256)
         if s.startswith("ellipse:"):
             try:
                 a, b = (float(v) for v in s[len("ellipse:") :].split(","))
@@ -191,22 +186,25 @@ class Config:
                 ) from None
             if not (math.isfinite(a) and math.isfinite(b) and a > 0 and b > 0):
                 raise ValueError(f"ellipse semi-axes must be positive and finite, got {s!r}")
-            return M.ellipse_polygon(a, b, 256)
+            return mesh.ellipse_polygon(a, b, 256)
         if s.startswith("polygon:"):
-            return M.load_polygon_csv(s[len("polygon:") :])
+            return mesh.load_polygon_csv(s[len("polygon:") :])
         raise ValueError(f"shape must be circle, ellipse:A,B or polygon:FILE.csv, got {s!r}")
 
 
 
 
 def initial_state(config: Config) -> State:
-    """The colony at t = 0: the initial shape meshed at h = min(h_max, h_N(area)), G = 0,
-    Psi the bump of ``bump_width``, p = 0 (u, g zero until the first pressure solve)."""
+    """The colony at t = 0.
+
+    The initial shape meshed at h = min(h_max, h_N(area)), G = 0, Psi the bump of
+    ``bump_width``, p = 0 (u, g zero until the first pressure solve).
+    """
     dense = config.initial_boundary()
-    h = _target_spacing(config, abs(M.polygon_area(dense)))
-    boundary = M.resample_polygon(dense, spacing=h, min_points=16)
+    h = _target_spacing(config, abs(mesh.polygon_area(dense)))
+    boundary = mesh.resample_polygon(dense, spacing=h, min_points=16)
     t0 = _time.perf_counter()
-    points, tris = M.colony_mesh(boundary, h, config.interior_coarsening, config.grading)
+    points, tris = mesh.colony_mesh(boundary, h, config.interior_coarsening, config.grading)
     n = len(points)
     state = State(points=points, triangles=tris, n_boundary=len(boundary), p=np.zeros(n),
                   u=np.zeros((n, 2)), g=np.zeros(n), G=np.zeros(n),
@@ -219,7 +217,7 @@ def initial_state(config: Config) -> State:
 
 def _target_spacing(config: Config, area: float) -> float:
     """Boundary mesh spacing min(h_max, h_N(area)) of this configuration."""
-    return M.target_spacing(area, config.h_max, config.n_nodes)
+    return mesh.target_spacing(area, config.h_max, config.n_nodes)
 
 
 class Simulation:
@@ -332,13 +330,18 @@ class Simulation:
         self._solve_flow()
 
     def remesh(self) -> None:
-        """Rebuild the mesh now, at the target spacing of the current area (continuum.remesh:
-        G, Psi and p transferred, p, u, g solved on the new mesh)."""
+        """Rebuild the mesh now, at the target spacing of the current area.
+
+        continuum.remesh: G, Psi and p transferred; p, u, g solved on the new mesh.
+        """
         self._remesh(_target_spacing(self.config, self.state.area))
 
     def _dt(self, radius: float | None, time: float | None) -> float:
-        """The stable dt (continuum.motion.stable_dt), shortened to land on the goal: radius R
-        when R + dt dR/dt >= R_goal, time T when t + dt >= T."""
+        """The stable dt (continuum.motion.stable_dt), shortened to land on the goal.
+
+        Radius: dt = (R_goal - R) / (dR/dt) when R + dt dR/dt >= R_goal; time: T - t when
+        t + dt >= T.
+        """
         s = self.state
         dt = stable_dt(s.boundary, s.u[: s.n_boundary], self.config.courant)
         if radius is not None:
@@ -379,8 +382,11 @@ class Simulation:
         return record
 
     def done(self, radius: float | None = None, time: float | None = None) -> bool:
-        """True once the colony radius >= ``radius`` (to 1e-7 relative) or t >= ``time``
-        (to 1e-12 relative); False when both are None."""
+        """Whether the colony has reached the goal.
+
+        True once the colony radius >= ``radius`` (to 1e-7 relative) or t >= ``time`` (to
+        1e-12 relative); False when both are None.
+        """
         if radius is not None:
             return self.state.radius >= radius * (1 - 1e-7)
         return time is not None and self.state.t >= time * (1 - 1e-12)
@@ -438,9 +444,11 @@ class Simulation:
 
     # ------------------------------------------------------------------ checkpoints
     def save(self, path: Path | str | None = None) -> Path:
-        """Write a checkpoint (continuum.checkpoint; atomic) to ``path``, default
-        out/checkpoint.npz; :meth:`load` (and :func:`run` on its folder) continues from it
-        bit-identically."""
+        """Write a checkpoint (continuum.checkpoint; atomic) to ``path``; returns the path.
+
+        Default out/checkpoint.npz. :meth:`load` (and :func:`run` on its folder) continues
+        from it bit-identically.
+        """
         if path is None:
             if self.output is None:
                 raise ValueError("give a path: this simulation has no output folder")
@@ -500,8 +508,10 @@ class _ProgressBar:
 
 
 class _Outputs:
-    """The files of a simulation in its run folder (continuum.output): config.json, VTU
-    frames every ``output_every``, history.csv, boundary.csv, the checkpoint."""
+    """The files of a simulation in its run folder (continuum.output).
+
+    config.json, VTU frames every ``output_every``, history.csv, boundary.csv, the checkpoint.
+    """
 
     def __init__(self, config: Config, out: Path):
         from continuum import output
@@ -611,9 +621,11 @@ def run(
 
 def _steps(sim: Simulation, progress: bool, max_steps_this_call: int | None,
            stop: checkpoint.StopRequest) -> None:
-    """The loop of ``run``: step until the goal, a stop request or ``max_steps_this_call``
-    steps; a checkpoint (and history.csv) every ``checkpoint_seconds`` and when stopping;
-    the final files at the goal."""
+    """The loop of ``run``.
+
+    Step until the goal, a stop request or ``max_steps_this_call`` steps; a checkpoint (and
+    history.csv) every ``checkpoint_seconds`` and when stopping; the final files at the goal.
+    """
     config = sim.config
     goal = {"radius": config.radius, "time": config.time}
     last_checkpoint = _time.monotonic()

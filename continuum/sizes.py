@@ -201,6 +201,7 @@ class SizeDistribution:
 
     @property
     def n_nodes(self) -> int:
+        """Number of rows (material elements, mesh nodes)."""
         return self.n.shape[0]
 
     def __repr__(self) -> str:
@@ -295,6 +296,7 @@ class SizeDistribution:
         return SizeDistribution(self.grid, np.asarray(W @ self.n), courant=self.courant)
 
     def copy(self) -> SizeDistribution:
+        """A copy with its own cell averages."""
         return SizeDistribution(self.grid, self.n.copy(), courant=self.courant)
 
 

@@ -24,7 +24,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from continuum import mesh as M
+from continuum import mesh
 from continuum.growth import mean_length
 from continuum.sizes import SizeDistribution
 
@@ -100,7 +100,7 @@ class State:
         """Take a new mesh built at boundary spacing h (the fields are set by the caller)."""
         self.points, self.triangles, self.n_boundary = points, triangles, n_boundary
         self.h_mesh = h
-        self.h_mean_mesh = M.mean_element_size(points, triangles)
+        self.h_mean_mesh = mesh.mean_element_size(points, triangles)
 
     @property
     def boundary(self) -> np.ndarray:
@@ -110,7 +110,7 @@ class State:
     @property
     def area(self) -> float:
         """Colony area A (shoelace formula over the boundary)."""
-        return M.polygon_area(self.boundary)
+        return mesh.polygon_area(self.boundary)
 
     @property
     def radius(self) -> float:
@@ -153,7 +153,7 @@ class State:
 def sample_fields(points: np.ndarray, triangles: np.ndarray, fields: dict,
                   xy: np.ndarray) -> dict[str, np.ndarray]:
     """P1 interpolation of nodal ``fields`` at the points xy (P, 2); NaN outside the mesh."""
-    loc = M.Locator(points, triangles)
+    loc = mesh.Locator(points, triangles)
     tri, bary, inside = loc.locate(np.asarray(xy, dtype=float))
     nodes = triangles[tri]
     out = {}
@@ -224,7 +224,7 @@ class StepRecord:
             n_remesh=state.n_remesh,
             dt=dt,
             h=state.h_mesh,
-            min_quality=float(M.triangle_quality(state.points, state.triangles).min()),
+            min_quality=float(mesh.triangle_quality(state.points, state.triangles).min()),
             newton_iterations=state.newton,
             krylov_iterations=state.krylov,
             remesh=remesh,
@@ -232,8 +232,10 @@ class StepRecord:
         )
 
     def row(self) -> dict:
-        """The history.csv row: every attribute but ``step``, ``remesh`` as its code
-        (``REMESH_CODES``: 0 none, 1 quality, 2 boundary, 3 size)."""
+        """The history.csv row: every attribute but ``step``.
+
+        ``remesh`` as its code (``REMESH_CODES``: 0 none, 1 quality, 2 boundary, 3 size).
+        """
         row = asdict(self)
         del row["step"]
         row["remesh"] = REMESH_CODES[self.remesh]

@@ -192,7 +192,7 @@ def nodal_velocity(
     residual: np.ndarray,
     geometry: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
-    """u = -grad p at every node: recovered inside, residual flux on the boundary, (N, 2).
+    """Velocity u = -grad p at every node: recovered inside, residual flux on the boundary, (N, 2).
 
     Parameters
     ----------

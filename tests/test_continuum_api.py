@@ -1,0 +1,181 @@
+"""The public API of the continuum engine (``import continuum``).
+
+The names of ``continuum.__all__`` exist; ``Simulation.step`` returns a ``StepRecord`` (the
+history row); ``Simulation.advance(radius=R)`` gives the bits of ``run(Config(radius=R))``,
+with and without a run folder; ``save`` / ``load`` continue bit-identically (also across a
+remesh, with the AMG matrix in the checkpoint); the README's example runs.
+
+The small configuration is tests/test_continuum_restart.py's: it remeshes at steps 14, 17 and
+20 of its 21 steps to radius 3 (about 0.3 s a run).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+import continuum
+from continuum import Config, Simulation, State, StepRecord, run
+
+SMALL = dict(lam=1e-2, n_nodes=100, h_max=0.25, stretch=1.2, output_every=0.5)
+"""Remeshes and writes frames within a fraction of a second (module docstring)."""
+
+GOAL = 3.0
+
+
+def digest(sim: Simulation) -> dict:
+    """The raw bytes of a simulation's history and state (mesh, fields, Psi, counters)."""
+    s = sim.state
+    out = {
+        "history": np.array([[float(v) for v in row.values()] for row in sim.history]).tobytes(),
+        "points": s.points.tobytes(),
+        "triangles": s.triangles.tobytes(),
+        "psi": s.sizes.n.tobytes(),
+        "scalars": np.array([s.t, s.step, s.n_remesh, s.newton, s.krylov, s.n_boundary]).tobytes(),
+    }
+    out.update({f"field {k}": np.ascontiguousarray(v).tobytes() for k, v in s.fields.items()})
+    return out
+
+
+@pytest.fixture(scope="module")
+def reference() -> Simulation:
+    """``run`` of SMALL to radius GOAL (no folder)."""
+    return run(Config(radius=GOAL, **SMALL))
+
+
+def test_public_names():
+    assert set(continuum.__all__) >= {"Config", "Simulation", "State", "StepRecord", "run",
+                                      "PressureDivergence", "BudgetError", "PolygonError",
+                                      "growth_rate", "mean_length", "radial_radius",
+                                      "ring_radii", "ring_table", "__version__"}
+    for name in continuum.__all__:
+        assert getattr(continuum, name) is not None, name
+    assert isinstance(continuum.__version__, str) and continuum.__version__
+    assert issubclass(continuum.PolygonError, ValueError)
+    assert issubclass(continuum.BudgetError, ValueError)
+
+
+def test_readme_example(capsys):
+    """The README's example, as written."""
+    import continuum
+
+    sim = continuum.Simulation(continuum.Config(lam=1e-2))
+    record = sim.step()
+    state = sim.advance(radius=5.0)
+    print(state.t, state.fields["G"].max(), len(state.points))
+    t, g_max, n = capsys.readouterr().out.split()
+    assert isinstance(record, continuum.StepRecord)
+    assert float(t) == state.t and int(n) == len(state.points)
+    # the 1D reference R(t) of the disc, to the discretisation error
+    assert state.radius == pytest.approx(5.0, rel=1e-3)  # the last step lands by Euler
+    assert continuum.radial_radius(state.t, 1e-2) == pytest.approx(state.radius, rel=2e-3)
+
+
+def test_step_returns_its_record():
+    sim = Simulation(Config(**SMALL))
+    assert isinstance(sim.state, State) and len(sim.history) == 1
+    record = sim.step()
+    assert isinstance(record, StepRecord)
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        record.t = 0.0
+    assert record.step == sim.state.step == 1 and record.t == sim.state.t > 0
+    assert record.dt == record.t and record.remesh is None
+    assert record.n_nodes == len(sim.state.points) and record.radius == sim.state.radius
+    assert record.row() == sim.history[-1] and len(sim.history) == 2
+    assert record.newton_iterations >= 2 and record.krylov_iterations >= record.newton_iterations
+    assert set(sim.fields) == {"p", "u", "G", "mean_length", "mean_length_psi", "number",
+                               "total_length"}
+    assert np.array_equal(sim.fields["mean_length"], continuum.mean_length(sim.state.G))
+
+
+def test_advance_equals_run(reference):
+    """advance(radius=R) of a Simulation without a goal lands exactly where run lands."""
+    sim = Simulation(Config(**SMALL))
+    state = sim.advance(radius=GOAL)
+    assert state is sim.state
+    assert digest(sim) == digest(reference)
+    assert any(row["remesh"] for row in sim.history)  # the comparison covers remeshing
+    # advancing to a goal already reached takes no step
+    sim.advance(radius=GOAL)
+    assert len(sim.history) == len(reference.history)
+
+
+def test_advance_by_time_equals_run():
+    t_end = 1.0
+    ref = run(Config(time=t_end, **SMALL))
+    sim = Simulation(Config(time=t_end, **SMALL))
+    sim.advance()  # the configuration's goal
+    assert sim.state.t == pytest.approx(t_end, rel=1e-12)
+    assert digest(sim) == digest(ref)
+
+
+def test_simulation_with_folder_writes_the_run_files(tmp_path):
+    """Simulation(config, out).advance() writes what run(config, out) writes, byte for byte."""
+    a, b = tmp_path / "run", tmp_path / "sim"
+    a.mkdir(), b.mkdir()
+    run(Config(radius=GOAL, **SMALL), out=a)
+    Simulation(Config(radius=GOAL, **SMALL), out=b).advance()
+
+    def files(folder):
+        return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*"))
+                if p.is_file()}
+
+    assert files(a) == files(b)
+    assert (a / "fields" / "frame_00002.vtu").is_file()
+
+
+@pytest.mark.parametrize("steps", [5, 14])  # an ordinary step; right after the first remesh
+def test_save_load_continues_bit_identically(reference, tmp_path, steps):
+    sim = Simulation(Config(**SMALL))
+    for _ in range(steps):
+        sim.step(radius=GOAL)
+    path = sim.save(tmp_path / "colony.npz")
+    copy = sim.state.copy()
+    for config in (None, Config(**SMALL, checkpoint_seconds=1.0)):  # execution settings free
+        loaded = Simulation.load(path, config)
+        assert np.array_equal(loaded.state.points, copy.points) and loaded.state.step == steps
+        loaded.advance(radius=GOAL)
+        assert digest(loaded) == digest(reference)
+    sim.advance(radius=GOAL)  # the saved simulation itself continues unchanged
+    assert digest(sim) == digest(reference)
+    assert copy.step == steps and copy.t < sim.state.t  # a copy is not changed by later steps
+    with pytest.raises(ValueError, match="differs in lam"):
+        Simulation.load(path, Config(**{**SMALL, "lam": 2e-2}))
+
+
+def test_run_resumes_from_a_saved_simulation(reference, tmp_path):
+    """A Simulation saved as out/checkpoint.npz is resumed by run(config, out)."""
+    sim = Simulation(Config(radius=GOAL, **SMALL))
+    for _ in range(10):
+        sim.step(radius=GOAL)
+    sim.save(tmp_path / "checkpoint.npz")
+    resumed = run(Config(radius=GOAL, **SMALL), out=tmp_path)
+    assert digest(resumed) == digest(reference)
+    assert (tmp_path / "history.csv").is_file() and (tmp_path / "boundary.csv").is_file()
+
+
+def test_goals_and_configuration():
+    with pytest.raises(ValueError, match="exactly one"):
+        run(Config(**SMALL))
+    with pytest.raises(ValueError, match="not both"):
+        Simulation(Config(radius=2.0, time=1.0, **SMALL))
+    sim = Simulation(Config(**SMALL))
+    with pytest.raises(ValueError, match="give radius or time"):
+        sim.advance()
+    with pytest.raises(ValueError, match="at most one"):
+        sim.advance(radius=2.0, time=1.0)
+    with pytest.raises(ValueError, match="positive"):
+        sim.advance(time=math.nan)
+    with pytest.raises(ValueError, match="no output folder"):
+        sim.save()
+
+
+def test_growth_law_is_the_pressure_solvers():
+    """The growth rate of the state is exp(-lam p) (continuum.growth.growth_rate), bit for bit."""
+    sim = Simulation(Config(lam=0.3, **{k: v for k, v in SMALL.items() if k != "lam"}))
+    sim.step()
+    assert np.array_equal(sim.state.g, continuum.growth_rate(sim.state.p, 0.3))
+    assert np.array_equal(sim.state.g, np.exp(-0.3 * sim.state.p))
