@@ -173,7 +173,8 @@ def test_particles_resume_with_another_step_only_when_asked(tmp_path):
 
 def test_plot_and_movie_of_a_run(tmp_path):
     """``colony plot DIR`` and ``colony movie DIR`` redraw a finished run; the folder stays
-    replaceable by --overwrite; a folder that is not a run is one line, exit 2."""
+    replaceable by --overwrite; a folder that is not a run is one line, exit 2.
+    """
     out = tmp_path / "c"
     assert cli.main(["continuum", "--lam", "1e-2", "--radius", "1.5", "--out", str(out),
                      "--quiet", "--output-every", "0.2", "--set", "n_nodes=200"]) == 0

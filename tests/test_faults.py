@@ -114,7 +114,8 @@ def test_overwrite_replaces_a_finished_run_only_once_the_new_one_is_complete(cap
 
 def test_stale_stage_of_the_same_run_without_checkpoint_is_cleared(capsys, tmp_path):
     """A stage holding VTU frames of an earlier attempt: the published folder holds exactly
-    the frames fields.pvd lists."""
+    the frames fields.pvd lists.
+    """
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
     (partial / "fields").mkdir(parents=True)
@@ -133,7 +134,7 @@ def test_stage_of_another_engine_is_refused_until_overwrite(capsys, tmp_path):
     partial.mkdir()
     from particles import Config, run
 
-    run(ParticleConfig(lam=1e-2, radius=3.0), partial, stop_after=5)
+    run(Config(lam=1e-2, radius=3.0), partial, stop_after=5)
     before = tree(partial)
     status, err = colony(capsys, *SMALL_CONTINUUM, "--out", str(out))
     one_line_error(status, err, "stopped particles run", "--overwrite")
@@ -148,7 +149,7 @@ def test_stage_of_another_configuration_is_refused(capsys, tmp_path):
     partial.mkdir()
     from particles import Config, run
 
-    run(ParticleConfig(lam=2e-2, radius=2.0), partial, stop_after=5)
+    run(Config(lam=2e-2, radius=2.0), partial, stop_after=5)
     status, err = colony(capsys, *SMALL_PARTICLES, "--out", str(out))
     one_line_error(status, err, "differs in lam", "--overwrite")
     assert (partial / "checkpoint.npz").exists()
@@ -199,7 +200,7 @@ def test_no_space_during_the_run_keeps_the_last_checkpoint(capsys, tmp_path, mon
     partial = rundir.partial_of(out)
     assert json.loads((partial / "run.json").read_text())["status"] == "failed"
     assert not list(partial.glob("*.tmp*"))
-    checkpoint_step = sim.checkpoint_config(partial / "checkpoint.npz")  # loads
+    checkpoint_step = checkpoint.checkpoint_config(partial / "checkpoint.npz")  # loads
     assert checkpoint_step.lam == 1e-2
     monkeypatch.setattr(sim.shutil, "disk_usage", real)
     assert colony(capsys, *args, "--out", str(out))[0] == 0
