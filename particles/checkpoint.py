@@ -15,6 +15,7 @@ so that the run writes a checkpoint of a whole step before stopping.
 from __future__ import annotations
 
 import json
+import logging
 import os
 import signal
 import threading
@@ -25,6 +26,8 @@ import numpy as np
 
 from .config import EXECUTION_FIELDS, LEGACY_CONFIG, STEP_POLICY_FIELDS, Config
 from .state import ParticleState
+
+log = logging.getLogger(__name__)
 
 NO_FRAMES = (0, -1)
 """Trajectory bookkeeping of a simulation without output: no frame written."""
@@ -47,6 +50,7 @@ def save_checkpoint(path: Path, config: Config, state: ParticleState, history: l
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+    log.debug("checkpoint at t = %.6g (step %d) written to %s", state.t, state.step, path)
 
 
 def _saved_config(meta: dict) -> dict:

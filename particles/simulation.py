@@ -15,6 +15,7 @@ checkpointer (checkpoint.py) and the progress bar.
 
 from __future__ import annotations
 
+import logging
 import sys
 import time as _time
 from dataclasses import dataclass
@@ -30,6 +31,8 @@ from .output import RunOutput, write_config, write_history
 from .packings import from_csv, single_cell
 from .state import ParticleState
 from .stepping import detect, next_dt, robust_step
+
+log = logging.getLogger(__name__)
 
 __all__ = ["ParticleLimitError", "Simulation", "StepRecord", "check_initial", "initial_state",
            "run"]
@@ -183,6 +186,8 @@ class Simulation:
             self.state, self.history, frames = load_checkpoint(checkpoint, config,
                                                                change_step_policy)
             self.output.resume(frames)
+            log.info("resuming from %s at t = %.6g (step %d, %d particles)", checkpoint,
+                     self.state.t, self.state.step, self.state.n)
             if change_step_policy:
                 st = self.state
                 st.dt_next = min(st.dt_next, config.dt) if config.adaptive_dt else config.dt
@@ -265,6 +270,8 @@ class Simulation:
             total_length=float(st.length.sum()), divisions=int(divisions),
             substeps=int(info["substeps"]))
         self.history.append(record.row())
+        if record.substeps > 1:
+            log.debug("step %d at t = %.6g taken as %d sub-steps", st.step, st.t, record.substeps)
         if st.n > config.max_particles:
             raise ParticleLimitError(
                 f"colony has {st.n} particles > max_particles {config.max_particles}")
