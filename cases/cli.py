@@ -483,7 +483,7 @@ def configure_logging(quiet: bool, verbose: bool) -> None:
     with --verbose; records go to stderr as ``colony: message``."""
     level = logging.WARNING if quiet else logging.DEBUG if verbose else logging.INFO
     logging.basicConfig(level=level, format="colony: %(message)s", stream=sys.stderr)
-    for noisy in ("numba", "matplotlib", "PIL", "distributed", "fsspec"):
+    for noisy in ("numba", "matplotlib", "PIL", "distributed", "fsspec", "gsd", "asyncio"):
         logging.getLogger(noisy).setLevel(max(level, logging.WARNING))
 
 
