@@ -147,7 +147,7 @@ def ellipse_polygon(a: float, b: float, n: int) -> np.ndarray:
 
 
 def boundary_spacing(xy: np.ndarray) -> np.ndarray:
-    """Edge lengths |x_{k+1} - x_k| of the closed polygon."""
+    """Edge lengths ``|x_{k+1} - x_k|`` of the closed polygon."""
     return np.linalg.norm(np.roll(xy, -1, axis=0) - xy, axis=1)
 
 
@@ -209,7 +209,7 @@ def resample_polygon(
 
 
 def triangle_areas(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    """Signed areas |T| of the triangles (positive when counter-clockwise)."""
+    """Signed areas ``|T|`` of the triangles (positive when counter-clockwise)."""
     a, b, c = points[tris[:, 0]], points[tris[:, 1]], points[tris[:, 2]]
     return 0.5 * (
         (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
@@ -217,7 +217,7 @@ def triangle_areas(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
 
 
 def triangle_quality(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    """Shape quality q = 4 sqrt(3) |T| / (sum of squared edge lengths).
+    """Shape quality ``q = 4 sqrt(3) |T| / (sum of squared edge lengths)``.
 
     q = 1 for an equilateral triangle, q -> 0 for a degenerate one, q < 0 if inverted.
     """
@@ -243,12 +243,12 @@ def target_spacing(area: float, h_max: float, n_nodes: int) -> float:
 
 
 def colony_radius(boundary: np.ndarray) -> float:
-    """Colony radius R = sqrt(|A| / pi), A the area enclosed by the boundary polygon."""
+    """Colony radius ``R = sqrt(|A| / pi)``, A the area enclosed by the boundary polygon."""
     return math.sqrt(abs(polygon_area(boundary)) / math.pi)
 
 
 def mean_element_size(points: np.ndarray, tris: np.ndarray) -> float:
-    """Mean element size sqrt(4 |T|_mean / sqrt(3)): the edge of the mean-area equilateral."""
+    """Mean element size ``sqrt(4 |T|_mean / sqrt(3))``: the edge of the mean-area equilateral."""
     return float(np.sqrt(4.0 * np.mean(triangle_areas(points, tris)) / np.sqrt(3.0)))
 
 

@@ -1,11 +1,11 @@
 """Motion of the colony: the material nodes, the growth phase and Psi over one time step.
 
 Nodes are material points, dx/dt = u(x, t), integrated by Heun's method (RK2,
-:func:`heun_step`):
+:func:`heun_step`)::
 
     x* = x^n + dt u(x^n),   x^{n+1} = x^n + dt/2 (u(x^n) + u(x*)),
 
-with the growth phase advanced by the trapezoidal rule along the same paths,
+with the growth phase advanced by the trapezoidal rule along the same paths::
 
     G^{n+1} = G^n + dt/2 (g(x^n) + g(x*)),
 
@@ -16,7 +16,7 @@ five times) while the predictor or the corrector would invert an element or the 
 pressure solve fails.
 
 Explicit node motion is stable only for dt <~ h / u_edge (short boundary wiggles grow,
-elements invert), so
+elements invert), so ::
 
     dt = courant * h_boundary / max |u_boundary|     (:func:`stable_dt`),
 
@@ -44,7 +44,7 @@ Flow = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarr
 
 
 def stable_dt(boundary: np.ndarray, u_boundary: np.ndarray, courant: float) -> float:
-    """Stable step dt = courant * min boundary edge / max |u| on the boundary.
+    """Stable step ``dt = courant * min boundary edge / max |u|`` on the boundary.
 
     The limit of explicit node motion (module docstring).
     """

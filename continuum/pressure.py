@@ -1,13 +1,13 @@
 """Pressure: Newton's method for -Laplace p = exp(-lam p) in Omega, p = 0 on the boundary.
 
-Discretisation (P1 finite elements on a triangle mesh, nodes 0..K-1 on the boundary):
+Discretisation (P1 finite elements on a triangle mesh, nodes 0..K-1 on the boundary)::
 
     F_i(p) = sum_j K_ij p_j - b_i(g(p)) = 0   for interior nodes i,   p_i = 0 on the boundary,
 
 with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the nodes (the
 growth law, :func:`continuum.growth.growth_rate`) and
 b_i(g) = int (sum_j g_j phi_j) phi_i the consistent load of the P1 interpolant of g
-(b = M g, M the consistent mass matrix, element-wise |T|/12 (g_i + sum_{j in T} g_j)).
+(b = M g, M the consistent mass matrix, element-wise ``|T|/12 (g_i + sum_{j in T} g_j)``).
 
 Newton step: J delta = -F with the symmetric positive (for lam >= 0) approximation
 J = K + lam diag(m g) of the Jacobian K + lam M diag(g) (m the lumped mass); the difference
@@ -20,7 +20,7 @@ nodal pressure (nodes move with the material, so the previous p is a good guess)
 Assembly reuses the sparsity pattern and the element-to-CSR scatter map of a mesh topology
 (``P1Assembler``): only the geometric factors are recomputed when nodes move.
 
-Non-convergence (lam < 0 beyond the critical size, where -Laplace p = |lam|^{-1} ... has no
+Non-convergence (lam < 0 beyond the critical size, where ``-Laplace p = |lam|^{-1} ...`` has no
 solution, or non-finite values) raises ``PressureDivergence``.
 """
 
@@ -132,7 +132,7 @@ def pcg(
 ) -> tuple[np.ndarray, int, bool]:
     """Preconditioned conjugate gradients for A x = b from x = 0.
 
-    Stops when ||r||_2 <= rtol ||b||_2. Returns (x, iterations, converged); breaks off
+    Stops when ``||r||_2 <= rtol ||b||_2``. Returns (x, iterations, converged); breaks off
     (converged False) if a search direction has p.A p <= 0 (A not positive definite).
     """
     x = np.zeros_like(b)
@@ -203,9 +203,9 @@ class P1Assembler:
         self.diag = np.flatnonzero(r == c)
 
     def geometry(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Element areas |T| and gradients of the barycentric coordinates, shape (M, 3, 2).
+        """Element areas ``|T|`` and gradients of the barycentric coordinates, shape (M, 3, 2).
 
-        grad lambda_i = rot(x_k - x_j) / (2 |T|) for (i, j, k) cyclic.
+        ``grad lambda_i = rot(x_k - x_j) / (2 |T|)`` for (i, j, k) cyclic.
         """
         x = points[self.tris]  # (M, 3, 2)
         e0 = x[:, 2] - x[:, 1]
@@ -217,7 +217,7 @@ class P1Assembler:
         return area, grads
 
     def stiffness_data(self, area: np.ndarray, grads: np.ndarray) -> np.ndarray:
-        """CSR data of K_ij = sum_T |T| grad lambda_i . grad lambda_j (no boundary condition)."""
+        """CSR data of ``K_ij = sum_T |T| grad lambda_i . grad lambda_j`` (no boundary rows)."""
         ke = np.einsum("mid,mjd->mij", grads, grads) * area[:, None, None]
         return np.bincount(self.scatter, weights=ke.ravel(), minlength=self.nnz)
 
@@ -226,11 +226,11 @@ class P1Assembler:
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
 
     def lumped_mass(self, area: np.ndarray) -> np.ndarray:
-        """Lumped mass m_i = sum_{T containing i} |T| / 3."""
+        """Lumped mass ``m_i = sum_{T containing i} |T| / 3``."""
         return np.bincount(self.tris.ravel(), weights=np.repeat(area / 3.0, 3), minlength=self.n)
 
     def load(self, area: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """Consistent load b_i = int (sum_j g_j phi_j) phi_i = sum_T |T|/12 (g_i + sum_T g)."""
+        """Consistent load ``b_i = int (sum_j g_j phi_j) phi_i = sum_T |T|/12 (g_i + sum_T g)``."""
         gt = g[self.tris]
         w = (area / 12.0)[:, None] * (gt + gt.sum(axis=1, keepdims=True))
         return np.bincount(self.tris.ravel(), weights=w.ravel(), minlength=self.n)
@@ -265,12 +265,12 @@ class PressureSolver:
     lam : float
         Stress sensitivity lambda (finite; negative values allowed but may have no solution).
     rtol : float
-        Newton stops when ||F(p)||_2 <= rtol ||b(g(p))||_2.
+        Newton stops when ``||F(p)||_2 <= rtol ||b(g(p))||_2``.
     max_newton : int
         Iteration limit; exceeding it raises PressureDivergence.
     krylov_rtol : float
         Smallest relative tolerance of a CG solve. Inexact Newton: the step J delta = -F is
-        solved to the relative tolerance max(krylov_rtol, min(0.1, 0.3 rtol ||b|| / ||F||)),
+        solved to the relative tolerance ``max(krylov_rtol, min(0.1, 0.3 rtol ||b|| / ||F||))``,
         just enough for the next residual to meet ``rtol``.
     reuse_factor : int
         Rebuild the AMG hierarchy when CG needs more than this many iterations.

@@ -1,20 +1,20 @@
 """The 1D radial reference of the continuum model (model.md, "Exact solutions to validate against").
 
 A disc colony of radius R stays a disc. With g = exp(-lam p) the instantaneous problem
--p'' - p'/r = exp(-lam p), p(R) = 0, p'(0) = 0 has the closed-form solution
+-p'' - p'/r = exp(-lam p), p(R) = 0, p'(0) = 0 has the closed-form solution ::
 
     p(r) = (2/lam) ln D(r),   D(r) = 1 + lam c (R^2 - r^2),   c(R) = 1 / (4 (w + 1)),
     w(R) = sqrt(1 + lam R^2 / 2),
 
-(equal to model.md's p = (2/lam) ln(1/(8c) - c lam r^2), since 1/(8c) - c lam R^2 = 1), so that
+(equal to model.md's p = (2/lam) ln(1/(8c) - c lam r^2), since 1/(8c) - c lam R^2 = 1), so that ::
 
     u(r) = -p'(r) = 4 c r / D(r),   g(r) = exp(-lam p) = 1 / D(r)^2,   dR/dt = u(R) = 4 c R.
 
 lam = 0 is the continuous limit: c = 1/8, p = (R^2 - r^2)/4, u = r/2. lam < 0 is allowed while
-1 + lam R^2/2 >= 0, i.e. R <= R_crit = sqrt(2/|lam|) (the Bratu critical size); beyond it there is
-no solution and the functions raise :class:`NoRadialSolution`.
+1 + lam R^2/2 >= 0, i.e. ``R <= R_crit = sqrt(2/|lam|)`` (the Bratu critical size); beyond it
+there is no solution and the functions raise :class:`NoRadialSolution`.
 
-Radius. Separating dt = (w + 1) dR / R and using d/dR [w - ln(1 + w)] = w' w/(1 + w) gives
+Radius. Separating dt = (w + 1) dR / R and using d/dR [w - ln(1 + w)] = w' w/(1 + w) gives ::
 
     t(R) = F(R) - F(R0),   F(R) = 2 ln R + w(R) - ln(1 + w(R)),
 
@@ -23,7 +23,7 @@ inverts it by safeguarded Newton in x = ln R (dF/dx = 1 + w).
 
 Characteristics. A material point moves with dr/dt = u(r, R(t)) and its growth phase is
 G = int g dt along the path (G(0) = 0). With the boundary radius as clock, sigma = ln R, and the
-relative position rho = r/R (D = 1 + k (1 - rho^2), k = lam c R^2 = (w - 1)/2):
+relative position rho = r/R (D = 1 + k (1 - rho^2), k = lam c R^2 = (w - 1)/2)::
 
     d rho / d sigma = rho (1/D - 1),      d G / d sigma = (1 + w) / D^2,
 
@@ -74,14 +74,14 @@ R0 = math.sqrt(B / math.pi)
 
 
 class NoRadialSolution(ValueError):  # noqa: N818 - the public name
-    """lam < 0 and the disc is larger than the critical radius sqrt(2/|lam|): no solution exists."""
+    """lam < 0 and the disc is larger than the critical radius ``sqrt(2/|lam|)``: no solution."""
 
 
 # ----------------------------------------------------------------------------- closed forms
 
 
 def critical_radius(lam: float) -> float:
-    """Largest radius with a solution: sqrt(2/|lam|) for lam < 0, infinity for lam >= 0."""
+    """Largest radius with a solution: ``sqrt(2/|lam|)`` for lam < 0, infinity for lam >= 0."""
     lam = _check_lam(lam)
     return math.inf if lam >= 0 else math.sqrt(2.0 / -lam)
 
@@ -209,6 +209,25 @@ def radius(t: ArrayLike, lam: float, R0: float = R0) -> NDArray | float:
     lam = 0: R = R0 exp(t/2). Otherwise F(ln R) = F(ln R0) + t is solved by Newton in x = ln R
     (dF/dx = 1 + w in [1, inf)), safeguarded by the bracket x0 + t/2 >= x >= x0 + t/(1 + w_max)
     (lam > 0: x <= ln(R0 + t / sqrt(lam/2)) as well), to machine precision.
+
+    Parameters
+    ----------
+    t : array_like
+        Times t >= 0.
+    lam : float
+        Stress sensitivity lambda of the growth law g = exp(-lam p).
+    R0 : float
+        Radius at t = 0.
+
+    Returns
+    -------
+    ndarray or float
+        R(t), of the shape of ``t`` (a float for a scalar ``t``).
+
+    Raises
+    ------
+    NoRadialSolution
+        lam < 0 and the disc reaches the critical radius ``sqrt(2/|lam|)`` by time t.
     """
     lam = _check_lam(lam)
     _radius_array(R0)
@@ -433,8 +452,34 @@ def ring_radii(
     There lbar = 2^frac(G/ln 2) jumps between 2 and 1. G is tabulated backward along ``n_grid``
     characteristics equally spaced in final radius, the crossings of a cubic spline of G(r) give
     first guesses, and each is refined by Newton steps on the exactly integrated G (spline
-    derivative) until |G - k ln 2| <= 1e-11. lam = 0 gives G = t uniformly: no rings (empty array).
-    Returns the radii in increasing order (and, with ``with_index``, the integers k).
+    derivative) until ``|G - k ln 2| <= 1e-11``. lam = 0 gives G = t uniformly: no rings (empty
+    array).
+
+    Parameters
+    ----------
+    lam : float
+        Stress sensitivity lambda of the growth law g = exp(-lam p).
+    t : float, optional
+        Time of the rings.
+    radius : float, optional
+        Disc radius R of the rings instead of t (exactly one of ``t`` and ``radius``).
+    n_grid : int
+        Number of characteristics on which G is tabulated.
+    R0 : float
+        Disc radius at t = 0.
+    rtol : float
+        Relative tolerance of the integration of the characteristics.
+    with_index : bool
+        Return the integers k as well.
+    phase0 : float
+        Initial phase: the rings are where G / ln 2 + phase0 is an integer k.
+
+    Returns
+    -------
+    radii : ndarray
+        The ring radii r_k, in increasing order.
+    k : ndarray of int
+        With ``with_index`` only: the integer k of each ring.
     """
     lam = _check_lam(lam)
     t_end, R_end = _end_state(lam, t, radius, R0)

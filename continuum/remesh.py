@@ -1,11 +1,12 @@
 """Remeshing: when the moving mesh must be rebuilt, the new mesh, and the transfer of the fields.
 
 Criteria (:func:`remesh_reason`). The mesh is rebuilt when any of these holds:
-  - quality: the worst triangle quality q = 4 sqrt(3)|T| / sum |e|^2 drops below ``q_min``;
-  - boundary resolution: a boundary edge exceeds ``stretch`` * h_target or falls below
-    h_target / ``stretch`` (material near the edge is stretched by up to exp(t));
-  - size: the mean element size sqrt(4 |T|_mean / sqrt(3)) differs from the mean target
-    by more than a factor ``stretch`` (the mesh size follows the domain).
+
+- quality: the worst triangle quality ``q = 4 sqrt(3) |T| / sum |e|^2`` drops below ``q_min``;
+- boundary resolution: a boundary edge exceeds ``stretch`` * h_target or falls below
+  h_target / ``stretch`` (material near the edge is stretched by up to exp(t));
+- size: the mean element size ``sqrt(4 |T|_mean / sqrt(3))`` differs from the mean target
+  by more than a factor ``stretch`` (the mesh size follows the domain).
 
 New mesh (:func:`remesh`). The boundary is resampled by a periodic cubic spline at the target
 spacing h = min(h_max, h_N(A)) (O(h^4) displacement, no area loss) and the interior meshed anew

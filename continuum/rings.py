@@ -8,14 +8,14 @@ lbar (an annulus mean, a binned profile) smears the jump over the averaging widt
 
 Marching triangles. On a triangle with nodal values G_0, G_1, G_2 the P1 interpolant is linear;
 with the node classes s_i = [G_i >= c], a triangle whose classes differ is cut by the level
-c along a straight segment joining the two points of its edges (i, j) with s_i != s_j,
+c along a straight segment joining the two points of its edges (i, j) with s_i != s_j::
 
     x = x_i + t (x_j - x_i),   t = (c - G_i) / (G_j - G_i)   in [0, 1).
 
 Points are computed once per mesh edge, so the segments of neighbouring triangles share their
 end points and chain into polylines (closed, or ending on the boundary); the number of chained
 pieces is reported. For a ring with segments S and the centre x_c (by default the colony's
-area centroid sum_T |T| x_T / sum_T |T|):
+area centroid ``sum_T |T| x_T / sum_T |T|``)::
 
     length       L = sum_S |S|,
     mean radius  rbar = (1/L) sum_S int_S |x - x_c| ds       (3-point Gauss-Legendre per segment),
@@ -23,7 +23,7 @@ area centroid sum_T |T| x_T / sum_T |T|):
     max radius   max over the contour of |x - x_c| (at a segment end).
 
 Accuracy: the P1 interpolant of a smooth G differs from it by O(h^2), so the contour moves
-by O(h^2) / |grad G| and rbar, L are O(h^2) accurate (measured in tests/test_rings.py: orders
+by ``O(h^2) / |grad G|`` and rbar, L are O(h^2) accurate (measured in tests/test_rings.py: orders
 about 2 for a manufactured radial field). :func:`ring_table` returns one row per level with a
 crossing; ``continuum.output.write_rings`` writes them to ``rings.csv``.
 """
@@ -73,7 +73,7 @@ def _check_mesh(points: ArrayLike, triangles: ArrayLike, G: ArrayLike
 
 
 def area_centroid(points: ArrayLike, triangles: ArrayLike) -> np.ndarray:
-    """Area centroid sum_T |T| (x_a + x_b + x_c)/3 / sum_T |T| of a triangle mesh."""
+    """Area centroid ``sum_T |T| (x_a + x_b + x_c)/3 / sum_T |T|`` of a triangle mesh."""
     points = np.asarray(points, dtype=float)[:, :2]
     tris = np.asarray(triangles, dtype=np.int64)
     a, b, c = (points[tris[:, i]] for i in range(3))
@@ -130,7 +130,7 @@ def _pieces(edge_ids: np.ndarray) -> int:
 
 
 def _segment_radii(seg: np.ndarray, center: np.ndarray) -> tuple[float, float, float, float]:
-    """(length, int |x - c| ds, min |x - c|, max |x - c|) over segments (S, 2, 2)."""
+    """``(length, int |x - c| ds, min |x - c|, max |x - c|)`` over segments (S, 2, 2)."""
     p, q = seg[:, 0] - center, seg[:, 1] - center
     d = q - p
     length = np.hypot(d[:, 0], d[:, 1])
@@ -161,16 +161,24 @@ def ring_table(points: ArrayLike, triangles: ArrayLike, G: ArrayLike,
 
     Parameters
     ----------
-    points : (n, 2) node positions; triangles : (m, 3) node indices; G : (n,) growth phase.
-    center : the centre x_c of the radii; default the mesh's area centroid (the colony centroid).
-    period : level spacing (ln 2 for the rings of lbar = 2^frac(G / ln 2)).
+    points : array_like, shape (n, 2)
+        Node positions.
+    triangles : array_like, shape (m, 3)
+        Node indices of the triangles.
+    G : array_like, shape (n,)
+        Growth phase ``G = int g dt`` at the nodes.
+    center : array_like, shape (2,), optional
+        The centre x_c of the radii; default the mesh's area centroid (the colony centroid).
+    period : float, optional
+        Level spacing (ln 2 for the rings of ``lbar = 2^frac(G / ln 2)``).
 
     Returns
     -------
-    dict of columns :data:`COLUMNS` (arrays, one entry per ring k = 1, 2, ... crossed by G, in
-    increasing k): k, level = k period, mean_radius = (1/L) int |x - x_c| ds, min_radius,
-    max_radius, length L, cx, cy, n_pieces (chained polylines of the contour; 1 for a ring closed
-    inside the colony).
+    dict of str to ndarray
+        The columns :data:`COLUMNS`, one entry per ring k = 1, 2, ... crossed by G, in
+        increasing k: k, ``level = k period``, ``mean_radius = (1/L) int |x - x_c| ds``,
+        min_radius, max_radius, length L, cx, cy (the centre x_c), n_pieces (chained polylines of
+        the contour; 1 for a ring closed inside the colony).
     """
     points, tris, G = _check_mesh(points, triangles, G)
     c = area_centroid(points, tris) if center is None else np.asarray(center, dtype=float)

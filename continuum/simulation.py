@@ -361,6 +361,18 @@ class Simulation:
         output folder, a VTU frame when one is due (not at the goal: :meth:`advance` and
         :func:`run` write the last frame), and history.csv if the step fails.
 
+        Parameters
+        ----------
+        radius : float, optional
+            Colony radius R = sqrt(A/pi) not to pass (at most one of ``radius`` and ``time``).
+        time : float, optional
+            Time t not to pass.
+
+        Returns
+        -------
+        StepRecord
+            What the step did (one row of history.csv).
+
         Raises
         ------
         PressureDivergence
@@ -416,8 +428,22 @@ class Simulation:
         The steps are those of :func:`run` to the same goal, the last one shortened to land on
         it: ``advance(radius=R)`` of a new simulation gives the bits of
         ``run(Config(..., radius=R))``. With an output folder, the final files are written at
-        the goal (history.csv, boundary.csv, the last frame). Returns ``state`` (the live
-        object: ``State.copy`` keeps it as it is now).
+        the goal (history.csv, boundary.csv, the last frame).
+
+        Parameters
+        ----------
+        radius : float, optional
+            Goal for the colony radius R = sqrt(A/pi).
+        time : float, optional
+            Goal for t (at most one of ``radius`` and ``time``; both None: ``Config.radius`` /
+            ``Config.time``).
+        progress : bool
+            tqdm progress bar (only when stderr is a terminal).
+
+        Returns
+        -------
+        State
+            ``state``, the live object (``State.copy`` keeps it as it is now).
 
         Raises
         ------

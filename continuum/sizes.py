@@ -2,11 +2,11 @@
 
 Per material element (one mesh node) the particles are counted by length l in [1, 2]. In
 s = log2 l in [0, 1] with n(s) = Psi dl/ds (number per material element per unit s), the
-l-equation d(Psi)/dt + d(l g Psi)/dl = 0 along a material path becomes a pure shift
+l-equation d(Psi)/dt + d(l g Psi)/dl = 0 along a material path becomes a pure shift ::
 
     dn/dt + a dn/ds = 0,     a = g / ln 2 >= 0,
 
-and the division condition (ldot Psi)(1) = 2 (ldot Psi)(2) becomes the twisted-periodic condition
+and the division condition (ldot Psi)(1) = 2 (ldot Psi)(2) becomes the twisted-periodic condition ::
 
     n(0, t) = 2 n(1, t)
 
@@ -15,7 +15,7 @@ Extending n by n(s + 1) = n(s)/2, the exact solution is a shift by the phase sig
 G = int g dt (see :func:`exact_shift`).
 
 Moments (per material element): number N = int n ds, total length L = int l n ds = int 2^s n ds,
-mean length lbar = L / N. Exact identities of the continuous problem:
+mean length lbar = L / N. Exact identities of the continuous problem::
 
     dN/dt = a n(1, t),        dL/dt = g L   =>   L(t) = exp(G) L(0)  for every initial n,
 
@@ -26,7 +26,7 @@ conserved: the packing), while N grows like exp(G) only for the stable profile n
 
 Numerical scheme. Finite volumes with cell averages on a uniform grid in s and the one-step
 flux-limited Lax-Wendroff scheme (Sweby form, LeVeque, FVMHP, section 6.12) with the monotonised
-central (MC) limiter:
+central (MC) limiter::
 
     n_i <- n_i - nu (Phi_{i+1/2} - Phi_{i-1/2}),   nu = a dt / ds,
     Phi_{i-1/2} = n_{i-1} + (1 - nu)/2 * MC(n_i - n_{i-1}, n_{i-1} - n_{i-2}),
@@ -228,7 +228,7 @@ class SizeDistribution:
     ) -> SizeDistribution:
         """Narrow smooth bump standing in for Psi0 = number * delta(l - 1).
 
-        n0(s) = C exp(-1 / (1 - x^2)) for |x| < 1, x = (s - width) / width: a C-infinity bump of
+        n0(s) = C exp(-1 / (1 - x^2)) for ``|x| < 1``, x = (s - width) / width: a C-infinity bump of
         half-width ``width`` in s centred at s = width, so its support (0, 2 width) lies inside
         (0, 1) (all lengths in (1, 2^(2 width)); mean length ~ 2^width). C is set so that the
         discrete number sum n ds equals ``number``. Its mean length follows the delta limit

@@ -186,7 +186,7 @@ class StepRecord:
     h : float
         Boundary spacing of the current mesh when it was built.
     min_quality : float
-        Worst triangle quality 4 sqrt(3)|T| / sum |e|^2.
+        Worst triangle quality ``4 sqrt(3) |T| / sum |e|^2``.
     newton_iterations, krylov_iterations : int
         Newton and Krylov iterations of all pressure solves so far (cumulative).
     remesh : str or None

@@ -1,7 +1,7 @@
 """Velocity u = -grad p at the mesh nodes.
 
 Interior nodes: gradient recovery by area-weighted averaging of the (constant) P1 element
-gradients over the patch of elements around each node,
+gradients over the patch of elements around each node::
 
     (grad f)_n = sum_{T containing n} |T| (grad f_h)|_T / sum_{T containing n} |T|,
 
@@ -12,7 +12,7 @@ these Delaunay meshes, 1 at nodes next to the boundary).
 
 Boundary nodes: since p = 0 on the boundary, grad p is normal there and u = -(dp/dn) n.
 The normal derivative comes from the consistent residual flux: at a boundary node i the FE
-residual r_i = sum_j K_ij p_j - b_i equals int_boundary (dp/dn) phi_i ds, so
+residual r_i = sum_j K_ij p_j - b_i equals int_boundary (dp/dn) phi_i ds, so ::
 
     u_i = -(r_i / L_i) n_i,    L_i = (|e_{i-1}| + |e_i|) / 2,
 
@@ -101,12 +101,25 @@ def recovered_gradient(
     """Recovered nodal gradient of the P1 field f, (N, 2).
 
     With ``points``: superconvergent patch recovery (``spr_weights``); without: the
-    area-weighted patch average sum |T| grad f_h|_T / sum |T|.
+    area-weighted patch average ``sum |T| grad f_h|_T / sum |T|``.
 
     Parameters
     ----------
-    tris : (M, 3) triangles; area : (M,) areas |T|; grads : (M, 3, 2) grad lambda_i;
-    f : (N,) nodal values; points : (N, 2) node positions (for SPR).
+    tris : ndarray, shape (M, 3)
+        Triangles (node indices).
+    area : ndarray, shape (M,)
+        Element areas ``|T|``.
+    grads : ndarray, shape (M, 3, 2)
+        Gradients grad lambda_i of the barycentric coordinates per element.
+    f : ndarray, shape (N,)
+        Nodal values of the P1 field.
+    points : ndarray, shape (N, 2), optional
+        Node positions (for SPR).
+
+    Returns
+    -------
+    ndarray, shape (N, 2)
+        The recovered gradient (grad f)_n at every node.
     """
     n = int(f.shape[0])
     gT = np.einsum("mi,mid->md", f[tris], grads)
