@@ -3,17 +3,17 @@
 Same problem, residual and stopping test as contact_solver.py (BBPGD), so the two are
 interchangeable (``Config.solver``).  One time step is the convex problem over the
 contact forces gamma >= 0 (model.md, with the exact exponential length increment of
-contact_solver.py)
+contact_solver.py)::
 
     minimise  E(gamma),   grad E(gamma) = q(gamma) = Phi + dt D^T M D gamma - G^T dl(G gamma),
     dl_n(sigma) = l_n (exp(dt exp(-lam sigma_n)) - 1),
 
-q the linearised gap at t + dt.  Stop when
+q the linearised gap at t + dt.  Stop when ::
 
     res = max_k |min(a_kk gamma_k, q_k)| <= tol,   a_kk = dt (D^T M D)_kk   (a length).
 
 Method: accelerated projected gradient (APGD, Mazhar, Heyn, Negrut & Tasora, ACM TOG 2015;
-Nesterov's scheme for a bound-constrained convex problem) in the Jacobi metric P = diag(1/a_kk):
+Nesterov's scheme for a bound-constrained convex problem) in the Jacobi metric P = diag(1/a_kk)::
 
     x_{k+1} = max(0, y_k - t P q(y_k)),
     theta_{k+1} = theta_k (sqrt(theta_k^2 + 4) - theta_k) / 2,
@@ -29,8 +29,8 @@ P^(1/2) (dt D^T M D + G^T C G) P^(1/2), C = diag(c_max), c_max,n = l_n lam dt ex
 largest curvature of the growth term over sigma >= 0 (so L holds for every gamma >= 0): L is
 estimated by power iteration and enlarged by ``lipschitz_margin``.  Safeguards against an
 underestimate: every iteration compares the curvature of E between the last two points,
-(q(y_k) - q(y_{k-1})) . (y_k - y_{k-1}) / |y_k - y_{k-1}|^2_{P^-1}, a lower bound of L, with 1/t;
-if it exceeds 1/t the step is shortened to 1 / (1.1 curvature) and the momentum dropped; a
+``(q(y_k) - q(y_{k-1})) . (y_k - y_{k-1}) / |y_k - y_{k-1}|^2_{P^-1}``, a lower bound of L, with
+1/t; if it exceeds 1/t the step is shortened to 1 / (1.1 curvature) and the momentum dropped; a
 residual 1e3 times its best value halves t and returns to the best iterate.
 
 Accelerated methods need O(sqrt(kappa)) iterations where steepest descent needs O(kappa); with
@@ -67,7 +67,7 @@ NAME = "apgd"
 @njit(cache=True)
 def hessian_apply(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om,
                   sig, out):
-    """out = (dt D^T M D + G^T diag(cmax) G) v."""
+    """Hessian product: out = (dt D^T M D + G^T diag(cmax) G) v."""
     n = mt.shape[0]
     particle_sums(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
     for p in range(n):
@@ -283,7 +283,7 @@ def solve_contacts_apgd(
     gamma0 : array (K,), optional
         Warm start (projected onto gamma >= 0).
     tol : float
-        Stop when res = max_k |min(a_kk gamma_k, q_k)| <= tol (a gap).
+        Stop when ``res = max_k |min(a_kk gamma_k, q_k)| <= tol`` (a gap).
     maxiter : int
         Iteration cap (each iteration: one gradient evaluation).
     growth : bool

@@ -117,6 +117,7 @@ class StopRequest:
         self._previous = {}
 
     def install(self) -> StopRequest:
+        """Catch SIGINT and SIGTERM (from the main thread only); returns self."""
         if threading.current_thread() is threading.main_thread():
             for sig in (signal.SIGINT, signal.SIGTERM):
                 self._previous[sig] = signal.signal(sig, self._handle)
@@ -127,6 +128,7 @@ class StopRequest:
         self.restore()
 
     def restore(self) -> None:
+        """Put the previous signal handlers back."""
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
         self._previous = {}
@@ -138,8 +140,10 @@ class StopRequest:
         self.restore()
 
     def reraise(self) -> None:
-        """After the final checkpoint: KeyboardInterrupt for SIGINT, SystemExit(128 + signal)
-        for SIGTERM, nothing when no signal came.
+        """Re-raise the signal that came, after the final checkpoint.
+
+        KeyboardInterrupt for SIGINT, SystemExit(128 + signal) for SIGTERM, nothing when no
+        signal came.
         """
         if self.signum == signal.SIGINT:
             raise KeyboardInterrupt

@@ -95,59 +95,69 @@ class Config:
         """Raise ValueError with a one-line message on an inconsistent configuration.
 
         ``require_stop``: exactly one of ``radius`` and ``time`` (a run); False: at most one
-        (a ``Simulation`` stepped by hand).
+        (a ``Simulation`` stepped by hand).  The fields are checked in the order of ``_RULES``.
         """
-        def finite(v):
-            return isinstance(v, (int, float)) and math.isfinite(v)
-
-        if not finite(self.lam) or self.lam < 0:
+        if not _finite(self.lam) or self.lam < 0:
             raise ValueError(f"lam must be a finite number >= 0 for particles, got {self.lam}")
         if self.radius is not None and self.time is not None:
             raise ValueError("give exactly one of radius and time")
         if require_stop and self.radius is None and self.time is None:
             raise ValueError("give exactly one of radius and time")
-        if self.radius is not None and (not finite(self.radius) or self.radius <= 0):
-            raise ValueError(f"radius must be positive, got {self.radius}")
-        if self.time is not None and (not finite(self.time) or self.time <= 0):
-            raise ValueError(f"time must be positive, got {self.time}")
-        if not finite(self.dt) or not 0 < self.dt <= 0.1:
-            raise ValueError(f"dt must be in (0, 0.1], got {self.dt}")
-        if not finite(self.tol) or not 0 < self.tol < B:
-            raise ValueError(f"tol must be in (0, b = {B}), got {self.tol}")
-        if self.solver_tol is not None and (not finite(self.solver_tol) or self.solver_tol <= 0):
-            raise ValueError(f"solver_tol must be positive, got {self.solver_tol}")
-        if not isinstance(self.seed, int) or self.seed < 0:
-            raise ValueError(f"seed must be a non-negative integer, got {self.seed}")
-        if not finite(self.division_noise) or not 0 <= self.division_noise <= 0.5:
-            raise ValueError(f"division_noise must be in [0, 0.5] rad, got {self.division_noise}")
-        if self.solver not in SOLVERS:
-            raise ValueError(f"unknown solver {self.solver!r}; choose from {sorted(SOLVERS)}")
-        if not isinstance(self.output_every, int) or self.output_every < 1:
-            raise ValueError(f"output_every must be an integer >= 1, got {self.output_every}")
-        if not finite(self.checkpoint_seconds) or self.checkpoint_seconds < 0:
-            raise ValueError(f"checkpoint_seconds must be >= 0, got {self.checkpoint_seconds}")
-        if not isinstance(self.max_particles, int) or self.max_particles < 1:
-            raise ValueError(f"max_particles must be a positive integer, got {self.max_particles}")
-        if not finite(self.contact_margin) or self.contact_margin < 0:
-            raise ValueError(f"contact_margin must be >= 0, got {self.contact_margin}")
-        if not isinstance(self.max_passes, int) or self.max_passes < 0:
-            raise ValueError(f"max_passes must be an integer >= 0, got {self.max_passes}")
-        if not isinstance(self.max_iterations, int) or self.max_iterations < 1:
-            raise ValueError(
-                f"max_iterations must be a positive integer, got {self.max_iterations}")
-        if not isinstance(self.adaptive_dt, bool):
-            raise ValueError(f"adaptive_dt must be true or false, got {self.adaptive_dt!r}")
-        if (not isinstance(self.threads, int)
-                or not 1 <= self.threads <= numba.config.NUMBA_NUM_THREADS):
-            raise ValueError(f"threads must be an integer in [1, "
-                             f"{numba.config.NUMBA_NUM_THREADS}], got {self.threads}")
-        if self.init is not None and not Path(self.init).is_file():
-            raise ValueError(f"init file not found: {self.init}")
+        for name, ok, message in _RULES:
+            v = getattr(self, name)
+            if not ok(v):
+                raise ValueError(message(v))
 
     @property
     def effective_solver_tol(self) -> float:
         """Residual tolerance of each solve: ``solver_tol``, or tol / 2 when None."""
         return self.tol / 2 if self.solver_tol is None else self.solver_tol
+
+
+def _finite(v) -> bool:
+    return isinstance(v, (int, float)) and math.isfinite(v)
+
+
+def _count(v, low: int) -> bool:
+    return isinstance(v, int) and v >= low
+
+
+_RULES = [  # (field, test, message of a failed test), checked in order by Config.validate
+    ("radius", lambda v: v is None or (_finite(v) and v > 0),
+     lambda v: f"radius must be positive, got {v}"),
+    ("time", lambda v: v is None or (_finite(v) and v > 0),
+     lambda v: f"time must be positive, got {v}"),
+    ("dt", lambda v: _finite(v) and 0 < v <= 0.1,
+     lambda v: f"dt must be in (0, 0.1], got {v}"),
+    ("tol", lambda v: _finite(v) and 0 < v < B,
+     lambda v: f"tol must be in (0, b = {B}), got {v}"),
+    ("solver_tol", lambda v: v is None or (_finite(v) and v > 0),
+     lambda v: f"solver_tol must be positive, got {v}"),
+    ("seed", lambda v: _count(v, 0),
+     lambda v: f"seed must be a non-negative integer, got {v}"),
+    ("division_noise", lambda v: _finite(v) and 0 <= v <= 0.5,
+     lambda v: f"division_noise must be in [0, 0.5] rad, got {v}"),
+    ("solver", lambda v: v in SOLVERS,
+     lambda v: f"unknown solver {v!r}; choose from {sorted(SOLVERS)}"),
+    ("output_every", lambda v: _count(v, 1),
+     lambda v: f"output_every must be an integer >= 1, got {v}"),
+    ("checkpoint_seconds", lambda v: _finite(v) and v >= 0,
+     lambda v: f"checkpoint_seconds must be >= 0, got {v}"),
+    ("max_particles", lambda v: _count(v, 1),
+     lambda v: f"max_particles must be a positive integer, got {v}"),
+    ("contact_margin", lambda v: _finite(v) and v >= 0,
+     lambda v: f"contact_margin must be >= 0, got {v}"),
+    ("max_passes", lambda v: _count(v, 0),
+     lambda v: f"max_passes must be an integer >= 0, got {v}"),
+    ("max_iterations", lambda v: _count(v, 1),
+     lambda v: f"max_iterations must be a positive integer, got {v}"),
+    ("adaptive_dt", lambda v: isinstance(v, bool),
+     lambda v: f"adaptive_dt must be true or false, got {v!r}"),
+    ("threads", lambda v: isinstance(v, int) and 1 <= v <= numba.config.NUMBA_NUM_THREADS,
+     lambda v: f"threads must be an integer in [1, {numba.config.NUMBA_NUM_THREADS}], got {v}"),
+    ("init", lambda v: v is None or Path(v).is_file(),
+     lambda v: f"init file not found: {v}"),
+]
 
 
 LEGACY_CONFIG = {"adaptive_dt": False}

@@ -1,11 +1,11 @@
 """Per-step contact problem: Barzilai-Borwein projected gradient descent (BBPGD), in Numba.
 
-One time step of model.md is the convex problem over the contact forces gamma >= 0
+One time step of model.md is the convex problem over the contact forces gamma >= 0 ::
 
     minimise  E(gamma) = gamma . Phi + (dt/2) gamma . (D^T M D) gamma + sum_n l_n H(sigma_n),
     sigma = G gamma,   H'(s) = -(exp(dt exp(-lam s)) - 1),
 
-whose gradient is the linearised gap at t + dt,
+whose gradient is the linearised gap at t + dt::
 
     grad_k = Phi_k + dt (D^T M D gamma)_k - sum_n G_nk l_n (exp(dt exp(-lam sigma_n)) - 1).
 
@@ -18,8 +18,8 @@ lam >= 0 (its gradient is monotone in gamma), and lam = 0 is its linear limit.  
 coupled to the stress inside the solve, not lagged.
 
 Iteration (SimToolbox BCQPSolver::solveBBPGD): gamma <- max(0, gamma - alpha grad), alpha
-alternating the two Barzilai-Borwein steps, first step 1 / max|projected gradient|.  Stop when
-the projected residual
+alternating the two Barzilai-Borwein steps, first step ``1 / max |projected gradient|``.  Stop
+when the projected residual ::
 
     res = max_k |min(a_kk gamma_k, grad_k)|,   a_kk = dt (D^T M D)_kk,
 
@@ -91,11 +91,12 @@ def _incidence(ci, cj, nx, ny, ti, tj, gi, gj, n):
 
 
 def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int | None = None):
-    """Contacts by particle (CSR) with their coefficients, for the parallel gather of
-    :func:`particle_sums`: the contacts of particle p are idx[start[p]:start[p + 1]] in
-    increasing order, and row e of coef holds the coefficients of gamma_idx[e] in p's force
-    (x, y), torque and load, (-n, -t_i, G_i) on particle i and (n, t_j, G_j) on particle j:
-    the columns of D and G, stored particle by particle.
+    """Contacts by particle (CSR) with their coefficients, for :func:`particle_sums`.
+
+    The incidence lists of the parallel gather: the contacts of particle p are
+    idx[start[p]:start[p + 1]] in increasing order, and row e of coef holds the coefficients of
+    gamma_idx[e] in p's force (x, y), torque and load, (-n, -t_i, G_i) on particle i and
+    (n, t_j, G_j) on particle j: the columns of D and G, stored particle by particle.
 
     On one thread (``threads``, default numba.get_num_threads()) the lists are left empty and
     the kernels scatter contact by contact instead: serially that is faster (fewer bytes per
@@ -108,8 +109,10 @@ def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int 
 
 @njit(cache=True)
 def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
-    """Serial :func:`particle_sums`: adds each contact's force, torque and load to its two
-    particles, contacts in increasing order.
+    """Serial :func:`particle_sums`, contact by contact.
+
+    Adds each contact's force, torque and load to its two particles, contacts in increasing
+    order.
     """
     for p in range(vx.shape[0]):
         vx[p] = 0.0
@@ -134,8 +137,10 @@ def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
 
 @njit(cache=True, parallel=True)
 def gather(gam, start, idx, coef, vx, vy, om, sig):
-    """Parallel :func:`particle_sums`: each particle sums its contacts from the incidence
-    lists (:func:`incidence`) in increasing order, so no two threads write one entry and the
+    """Parallel :func:`particle_sums`, particle by particle.
+
+    Each particle sums its contacts from the incidence lists (:func:`incidence`) in
+    increasing order, so no two threads write one entry and the
     sums equal those of :func:`scatter` bit for bit (x - y = x + (-y) exactly).
     """
     for p in prange(vx.shape[0]):
@@ -159,9 +164,10 @@ def gather(gam, start, idx, coef, vx, vy, om, sig):
 
 @njit(cache=True)
 def particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
-    """Per-particle force, torque and load of contact forces gam: (vx, vy, om) = D gam,
-    sig = G gam (written into the four work arrays of shape (N,)); :func:`gather` when the
-    incidence lists are given, else :func:`scatter`.
+    """Per-particle force, torque and load of contact forces gam: D gam and G gam.
+
+    (vx, vy, om) = D gam and sig = G gam are written into the four work arrays of shape (N,);
+    :func:`gather` when the incidence lists are given, else :func:`scatter`.
     """
     if idx.shape[0] > 0:
         gather(gam, start, idx, coef, vx, vy, om, sig)
@@ -172,7 +178,7 @@ def particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy,
 @njit(cache=True, parallel=True)
 def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
               growth, vx, vy, om, sig, out):
-    """out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
+    """Gradient q(gam): out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
     n = mt.shape[0]
     particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
     for p in prange(n):
@@ -192,7 +198,7 @@ def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
 
 @njit(cache=True, parallel=True)
 def _residual(gam, grad, akk):
-    """max_k |min(a_kk gam_k, grad_k)| (a max: independent of the order, so of threads)."""
+    """Residual ``max_k |min(a_kk gam_k, grad_k)|`` (a max: independent of the order, threads)."""
     r = 0.0
     for k in prange(gam.shape[0]):
         a = akk[k] * gam[k]
@@ -208,8 +214,10 @@ so the sums, hence the iterates, are the same for any number of threads."""
 
 @njit(cache=True, parallel=True)
 def _bb_update(gam, x1, g0, g1, part):
-    """gam <- x1, g0 <- g1; returns (s.s, s.y, y.y) for s = x1 - gam, y = g1 - g0, summed
-    by blocks of BLOCK (part: work array of shape (nblocks, 3)).
+    """Barzilai-Borwein update: gam <- x1, g0 <- g1; returns (s.s, s.y, y.y).
+
+    s = x1 - gam, y = g1 - g0, the sums taken by blocks of BLOCK (part: work array of shape
+    (nblocks, 3)).
     """
     m = gam.shape[0]
     nb = part.shape[0]
@@ -240,8 +248,9 @@ def _bb_update(gam, x1, g0, g1, part):
 
 @njit(cache=True, parallel=True)
 def _projected_step(gam, g, alpha, out):
-    """out = max(0, gam - alpha g); returns max_k |gam_k - out_k| (alpha = 1: the largest
-    projected gradient).
+    """Projected step out = max(0, gam - alpha g); returns ``max_k |gam_k - out_k|``.
+
+    With alpha = 1 that is the largest projected gradient.
     """
     r = 0.0
     for k in prange(gam.shape[0]):
@@ -255,11 +264,12 @@ def _projected_step(gam, g, alpha, out):
 @njit(cache=True)
 def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
               growth, akk, tol, nu, alpha, parity, hist, qout):
-    """At most nu BBPGD iterations in place on gam (contact_solver's iteration), starting from
-    the step alpha (alpha <= 0: the first step 1 / max |projected gradient|) and the BB
-    alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1 when tol is
-    not reached.  hist[it] = residual after iteration it (hist[0]: start); qout = q(gam)
-    on return.  (start, idx, coef): :func:`incidence` of the contacts.
+    """At most nu BBPGD iterations in place on gam (contact_solver's iteration).
+
+    Starts from the step alpha (alpha <= 0: the first step ``1 / max |projected gradient|``)
+    and the BB alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1
+    when tol is not reached.  hist[it] = residual after iteration it (hist[0]: start);
+    qout = q(gam) on return.  (start, idx, coef): :func:`incidence` of the contacts.
     """
     n = mt.shape[0]
     m = gam.shape[0]
@@ -307,8 +317,10 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
 @njit(cache=True)
 def _bbpgd(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
            growth, akk, tol, maxiter, hist):
-    """BBPGD from max(0, gam) to the residual tol: :func:`bb_smooth` without an iteration cap
-    short of maxiter, first step 1 / max |projected gradient| (Dai & Fletcher 2005).
+    """BBPGD from max(0, gam) to the residual tol.
+
+    :func:`bb_smooth` without an iteration cap short of maxiter, first step
+    ``1 / max |projected gradient|`` (Dai & Fletcher 2005).
     """
     for k in range(gam.shape[0]):
         if gam[k] < 0.0:
@@ -343,6 +355,8 @@ def solve_contacts(
         Warm start (projected onto gamma >= 0).
     tol : float
         Stop when the projected residual (a gap, see module docstring) is <= tol.
+    maxiter : int
+        Iteration cap (each iteration: one gradient evaluation).
     growth : bool
         False drops the growth term (pure overlap-removal problem for re-solve passes).
 

@@ -8,15 +8,15 @@ contacts: the closest, and the next closest whose contact points differ from it 
 b/4 on either rod (so near-parallel rods get one contact at each end, and the end-to-end
 contact found from both sides is kept once).  Each contact k carries
 
-- gap phi_k = |c_j - c_i| - b, c the contact points on the two segments;
-- normal n_k = (c_j - c_i) / |c_j - c_i| (from i to j; force gamma_k pushes j along +n_k);
+- gap ``phi_k = |c_j - c_i| - b``, c the contact points on the two segments;
+- normal ``n_k = (c_j - c_i) / |c_j - c_i|`` (from i to j; force gamma_k pushes j along +n_k);
 - arms r_i = c_i - x_i, r_j = c_j - x_j (torque arms);
 - growth coefficients G_ik = -d phi_k / d l_i = (s_i / L_i) p_i . n_k and
   G_jk = -d phi_k / d l_j = -(s_j / L_j) p_j . n_k, where s is the arc position of the contact
   point from the centre (the point moves by s/L per unit growth).  At a true closest point this is
-  model.md's G = |s| |p . n| / L: (1/2)|p . n| at a segment end, 0 at an interior point.
-  The signed form (the exact derivative of each constraint) differs from |.| only for the
-  second contact of a pair; measured on a 3000-particle colony (lam = 1e-2) those negative
+  model.md's ``G = |s| |p . n| / L``: ``(1/2) |p . n|`` at a segment end, 0 at an interior
+  point.  The signed form (the exact derivative of each constraint) differs from ``|.|`` only
+  for the second contact of a pair; measured on a 3000-particle colony (lam = 1e-2) those negative
   entries carry 1e-4 of the total load;
 - code in 0..3 naming the endpoint that generated it (i+, i-, j+, j-): with the particle ids it
   is the contact identity used to warm-start the solver.
@@ -42,7 +42,7 @@ B = 0.5
 
 @njit(cache=True)
 def point_segment(px, py, cx, cy, ux, uy, half):
-    """Closest point of the segment c + t u, |t| <= half, to the point (px, py).
+    """Closest point of the segment c + t u, ``|t| <= half``, to the point (px, py).
 
     Returns (qx, qy, t) with t the arc position of the closest point from the centre c.
     """
@@ -319,13 +319,14 @@ def axial_stress(c: Contacts, gamma: np.ndarray, n: int) -> np.ndarray:
     """Axial stress (load) sigma = G gamma of every particle, the quantity of the growth law.
 
     sigma_n = sum over n's contacts k of G_nk gamma_k, G_nk = -d phi_k / d l_n: the generalised
-    force conjugate to the length l_n (model.md); (1/2) gamma_k |p_n . n_k| for a contact at a
-    segment end.  Called ``stress`` everywhere in the package (``ParticleState.stress``,
+    force conjugate to the length l_n (model.md); ``(1/2) gamma_k |p_n . n_k|`` for a contact at
+    a segment end.  Called ``stress`` everywhere in the package (``ParticleState.stress``,
     particles.csv, the trajectory's ``log/particles/stress``).
 
     Parameters
     ----------
     c : Contacts
+        The contacts (pairs i, j and growth coefficients G_ik, G_jk) of the configuration.
     gamma : array (M,)
         Contact forces gamma_k >= 0.
     n : int
@@ -334,6 +335,7 @@ def axial_stress(c: Contacts, gamma: np.ndarray, n: int) -> np.ndarray:
     Returns
     -------
     sigma : array (N,)
+        Axial stress sigma_n = sum_k G_nk gamma_k of every particle (0 without contacts).
     """
     return np.bincount(c.i, c.gi * gamma, n) + np.bincount(c.j, c.gj * gamma, n)
 

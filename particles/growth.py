@@ -49,6 +49,11 @@ def grow(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.nd
         Stress sensitivity lambda >= 0.
     dt : float
         Step length.
+
+    Returns
+    -------
+    array (N,)
+        The lengths l_n(t + dt).
     """
     return length * np.exp(dt * growth_rate(stress, lam))
 
@@ -62,13 +67,27 @@ def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
     """The division rule: every particle with l_n >= 2 becomes two, in place.
 
     Daughters of length l_n / 2 centred at x_n +- (l_n / 4) p_n, angles theta_n + eps U(-1, 1)
-    (eps = ``noise``), stress zero until the next solve.  Returns the number of divisions.
+    (eps = ``noise``), stress zero until the next solve.
 
     Daughter 1 takes the mother's index, daughter 2 is appended; both get new ids (for m
     divisions of mothers i_1 < ... < i_m, daughter 1 of i_k gets next_id + k - 1 and daughter 2
     next_id + m + k - 1), parent = the mother's id and generation = the mother's generation
     + 1.  Random numbers are drawn in index order (two per dividing particle), so runs are
     reproducible.
+
+    Parameters
+    ----------
+    state : ParticleState
+        The colony, changed in place (N grows by the number of divisions).
+    rng : numpy.random.Generator
+        Source of the angle perturbations U(-1, 1) (the state's ``rng`` in a run).
+    noise : float
+        Amplitude eps of the angle perturbations, in radians.
+
+    Returns
+    -------
+    int
+        The number of divisions m.
     """
     idx = np.flatnonzero(state.length >= DIVISION_LENGTH)
     m = idx.size

@@ -38,16 +38,19 @@ def enclosing_radius(x: np.ndarray, y: np.ndarray, theta: np.ndarray,
                      length: np.ndarray) -> float:
     """Radius of the smallest disc about the centroid c holding every particle.
 
-    R = max over segment ends e of |e - c| + b/2 (the farthest point of a sphero-cylinder from
-    any point is on the cap of one of its ends).
+    ``R = max over segment ends e of |e - c| + b/2`` (the farthest point of a sphero-cylinder
+    from any point is on the cap of one of its ends); c is the area-weighted centroid
+    (:func:`centroid`).
 
     Parameters
     ----------
     x, y, theta, length : arrays (N,)
+        Centres x_n, orientations theta_n and tip-to-tip lengths l_n of the particles.
 
     Returns
     -------
     R : float
+        The enclosing radius.
     """
     cx, cy = centroid(x, y, length)
     ex, ey = tips(x, y, theta, length)
@@ -55,10 +58,20 @@ def enclosing_radius(x: np.ndarray, y: np.ndarray, theta: np.ndarray,
 
 
 def hull_radius(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray) -> float:
-    """sqrt(A / pi), A the area of the convex hull of the particles.
+    """Hull radius R = sqrt(A / pi), A the area of the convex hull of the particles.
 
     The hull of the union of sphero-cylinders is the hull H of the segment ends dilated by b/2:
-    A = |H| + perimeter(H) b/2 + pi b^2/4 (exact, Steiner formula).
+    ``A = |H| + perimeter(H) b/2 + pi b^2/4`` (exact, Steiner formula).
+
+    Parameters
+    ----------
+    x, y, theta, length : arrays (N,)
+        Centres x_n, orientations theta_n and tip-to-tip lengths l_n of the particles.
+
+    Returns
+    -------
+    R : float
+        The radius of the disc with the hull's area.
     """
     ex, ey = tips(x, y, theta, length)
     area, perim = _hull_area_perimeter(np.column_stack([ex, ey]))

@@ -1,6 +1,6 @@
 """Neighbour search: cell lists in O(N) and a brute-force reference.
 
-A pair (i, j) of sphero-cylinders is a *candidate* when their centres satisfy
+A pair (i, j) of sphero-cylinders is a *candidate* when their centres satisfy ::
 
     |x_i - x_j| <= (l_i + l_j) / 2 + margin,
 
@@ -88,7 +88,7 @@ def candidate_pairs(
     Returns
     -------
     i, j : int64 arrays, i < j, sorted lexicographically
-        All pairs with |x_i - x_j| <= (l_i + l_j)/2 + margin.
+        All pairs with ``|x_i - x_j| <= (l_i + l_j)/2 + margin``.
     """
     x = np.ascontiguousarray(x, dtype=np.float64)
     y = np.ascontiguousarray(y, dtype=np.float64)

@@ -10,10 +10,11 @@ pipeline set up by hand.  Per frame:
 - ``configuration.step`` = the step; ``log/Time`` = t (OVITO: global attributes ``Timestep`` and
   ``Time``); ``configuration.dimensions`` = 2.
 - ``configuration.box``: a square of edge 2 (X + BOX_MARGIN) centred at the origin, X the
-  largest |x| or |y| reached by any particle (segment end + b/2).  HOOMD boxes are periodic and
-  OVITO's GSD reader always marks the cell periodic (checked: ``cell.pbc == (True, True,
-  True)``); with this edge every periodic image lies at least 2 BOX_MARGIN away from the colony,
-  so images never touch it.  ``cases.viewer.ovito_pipeline`` also turns periodicity off.
+  largest ``|x|`` or ``|y|`` reached by any particle (segment end + b/2).  HOOMD boxes are
+  periodic and OVITO's GSD reader always marks the cell periodic (checked:
+  ``cell.pbc == (True, True, True)``); with this edge every periodic image lies at least
+  2 BOX_MARGIN away from the colony, so images never touch it.  ``cases.viewer.ovito_pipeline``
+  also turns periodicity off.
 - ``particles.position`` (x, y, 0), ``particles.diameter`` = b (OVITO: ``Radius`` = b/2), one type
   "rod" whose ``type_shapes`` entry is a ConvexPolyhedron of two vertices on the local z axis
   with rounding radius b/2 (OVITO makes this type a ``Spherocylinder``).
@@ -96,8 +97,10 @@ RESERVE_BYTES = 4 * 2**20
 
 
 def ensure_space(out: Path, n_particles: int, checkpoint: Path | None = None) -> None:
-    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes
-    (a frame and a checkpoint of ``n_particles``, at most the last checkpoint's size twice).
+    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes.
+
+    The next writes: a frame and a checkpoint of ``n_particles``, at most the last checkpoint's
+    size twice.
     """
     need = RESERVE_BYTES + 200 * n_particles
     if checkpoint is not None and checkpoint.exists():
@@ -162,7 +165,7 @@ def rod_axis(q: np.ndarray) -> np.ndarray:
 
 
 def box_edge(state: ParticleState) -> float:
-    """Edge 2 (X + BOX_MARGIN) of the square box; X = max |coordinate| of any particle point."""
+    """Edge 2 (X + BOX_MARGIN) of the square box; X = max ``|coordinate|`` of any particle point."""
     h = 0.5 * (state.length - B)
     ex = np.abs(state.x) + np.abs(np.cos(state.theta)) * h
     ey = np.abs(state.y) + np.abs(np.sin(state.theta)) * h
@@ -300,6 +303,7 @@ class TrajectoryFrame:
 
     @property
     def n(self) -> int:
+        """Number of particles N in the frame."""
         return int(self.x.shape[0])
 
 
@@ -313,7 +317,7 @@ def count_frames(path: str | os.PathLike) -> int:
 
 
 def _history_times(folder: Path) -> dict[int, float]:
-    """step -> t from history.csv beside the trajectory ({} when absent or without step)."""
+    """Times by step, step -> t, from history.csv beside the trajectory ({} if absent/no step)."""
     path = folder / "history.csv"
     if not path.is_file():
         return {}
@@ -331,7 +335,25 @@ def read_trajectory(path: str | os.PathLike,
     theta = 2 atan2(q_z, q_w), right for this module's quaternions and for the plain turns about
     z of older files; l and sigma from ``log/particles/length`` and ``log/particles/stress``; t
     from ``log/Time``, else from the history.csv beside the file (row of the frame's step; 0 at
-    step 0).  Raises ValueError when the file is missing or lacks the per-particle logs.
+    step 0).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The trajectory.gsd file.
+    frames : iterable of int, optional
+        Indices of the frames to read; default all, in order.
+
+    Yields
+    ------
+    TrajectoryFrame
+        Step, t, centres x_n, y_n, orientations theta_n, lengths l_n and axial stresses
+        sigma_n of the frame (with ids and lineage where the file has them).
+
+    Raises
+    ------
+    ValueError
+        When the file is missing or lacks the per-particle logs.
     """
     p = Path(path)
     if not p.is_file():

@@ -22,15 +22,35 @@ __all__ = ["single_cell", "from_csv", "ring_packing", "warm_problem"]
 
 
 def single_cell() -> ParticleState:
-    """One particle of length l0 = 1 at the origin, angle 0 (t = 0)."""
+    """One particle of length l0 = 1 at the origin, angle 0 (t = 0).
+
+    Returns
+    -------
+    ParticleState
+        The one-cell colony, the default initial state of a run.
+    """
     return ParticleState.from_arrays([0.0], [0.0], [0.0], [1.0])
 
 
 def from_csv(path: str | os.PathLike) -> ParticleState:
     """The particles of a CSV file with a header and columns x,y,theta,length (t = 0).
 
-    Raises ValueError (one line naming the file) when it is missing, not text, lacks a column,
-    holds a non-numeric or non-finite value, or a length <= b.
+    Parameters
+    ----------
+    path : str or path-like
+        The CSV file (``Config.init``): one row per particle, centre (x, y), angle theta and
+        tip-to-tip length l.
+
+    Returns
+    -------
+    ParticleState
+        The particles at t = 0.
+
+    Raises
+    ------
+    ValueError
+        With one line naming the file, when it is missing, not text, lacks a column, holds a
+        non-numeric or non-finite value, or a length <= b.
     """
     try:
         arrays = read_init(path)
@@ -53,9 +73,23 @@ def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 
     r_{m+1} = r_m + b + g + Lmax^2 / (8 r_m) (chord sagitta), so rods of adjacent rings
     never overlap.  Rings are added until n_target rods are placed.
 
+    Parameters
+    ----------
+    n_target : int
+        Least number of rods; the last ring is filled, so there may be more.
+    seed : int
+        Seed of the random lengths, gaps and ring phases (numpy.random.default_rng).
+    gap : float
+        Mean gap g between facing rod ends (g = gap * U(0.5, 1.5)).
+    lmin, lmax : float
+        Range of the tip-to-tip lengths l, drawn uniformly.
+    r0 : float
+        Radius of the first ring tried (a ring that holds fewer than three rods is skipped).
+
     Returns
     -------
     x, y, theta, length : arrays
+        Centres, angles and tip-to-tip lengths of the rods.
     """
     rng = np.random.default_rng(seed)
     xs, ys, ts, ls = [], [], [], []
@@ -78,7 +112,7 @@ def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 
             continue
         extra = (2.0 * np.pi - used) / len(lengths)
         phi = rng.uniform(0.0, 2.0 * np.pi)
-        for ln, (seg, sep) in zip(lengths, angles):
+        for ln, (seg, sep) in zip(lengths, angles, strict=True):
             mid = phi + 0.5 * seg
             rc = r * np.cos(0.5 * seg)
             xs.append(rc * np.cos(mid))
@@ -91,7 +125,9 @@ def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 
     return np.array(xs), np.array(ys), np.array(ts), np.array(ls)
 
 
-def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):
+# The state's four arrays, the solved contacts and forces, and the step: positional callers
+# (cases/bench, tests) pass all nine.
+def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):  # noqa: PLR0913
     """The warm-started problem of the next step: a contact solver's test problem.
 
     One engine update with forces gamma (x += dt F / l, theta += dt 12 T / l^3, (F, T) =

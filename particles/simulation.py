@@ -110,14 +110,33 @@ class StepRecord:
 
 
 def initial_state(config: Config) -> ParticleState:
-    """packings.single_cell(), or packings.from_csv(config.init)."""
+    """Initial state of ``config``: packings.single_cell(), or packings.from_csv(config.init)."""
     return single_cell() if config.init is None else from_csv(config.init)
 
 
 def check_initial(config: Config, require_stop: bool = True) -> ParticleState:
-    """The initial state, checked: a valid configuration (``Config.validate(require_stop)``),
-    no overlap beyond ``config.tol``, and a ``radius`` goal larger than the initial colony
-    radius. Raises ValueError (one line) before any step.
+    """The initial state of ``config``, checked before any step.
+
+    Checks a valid configuration (``Config.validate(require_stop)``), no overlap beyond
+    ``config.tol`` (every gap phi_k >= -tol), and a ``radius`` goal larger than the initial
+    colony radius.
+
+    Parameters
+    ----------
+    config : Config
+        The configuration; its ``init`` file (or one cell) gives the state.
+    require_stop : bool
+        Require exactly one of ``radius`` and ``time`` (as :func:`run` does).
+
+    Returns
+    -------
+    ParticleState
+        The initial state (:func:`initial_state`).
+
+    Raises
+    ------
+    ValueError
+        With a one-line message, when a check fails.
     """
     config.validate(require_stop)
     state = initial_state(config)
@@ -233,8 +252,10 @@ class Simulation:
         return path
 
     def done(self, radius: float | None = None, time: float | None = None) -> bool:
-        """True once t >= ``time`` (to 1e-12) or, without ``time``, the colony's enclosing
-        radius >= ``radius``; False when both are None.
+        """Whether the goal is reached: t >= ``time`` (to 1e-12), else radius >= ``radius``.
+
+        Without ``time``, the colony's enclosing radius is compared with ``radius``; False when
+        both are None.
         """
         if time is not None:
             return self.state.t >= time - 1e-12
@@ -247,8 +268,24 @@ class Simulation:
 
         The step has length ``state.dt_next`` (``Config.dt``, or adapted with
         ``Config.adaptive_dt``: stepping.next_dt), shortened to land on ``until`` when that is
-        nearer.  Raises ParticleLimitError (after the step) when N > ``Config.max_particles``,
-        and OverlapError / ContactSolveError when a step fails even as 16 sub-steps.
+        nearer.
+
+        Parameters
+        ----------
+        until : float, optional
+            A time to land on: the step is shortened to end at ``until`` when that is nearer.
+
+        Returns
+        -------
+        StepRecord
+            What the step did (one row of history.csv).
+
+        Raises
+        ------
+        ParticleLimitError
+            After the step, when N > ``Config.max_particles``.
+        OverlapError, ContactSolveError
+            When a step fails even as 16 sub-steps.
         """
         config, st = self.config, self.state
         dt = st.dt_next
@@ -279,11 +316,26 @@ class Simulation:
 
     def advance(self, radius: float | None = None, time: float | None = None,
                 progress: bool = False) -> ParticleState:
-        """Step until the enclosing radius reaches ``radius`` or t reaches ``time`` (the last
-        step shortened to land on it); both None: ``Config.radius`` / ``Config.time``.
+        """Step until the enclosing radius reaches ``radius`` or t reaches ``time``.
 
-        With an output folder, a trajectory frame every ``Config.output_every`` steps (no
-        checkpoint, history or final files: :func:`run` writes those).  Returns ``state``.
+        The last step is shortened to land on ``time``.  With an output folder, a trajectory
+        frame every ``Config.output_every`` steps (no checkpoint, history or final files:
+        :func:`run` writes those).
+
+        Parameters
+        ----------
+        radius : float, optional
+            Goal for the enclosing radius R (measures.enclosing_radius).
+        time : float, optional
+            Goal for t; takes precedence over ``radius``.  Both None: ``Config.radius`` /
+            ``Config.time``.
+        progress : bool
+            tqdm progress bar (only when stderr is a terminal).
+
+        Returns
+        -------
+        ParticleState
+            ``state``, advanced in place.
         """
         if radius is None and time is None:
             radius, time = self.config.radius, self.config.time
@@ -340,6 +392,10 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         stop_after: int | None = None, change_step_policy: bool = False) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
+    SIGINT (Ctrl-C) or SIGTERM (e.g. a batch system's time limit) in the main thread ends the
+    run after the current step, with a checkpoint of that step written (then KeyboardInterrupt,
+    or SystemExit(128 + signal) for SIGTERM); a second signal interrupts at once.
+
     Parameters
     ----------
     config : Config
@@ -363,10 +419,6 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     -------
     Simulation
         ``.state`` the final state, ``.history`` one row per step, ``.finished``.
-
-    SIGINT (Ctrl-C) or SIGTERM (e.g. a batch system's time limit) in the main thread ends the
-    run after the current step, with a checkpoint of that step written (then KeyboardInterrupt,
-    or SystemExit(128 + signal) for SIGTERM); a second signal interrupts at once.
 
     Raises
     ------

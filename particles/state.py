@@ -119,13 +119,14 @@ class ParticleState:
         self.warm_keys, self.warm_gamma = value
 
     def enclosing_radius(self) -> float:
-        """Radius of the smallest disc about the centroid holding every particle
-        (measures.enclosing_radius): the colony radius.
+        """Radius of the smallest disc about the centroid holding every particle.
+
+        The colony radius (measures.enclosing_radius).
         """
         return enclosing_radius(self.x, self.y, self.theta, self.length)
 
     def hull_radius(self) -> float:
-        """sqrt(convex hull area / pi) (measures.hull_radius)."""
+        """Hull radius sqrt(convex hull area / pi) (measures.hull_radius)."""
         return hull_radius(self.x, self.y, self.theta, self.length)
 
     def append(self, x, y, theta, length, ids, parent=None, generation=None) -> None:

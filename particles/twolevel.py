@@ -1,13 +1,13 @@
-"""Per-step contact problem by a two-level method: BBPGD smoothing + smooth multiplicative
-coarse correction of the contact forces (issue 4).
+"""Per-step contact problem by a two-level method: BBPGD smoothing + coarse correction.
 
+The coarse correction is a smooth multiplicative correction of the contact forces (issue 4).
 Same problem, residual and stopping test as contact_solver.py (BBPGD): minimise over
-gamma >= 0
+gamma >= 0 ::
 
     E(gamma) = gamma . Phi + (dt/2) gamma . (D^T M D) gamma + sum_n l_n H(sigma_n),
     sigma = G gamma,  grad E = q(gamma) (the linearised gap at t + dt),
 
-and stop when res = max_k |min(a_kk gamma_k, q_k)| <= tol.
+and stop when ``res = max_k |min(a_kk gamma_k, q_k)| <= tol``.
 
 Idea: at large N the stress behaves like a discretised pressure Poisson problem, so the error
 left by projected-gradient iterations is smooth in space.  One cycle is
@@ -15,7 +15,7 @@ left by projected-gradient iterations is smooth in space.  One cycle is
 1. ``nu`` BBPGD iterations (the smoother; the BB step history restarts every cycle);
 2. one coarse Newton step on c for  min_c E(gamma (1 + P c)),  P_kJ = phi_J(z_k) the
    bilinear hat functions of a coarse grid of spacing ``h`` evaluated at the contact points
-   z_k:
+   z_k::
 
        g_c = P^T (gamma * q),  H_c = A^T (dt D^T M D + G^T C G) A,  A = diag(gamma) P,
        C = diag(l_n lam r_n exp(r_n)),  r_n = dt exp(-lam sigma_n)
@@ -108,8 +108,10 @@ def contact_points(c: Contacts, n: int) -> tuple[np.ndarray, np.ndarray, np.ndar
 
 
 def hat_prolongation(zx: np.ndarray, zy: np.ndarray, mask: np.ndarray, h: float) -> sp.csr_matrix:
-    """P_kJ = phi_J(z_k): bilinear hat functions of a square grid of spacing h covering the
-    masked points (rows of unmasked contacts are zero; nodes without support are dropped).
+    """Coarse prolongation P_kJ = phi_J(z_k): bilinear hat functions of a square grid.
+
+    The grid has spacing h and covers the masked points (rows of unmasked contacts are zero;
+    nodes without support are dropped).
     """
     if not h > 0:
         raise ValueError(f"coarse spacing h must be positive, got {h}")
@@ -147,7 +149,7 @@ def contact_operators(c: Contacts, length: np.ndarray, dt: float):
 
 
 def coarse_correction(gam, q, p, s, g, length, dt, lam, growth):
-    """gamma + A c with c = -H_c^{-1} P^T (gamma q) (module docstring), projected on >= 0."""
+    """Corrected forces max(0, gamma + A c), c = -H_c^{-1} P^T (gamma q) (module docstring)."""
     a = sp.diags(gam) @ p
     sa = (s @ a).tocsc()
     ga = (g @ a).tocsc()
