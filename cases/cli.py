@@ -41,11 +41,11 @@ import numpy as np
 
 from cases.analysis import field_profile, particle_profile, write_csv
 from cases.rundir import (
+    RunFolderError,
     check_target,
     describe,
     is_no_space,
     no_space_message,
-    RunFolderError,
     prepare_stage,
     publish,
     record,
@@ -56,7 +56,8 @@ CONTINUUM_EDGE_WIDTH = 0.05
 #: Particle profiles: the outermost annulus about one particle diameter wide.
 PARTICLE_EDGE_WIDTH = 0.5
 
-CASES = ("fig2", "fig3", "fig4", "crosscheck")
+#: ``colony case NAME``: the module of each case (``compute``, ``plot``; docs/DESIGN.md).
+CASES = {name: f"cases.figures.{name}" for name in ("fig2", "fig3", "fig4", "crosscheck")}
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
 
@@ -186,7 +187,7 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
     def body(partial):
         colony = run(config, out=partial, progress=progress,
                      change_step_policy=change_step_policy).state
-        profile = particle_profile(colony.x, colony.y, colony.length, colony.stress,
+        profile = particle_profile(colony.x, colony.y, colony.theta, colony.length, colony.stress,
                                    edge_width=PARTICLE_EDGE_WIDTH,
                                    radius=colony.enclosing_radius())
         write_csv(partial / "profile.csv", profile)
@@ -241,7 +242,7 @@ def _draw_continuum(state, stem: Path, lam: float) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cases.draw import DEFAULT_CMAP, LENGTH_LIMITS, colorbar, save_figure
+    from cases.figures.draw import DEFAULT_CMAP, LENGTH_LIMITS, colorbar, save_figure
 
     fig, ax = plt.subplots(figsize=(6.6, 6))
     image, extent = mean_length_image(state.points, state.triangles, state.fields["G"])
@@ -260,7 +261,7 @@ def _draw_particles(colony, stem: Path, lam: float) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from cases.draw import colorbar, draw_particles, save_figure
+    from cases.figures.draw import colorbar, draw_particles, save_figure
 
     fig, ax = plt.subplots(figsize=(6.6, 6))
     mappable = draw_particles(colony.x, colony.y, colony.theta, colony.length, ax=ax)
@@ -336,7 +337,7 @@ def parser() -> argparse.ArgumentParser:
     _verbosity(pm)
 
     k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
-    k.add_argument("name", choices=CASES)
+    k.add_argument("name", choices=list(CASES))
     k.add_argument("--scale", choices=("smoke", "medium", "paper"), default="smoke")
     k.add_argument("--out", default=None, help="output folder (default runs/case-NAME-SCALE)")
     k.add_argument("--from-data", action="store_true",
@@ -401,7 +402,7 @@ def _dispatch(args) -> int:
         print(movie_run(Path(args.dir), args.out or Path(args.dir) / "movie.mp4", fps=args.fps,
                         max_frames=args.max_frames, progress=progress))
     else:
-        module = importlib.import_module(f"cases.{args.name}")
+        module = importlib.import_module(CASES[args.name])
         out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
         out.mkdir(parents=True, exist_ok=True)
         if args.from_data:

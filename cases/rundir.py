@@ -348,7 +348,8 @@ def record(folder: Path, engine: str, config, argv: list[str] | None = None):
     try:
         yield run
     except (KeyboardInterrupt, SystemExit) as err:
-        close("stopped", f"stopped by {'SIGINT' if isinstance(err, KeyboardInterrupt) else 'SIGTERM'}")
+        signal_name = "SIGINT" if isinstance(err, KeyboardInterrupt) else "SIGTERM"
+        close("stopped", f"stopped by {signal_name}")
         raise
     except BaseException as err:
         close("failed", (str(err).strip().splitlines() or [type(err).__name__])[0])

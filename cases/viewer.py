@@ -8,10 +8,10 @@ read a run folder of either engine (docs/DESIGN.md, output contract):
 
 Particles are sphero-cylinders coloured by their length l, the continuum is its mean length
 lbar = 2^frac(G / ln 2) with the domain boundary; both on the colour scale [1, 2] of the paper's
-Fig 2 (cases.draw.LENGTH_LIMITS).  The final pictures are those ``colony continuum|particles``
-draws (the functions of cases.cli, reused); R(t) comes from history.csv.  Movie frames share one
-colour scale and the axis limits of the largest (last) frame; the MP4 is written by
-imageio-ffmpeg (H.264, yuv420p, playable everywhere).
+Fig 2 (cases.figures.draw.LENGTH_LIMITS).  The final pictures are those
+``colony continuum|particles`` draws (the functions of cases.cli, reused); R(t) comes from
+history.csv.  Movie frames share one colour scale and the axis limits of the largest (last)
+frame; the MP4 is written by imageio-ffmpeg (H.264, yuv420p, playable everywhere).
 
 ``ovito_pipeline`` and ``render_ovito`` open a particle trajectory in OVITO's Python module (an
 optional dependency) and render it headless.
@@ -33,7 +33,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from cases.analysis import continuum_frames, read_continuum_frame, read_csv  # noqa: E402
-from cases.draw import DEFAULT_CMAP, LENGTH_LIMITS, draw_particles  # noqa: E402
+from cases.figures.draw import DEFAULT_CMAP, LENGTH_LIMITS, draw_particles  # noqa: E402
 
 __all__ = ["run_kind", "plot_run", "movie_run", "boundary_edges", "ovito_pipeline",
            "render_ovito"]
@@ -331,7 +331,7 @@ def render_ovito(path: str | Path, png: str | Path, frame: int = -1,
 
 def ovito_vs_draw(path: str | Path, png: str | Path, ovito_png: str | Path | None = None,
                   frame: int = -1, size: int = 480) -> Path:
-    """OVITO's rendering of a trajectory frame beside cases.draw.draw_particles of the same frame.
+    """OVITO's rendering of a trajectory frame beside cases.figures.draw's of the same frame.
 
     ``ovito_png``: where OVITO's own picture goes (default: beside ``png``, suffix _ovito).
     Returns ``png``.
@@ -348,7 +348,7 @@ def ovito_vs_draw(path: str | Path, png: str | Path, ovito_png: str | Path | Non
     a.set_axis_off()
     a.set_title("OVITO (import_file + colour coding, Tachyon)")
     draw_particles(fr.x, fr.y, fr.theta, fr.length, ax=b)
-    b.set_title("cases.draw.draw_particles")
+    b.set_title("cases.figures.draw.draw_particles")
     t = f", t = {fr.t:.3g}" if math.isfinite(fr.t) else ""
     fig.suptitle(f"same frame (step {fr.step}{t}, N = {fr.n}), coloured by length on [1, 2]")
     fig.savefig(png, dpi=100, bbox_inches="tight")

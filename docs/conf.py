@@ -49,6 +49,26 @@ myst_heading_anchors = 3
 
 # --- API (autodoc, autosummary, numpydoc) ---
 autosummary_generate = True
+
+
+def _remove_stale_stubs(folder: Path) -> None:
+    """Delete generated pages of modules that no longer exist (a module moved or renamed).
+
+    autosummary writes ``api/generated/NAME.rst`` (git-ignored) and never removes one, so a page
+    of a moved module would stay in the toctree and fail to import.
+    """
+    from importlib.util import find_spec
+
+    for stub in folder.glob("*.rst"):
+        try:
+            found = find_spec(stub.stem) is not None
+        except (ImportError, ValueError):
+            found = False
+        if not found:
+            stub.unlink(missing_ok=True)
+
+
+_remove_stale_stubs(Path(__file__).resolve().parent / "api" / "generated")
 autosummary_imported_members = False
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_member_order = "bysource"

@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from cases import analysis as A
+from continuum.growth import mean_length
 
 
 def _uniform_disc(n: int, R: float, rng: np.random.Generator) -> np.ndarray:
@@ -290,10 +291,10 @@ def test_field_profile_maps_the_mean_phase():
     pts, tri = _disc(10.0, 0.25)
     r = np.hypot(*pts.T)
     G = math.log(2) * (0.3 + r / 1.7)  # rings G = k ln 2 at r_k = 1.7 (k - 0.3)
-    prof = A.field_profile(pts, tri, {"mean_length": A.mean_length_from_phase(G), "G": G},
+    prof = A.field_profile(pts, tri, {"mean_length": mean_length(G), "G": G},
                            edge_width=0.05)
     assert list(prof)[-2:] == ["mean_length_phase", "count"]
-    np.testing.assert_allclose(prof["mean_length_phase"], A.mean_length_from_phase(prof["G"]))
+    np.testing.assert_allclose(prof["mean_length_phase"], mean_length(prof["G"]))
     radii, k = A.profile_ring_radii(prof["r"], prof["G"])
     exact = 1.7 * (k - 0.3)
     assert k.tolist() == [1, 2, 3, 4, 5, 6]
@@ -323,6 +324,6 @@ def test_continuum_rings_from_rings_csv_or_last_frame(tmp_path):
     for c in ("k", "mean_radius", "length", "cx"):
         np.testing.assert_allclose(from_csv[c], direct[c], rtol=1e-14, atol=1e-15)
     assert A.continuum_wavelength(tmp_path) == pytest.approx(1.5, abs=0.01)
-    series = A.wavelength_series(tmp_path, "continuum")
+    series = A.continuum_wavelength_series(tmp_path)
     np.testing.assert_array_equal(series["t"], [0.0, 1.0])
     np.testing.assert_allclose(series["wavelength"], 1.5, atol=0.01)

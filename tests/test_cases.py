@@ -23,10 +23,15 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+import cases
 from cases import analysis as A
-from cases import crosscheck, fig2, fig3, fig4
-from continuum import radial
+from cases.figures import crosscheck, fig2, fig3, fig4
+from continuum import growth, radial
+from particles import B, enclosing_radius
+from particles.measures import centroid
 
+#: The committed data of the figures (cases/data/NAME, cases/data/NAME_paper).
+DATA = Path(cases.__file__).parent / "data"
 LAMS = (0.01, 0.04, 0.16)
 TIMES = np.array([0.0, 3.5, 7.0, 10.5, 14.0])
 
@@ -79,7 +84,7 @@ def fake_continuum_run(folder: Path, lam: float) -> Path:
         r = np.hypot(*pts.T)
         G = phase(r, lam)
         data = {"p": radial.pressure(np.minimum(r, Rt), Rt, lam), "G": G,
-                "mean_length": A.mean_length_from_phase(G)}
+                "mean_length": growth.mean_length(G)}
         name = f"fields/frame_{i:05d}.vtu"
         meshio.write(folder / name, meshio.Mesh(np.column_stack([pts, 0 * r]),
                                                 [("triangle", tri)], point_data=data))
@@ -140,8 +145,14 @@ def test_particle_frames_round_trip(fake_runs):
     np.testing.assert_allclose([t for t, _ in frames], TIMES)
     t, fr = frames[-1]
     assert set(fr) == {"x", "y", "theta", "length", "stress"}
-    # centres within R - 1 = 32 of the origin, tips up to l/2 <= 1 further
-    assert 32.5 < A.colony_radius(fr["x"], fr["y"], fr["length"]) <= 33.0
+    # centres within R - 1 = 32 of the origin; the colony radius (particles.enclosing_radius,
+    # about the area-weighted centroid c) reaches b/2 beyond the farthest centre and at most
+    # l/2 <= 1 (the tip of a rod pointing away from c)
+    R = enclosing_radius(fr["x"], fr["y"], fr["theta"], fr["length"])
+    cx, cy = centroid(fr["x"], fr["y"], fr["length"])
+    r = np.hypot(fr["x"] - cx, fr["y"] - cy)
+    assert r.max() + B / 2 <= R <= np.max(r + fr["length"] / 2) + 1e-12
+    assert 32.0 < R <= 33.1
 
 
 def test_fig3_reduce_and_plot(fake_runs, tmp_path):
@@ -290,7 +301,7 @@ def test_plot_from_committed_data(case, tmp_path):
     Also the other committed data sets of the case (cases/data/NAME_paper).
     """
     name = case.__name__.split(".")[-1]
-    root = Path(case.__file__).parent / "data"
+    root = DATA
     sets = [root / name, *sorted(root.glob(f"{name}_*"))]
     for data in sets:
         assert (data / "README.md").is_file()
@@ -317,7 +328,7 @@ def test_engine_pairs():
 def test_note_missing_engines():
     import matplotlib.pyplot as plt
 
-    from cases.draw import note_missing_engines
+    from cases.figures.draw import note_missing_engines
 
     fig = plt.figure()
     assert note_missing_engines(fig, {"continuum", "particles"}) == [] and not fig.texts
@@ -356,7 +367,7 @@ def test_fig2_draws_with_a_particle_colony_missing(tmp_path):
     import shutil
 
     data = tmp_path / "data"
-    shutil.copytree(Path(fig2.__file__).parent / "data" / "fig2", data)
+    shutil.copytree(DATA / "fig2", data)
     idx = A.read_csv(data / "snapshots.csv")
     lam0 = float(np.min(idx["lam"]))
     keep = ~((idx["engine"] == 1) & (idx["lam"] == lam0))

@@ -1,4 +1,4 @@
-"""cases.draw: geometry of the drawn sphero-cylinders, files written."""
+"""cases.figures.draw: geometry of the drawn sphero-cylinders, files written."""
 
 import time
 
@@ -6,7 +6,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
-from cases import draw
+from cases.figures import draw
 
 
 def test_spherocylinder_outline_is_at_distance_b_over_2_from_the_segment():

@@ -173,8 +173,8 @@ def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
 
 
 def test_bench_particles_both_solvers_same_states(tmp_path):
-    """cases.bench_particles (issue 4): both solvers on the same grown and CSV states."""
-    from cases import bench_particles
+    """cases.bench.particles (issue 4): both solvers on the same grown and CSV states."""
+    from cases.bench import particles as bench_particles
 
     grown = bench_particles.grow_states(particles.Config(lam=1e-2, time=1e9), [60],
                                         tmp_path)

@@ -288,10 +288,10 @@ def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
 
 
 def test_bench_timestep_small(tmp_path, capsys):
-    """cases.bench_timestep (issue 4): every run reaches the radius, the work adds up, the
+    """cases.bench.timestep (issue 4): every run reaches the radius, the work adds up, the
     uncapped variant runs, a bad policy is a usage error.
     """
-    from cases import bench_timestep
+    from cases.bench import timestep as bench_timestep
     out = tmp_path / "b.csv"
     rows = bench_timestep.main(["--radius", "4", "--lams", "1e-2", "--policies", "fixed:0.02",
                                 "adaptive:0.08", "--uncapped", "--out", str(out)])
@@ -307,11 +307,11 @@ def test_bench_timestep_small(tmp_path, capsys):
 
 
 def test_bench_timestep_from_checkpoint(tmp_path, capsys):
-    """cases.bench_timestep --checkpoint: with the run's own step it continues the run exactly
+    """cases.bench.timestep --checkpoint: with the run's own step it continues the run exactly
     (same iterations and particles as the uninterrupted run's next steps); a policy with half
     the step takes twice the steps; a missing checkpoint is a usage error.
     """
-    from cases import bench_timestep
+    from cases.bench import timestep as bench_timestep
     cfg = Config(lam=1e-2, time=3.6, dt=0.02, seed=3)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()

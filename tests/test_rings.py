@@ -130,7 +130,7 @@ RUN_RING_TOL_TIME = 0.025
 
 def test_continuum_run_rings_against_radial(tmp_path):
     """(c) the rings of a real run (rings.csv and the final VTU frame) vs continuum.radial."""
-    from cases.analysis import _mesh_area, continuum_frames, read_continuum_frame, read_csv
+    from cases.analysis import continuum_frames, mesh_radius, read_continuum_frame, read_csv
     from continuum import radial
     from continuum.output import write_rings
     from continuum import Config, run
@@ -144,7 +144,7 @@ def test_continuum_run_rings_against_radial(tmp_path):
     pts, tri, data = read_continuum_frame(frame)
     from_vtu = ring_table(pts, tri, data["G"])
     assert np.allclose(from_vtu["mean_radius"], rings["mean_radius"], rtol=1e-12)
-    R_c = math.sqrt(_mesh_area(pts, tri) / math.pi)
+    R_c = mesh_radius(pts, tri)
     ref_R = radial.ring_radii(lam, radius=R_c)
     ref_t = radial.ring_radii(lam, t=t)
     assert ref_R.size == 1

@@ -10,7 +10,7 @@
    ring radii (where G = k ln 2, mean over 24 rays) against the 1D reference
    (continuum.radial.ring_radii), absolute and relative to the local ring spacing.
 
-Run: ``python -m cases.bench_continuum [--sizes 1000 10000 100000] [--radius 150]``.
+Run: ``python -m cases.bench.continuum [--sizes 1000 10000 100000] [--radius 150]``.
 Timings depend on the machine's load: CPU seconds are printed beside wall seconds.
 """
 
@@ -22,7 +22,8 @@ import time
 
 import numpy as np
 
-LN2 = math.log(2.0)
+from continuum.growth import LN2
+
 STAGES = ("meshing", "assembly", "amg_setup", "krylov", "remeshing", "transport")
 
 

@@ -18,7 +18,7 @@ each number of threads K times, alternating, every measurement in a fresh proces
 medians and ranges: on a shared virtual machine the speed-up of a second thread differs from
 process to process (README, "Threads").
 
-    python -m cases.bench_particles [--sizes 1000 10000] [--state particles.csv]
+    python -m cases.bench.particles [--sizes 1000 10000] [--state particles.csv]
                                     [--solvers bbpgd apgd] [--steps 10] [--threads 1 2]
                                     [--alternate K]
 """
@@ -138,7 +138,7 @@ def _table(res: list[dict]) -> None:
 
 def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -> dict:
     """{threads: {N: [seconds per step of each repetition]}} of the first solver, each
-    measurement a fresh ``python -m cases.bench_particles ARGV --threads T`` process, the
+    measurement a fresh ``python -m cases.bench.particles ARGV --threads T`` process, the
     numbers of threads alternating.
     """
     secs: dict = {t: {} for t in threads}
@@ -149,7 +149,7 @@ def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -
             for f in folder.glob("state_*.npz"):  # the grown states, shared
                 if not (sub / f.name).exists():
                     (sub / f.name).symlink_to(f.resolve())
-            subprocess.run([sys.executable, "-m", "cases.bench_particles", *argv, "--threads",
+            subprocess.run([sys.executable, "-m", "cases.bench.particles", *argv, "--threads",
                             str(t), "--folder", str(sub)], check=True, stdout=subprocess.DEVNULL)
             for r in json.loads(next(sub.glob("bench_*.json")).read_text()):
                 secs[t].setdefault(r["N"], []).append(r["seconds"])

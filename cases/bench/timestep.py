@@ -18,12 +18,12 @@ iterations per unit time (main, passes, failed attempts), the halved steps and t
 the particles in one step (largest and 99.9 % quantile: beyond ~0.1 rad the linearised contacts
 no longer hold and the passes meet crossed rods).
 
-    python -m cases.bench_timestep [--radius 40] [--lams 1e-2 1e-3 1e-4 0]
+    python -m cases.bench.timestep [--radius 40] [--lams 1e-2 1e-3 1e-4 0]
                                    [--policies fixed:0.005 fixed:0.01 fixed:0.02 adaptive:0.04]
                                    [--uncapped] [--out runs/bench_timestep.csv]
-    python -m cases.bench_timestep --checkpoint RUN/checkpoint.npz [--duration 0.02]
+    python -m cases.bench.timestep --checkpoint RUN/checkpoint.npz [--duration 0.02]
                                    [--policies fixed:0.005 fixed:0.0025]
-    python -m cases.bench_timestep --history RUN [RUN ...] [--min-particles 6e4]
+    python -m cases.bench.timestep --history RUN [RUN ...] [--min-particles 6e4]
 
 ``--history`` reads what whole runs did instead (no computation): per step-policy segment of
 each run folder (config.json's ``step_policy_changes``), restricted to N >= ``--min-particles``,

@@ -13,10 +13,10 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
 - final ring wavelength of both models and of the 1D radial reference (continuum and reference:
   the difference of the two outermost rings G = k ln 2, the contours of the growth phase,
   cases.analysis.continuum_wavelength, and continuum.radial.ring_radii at the continuum's final
-  radius, cases.fig4.exact_wavelength; particles: the last two peaks of the radial mean-length
-  profile), and whether the particle colony has rings at all: the azimuthal coherence C of its
-  final length pattern and its significance z (:func:`cases.analysis.ring_coherence`;
-  z >= analysis.RING_Z: rings);
+  radius, cases.figures.fig4.exact_wavelength; particles: the last two peaks of the radial
+  mean-length profile), and whether the particle colony has rings at all: the azimuthal
+  coherence C of its final length pattern and its significance z
+  (:func:`cases.analysis.ring_coherence`; z >= analysis.RING_Z: rings);
 and the power-law exponents fitted against lam (lam > 0, finite values) of the wavelengths and
 maximum stresses, beside the paper's statements; the particle wavelength's over the lam whose
 colony has rings only (elsewhere the peak finder measures noise). Nothing is tuned: every
@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.fig4 import exact_wavelength
+from cases.figures.fig4 import exact_wavelength
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 from continuum import radial
 
@@ -244,7 +244,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Write ``results.md`` and the R(t) difference figure (PNG, PDF) from the CSVs in ``data``."""
     import matplotlib.pyplot as plt
 
-    from cases.draw import note_missing_engines, save_figure
+    from cases.figures.draw import note_missing_engines, save_figure
 
     data, out = Path(data), Path(out)
     out.mkdir(parents=True, exist_ok=True)

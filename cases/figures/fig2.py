@@ -31,6 +31,7 @@ import numpy as np
 
 from cases import analysis as A
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
+from particles import enclosing_radius
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "snapshot_indices", "N_SNAPSHOTS"]
 
@@ -80,7 +81,8 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
                 for k in (k for k, j in enumerate(pick, start=1) if j == i):
                     A.write_csv(data / f"particles_lam={lam:g}_k={k}.csv.gz",
                                 {c: fr[c] for c in ("x", "y", "theta", "length")}, fmt="%.4g")
-                    _index(index, 1, lam, k, t, A.colony_radius(fr["x"], fr["y"], fr["length"]))
+                    _index(index, 1, lam, k, t,
+                           enclosing_radius(fr["x"], fr["y"], fr["theta"], fr["length"]))
         else:
             frames = A.continuum_frames(folder)
             pick = snapshot_indices(np.array([t for t, _ in frames]))
@@ -94,8 +96,7 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
                 A.write_csv(data / f"continuum_lam={lam:g}_k={k}.csv",
                             {c: prof[c] for c in ("r", "mean_length", "mean_length_phase")
                              if c in prof})
-                area = A._mesh_area(pts, tri)
-                _index(index, 0, lam, k, t, float(np.sqrt(area / np.pi)))
+                _index(index, 0, lam, k, t, A.mesh_radius(pts, tri))
     A.write_csv(data / "snapshots.csv", index)
     return data
 
@@ -108,7 +109,7 @@ def _index(index: dict, engine: int, lam: float, k: int, t: float, radius: float
 
 def _revolved(ax, r: np.ndarray, values: np.ndarray, n_theta: int = 256):
     """Draw a radial profile f(r) revolved about the origin (Gouraud-shaded triangles)."""
-    from cases.draw import draw_field
+    from cases.figures.draw import draw_field
 
     ok = np.isfinite(values)
     r, values = np.append(0.0, r[ok]), np.append(values[ok][0], values[ok])  # fill the centre
@@ -127,7 +128,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 2 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
     import matplotlib.pyplot as plt
 
-    from cases.draw import colorbar, draw_particles, note_missing_engines, save_figure
+    from cases.figures.draw import colorbar, draw_particles, note_missing_engines, save_figure
 
     data, out = Path(data), Path(out)
     idx = A.read_csv(data / "snapshots.csv")

@@ -131,7 +131,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 3 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
     import matplotlib.pyplot as plt
 
-    from cases.draw import note_missing_engines, plain_log_ticks, save_figure
+    from cases.figures.draw import note_missing_engines, plain_log_ticks, save_figure
 
     data, out = Path(data), Path(out)
     summary = A.read_csv(data / "summary.csv")

@@ -6,7 +6,7 @@
     azimuthal spread s_G of G carried by d lbar / dG = lbar; data made before that column
     existed: the annulus mean of lbar and its spread);
 (B) ring wavelength against time, continuum (lines): difference of the two outermost rings,
-    the contours G = k ln 2 of the growth phase (cases.analysis.wavelength_series,
+    the contours G = k ln 2 of the growth phase (cases.analysis.continuum_wavelength_series,
     continuum.rings), where lbar = 2^frac(G/ln 2) peaks; particles (open circles): distance
     between the last two peaks of the radial mean-length profile (cases.analysis.ring_wavelength);
 (C) final wavelength against lam for both models and the converged 1D radial reference
@@ -107,7 +107,7 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
                 rows[f"radius_{engine}"].append(math.nan)
                 rows[f"wavelength_{engine}"].append(math.nan)
                 continue
-            w = A.wavelength_series(folders[engine, lam], engine)
+            w = WAVELENGTH_SERIES[engine](folders[engine, lam])
             rows[f"radius_{engine}"].append(float(w["radius"][-1]))
             rows[f"wavelength_{engine}"].append(float(w["wavelength"][-1]))
             if lam in profile_lams:
@@ -126,6 +126,11 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
     return data
 
 
+#: Ring wavelength at every frame of a run, per engine.
+WAVELENGTH_SERIES = {"continuum": A.continuum_wavelength_series,
+                     "particles": A.particle_wavelength_series}
+
+
 def _final_profile(folder: Path, engine: str) -> dict[str, np.ndarray]:
     """Final radial mean-length profile: the last frame only (no pooling: rings move)."""
     if engine == "continuum":
@@ -141,7 +146,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 4 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
     import matplotlib.pyplot as plt
 
-    from cases.draw import note_missing_engines, plain_log_ticks, save_figure
+    from cases.figures.draw import note_missing_engines, plain_log_ticks, save_figure
 
     data, out = Path(data), Path(out)
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))

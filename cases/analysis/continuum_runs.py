@@ -1,0 +1,121 @@
+"""Reductions of a continuum run folder (its VTU frames, ``rings.csv``) for the figure cases.
+
+The rings are the contours G = k ln 2 of the smooth growth phase (:mod:`continuum.rings`), not
+peaks of a binned profile: :func:`frame_rings`, :func:`continuum_rings` (a run's ``rings.csv``
+or its last frame), :func:`continuum_wavelength` and :func:`continuum_wavelength_series`
+(difference of the two outermost mean ring radii). Radial profiles average G and map the mean
+by 2^frac(. / ln 2) (:func:`final_continuum_profile`). The colony radius of a frame is
+sqrt(A / pi), A the mesh's area (:func:`mesh_radius`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import numpy as np
+
+from continuum import rings as _rings
+from continuum.mesh import triangle_areas
+
+from .io import continuum_frames, read_continuum_frame, read_csv
+from .profiles import field_profile
+from .rings import contour_wavelength, profile_wavelength
+
+__all__ = [
+    "mesh_radius",
+    "continuum_wavelength_series",
+    "final_continuum_profile",
+    "frame_rings",
+    "continuum_rings",
+    "continuum_wavelength",
+]
+
+
+def mesh_radius(points: np.ndarray, triangles: np.ndarray) -> float:
+    """Colony radius sqrt(A / pi) of a frame, A = sum of the triangles' areas |T|."""
+    return math.sqrt(float(np.abs(triangle_areas(points, triangles)).sum()) / math.pi)
+
+
+def continuum_wavelength_series(folder: str | os.PathLike, edge_width: float = 0.05,
+                                **kwargs) -> dict[str, np.ndarray]:
+    """Ring wavelength at every VTU frame of a continuum run.
+
+    The contours G = k ln 2 of the growth phase (:func:`frame_rings`), wavelength = difference
+    of the two outermost mean ring radii (:func:`contour_wavelength`; lbar peaks exactly at a
+    ring, so this is the distance between the last two peaks of lbar); a frame without G (runs
+    older than the G output) falls back to the peaks of the :func:`field_profile` of lbar
+    (annuli at most `edge_width` wide at the edge, no noise threshold; `kwargs` to
+    :func:`profile_wavelength`). Returns columns t, radius (:func:`mesh_radius`), wavelength
+    (nan: < 2 rings).
+    """
+    ts, Rs, ws = [], [], []
+    for t, path in continuum_frames(folder):
+        pts, tri, data = read_continuum_frame(path)
+        ts.append(t)
+        Rs.append(mesh_radius(pts, tri))
+        if "G" in data:
+            ws.append(contour_wavelength(_rings.ring_table(pts, tri, data["G"])))
+            continue
+        prof = field_profile(pts, tri, {"mean_length": data["mean_length"]},
+                             edge_width=edge_width)
+        ws.append(profile_wavelength(prof, noisy=False, **kwargs))
+    return {"t": np.array(ts), "radius": np.array(Rs), "wavelength": np.array(ws)}
+
+
+def final_continuum_profile(folder: str | os.PathLike, edge_width: float = 0.05
+                            ) -> dict[str, np.ndarray]:
+    """Radial profile of the last VTU frame of a continuum run (:func:`field_profile`).
+
+    Columns mean_length, pressure and, when the frame has it, G with
+    mean_length_phase = 2^frac(<G> / ln 2).
+    """
+    t, path = continuum_frames(folder)[-1]
+    pts, tri, data = read_continuum_frame(path)
+    values = {"mean_length": data["mean_length"], "pressure": data["p"]}
+    if "G" in data:
+        values["G"] = data["G"]
+    return field_profile(pts, tri, values, edge_width=edge_width)
+
+
+def frame_rings(path: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Ring table (:func:`continuum.rings.ring_table`) of the G field of one VTU frame."""
+    pts, tri, data = read_continuum_frame(path)
+    if "G" not in data:
+        raise ValueError(f"{path}: no growth phase G in the frame")
+    return _rings.ring_table(pts, tri, data["G"])
+
+
+def continuum_rings(folder: str | os.PathLike) -> dict[str, np.ndarray]:
+    """Final ring table of a continuum run.
+
+    Its ``rings.csv`` (written by the run) if present, else computed from the G of its last VTU
+    frame (the same numbers).
+    """
+    folder = Path(folder)
+    if (folder / "rings.csv").is_file():
+        table = read_csv(folder / "rings.csv")
+        for key in ("k", "n_pieces"):
+            if key in table:
+                table[key] = table[key].astype(int)
+        return table
+    return frame_rings(continuum_frames(folder)[-1][1])
+
+
+def continuum_wavelength(folder: str | os.PathLike, edge_width: float = 0.05, **kwargs) -> float:
+    """Final ring wavelength of a continuum run.
+
+    :func:`contour_wavelength` of :func:`continuum_rings`; a run without G in its frames falls
+    back to the peaks of the last frame's lbar profile (as
+    :func:`continuum_wavelength_series`).
+    """
+    folder = Path(folder)
+    if (folder / "rings.csv").is_file():
+        return contour_wavelength(continuum_rings(folder))
+    pts, tri, data = read_continuum_frame(continuum_frames(folder)[-1][1])
+    if "G" in data:
+        return contour_wavelength(_rings.ring_table(pts, tri, data["G"]))
+    prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=edge_width)
+    return profile_wavelength(prof, noisy=False, **kwargs)
+

@@ -1,0 +1,104 @@
+"""Reductions of a particle run folder (its trajectory frames) for the figure cases.
+
+Every frame carries x, y, theta and length, so the colony radius is the engine's own
+(:func:`particles.enclosing_radius`: the smallest disc about the area-weighted centroid holding
+every particle) and profiles are taken about that centroid (:mod:`particles.measures`).
+
+- :func:`particle_wavelength_series`: the ring wavelength at every frame;
+- :func:`final_particle_profile`: the final radial profile, pooled over the last frames;
+- :func:`final_ring_coherence`: whether the final colony has rings.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from particles.measures import centroid, enclosing_radius
+
+from .io import particle_frames
+from .profiles import equal_area_annuli, particle_profile
+from .rings import profile_wavelength, ring_coherence
+
+__all__ = [
+    "particle_wavelength_series",
+    "final_particle_profile",
+    "final_ring_coherence",
+]
+
+
+def _radius(frame: dict[str, np.ndarray]) -> float:
+    """Colony radius of a trajectory frame: :func:`particles.enclosing_radius`."""
+    return enclosing_radius(frame["x"], frame["y"], frame["theta"], frame["length"])
+
+
+def particle_wavelength_series(folder: str | os.PathLike, edge_width: float = 0.5,
+                               **kwargs) -> dict[str, np.ndarray]:
+    """Ring wavelength at every trajectory frame of a particle run.
+
+    :func:`particle_profile` of the frame (annuli at most `edge_width` wide at the edge), noise
+    threshold from the annulus standard errors, distance between the last two peaks of the
+    mean-length profile (:func:`profile_wavelength`, `kwargs` passed on). Returns columns t,
+    radius (:func:`particles.enclosing_radius`), wavelength (nan: < 2 rings).
+    """
+    ts, Rs, ws = [], [], []
+    for t, fr in particle_frames(folder):
+        ts.append(t)
+        R = _radius(fr)
+        Rs.append(R)
+        if fr["x"].size < 3:
+            ws.append(float("nan"))
+            continue
+        prof = particle_profile(fr["x"], fr["y"], fr["theta"], fr["length"], fr["stress"],
+                                edge_width=edge_width, radius=R)
+        ws.append(profile_wavelength(prof, noisy=True, **kwargs))
+    return {"t": np.array(ts), "radius": np.array(Rs), "wavelength": np.array(ws)}
+
+
+def final_particle_profile(folder: str | os.PathLike, growth_window: float = 1.0,
+                           edge_width: float = 0.5) -> dict[str, np.ndarray]:
+    """Radial profile (mean_length, stress) of a particle run, pooled over its last frames.
+
+    To reduce noise (paper, Fig 3A) the particles of every frame whose colony radius
+    (:func:`particles.enclosing_radius`) is within `growth_window` of the final radius R_f (the
+    colony grew by less than that) are pooled, each frame about its own centroid, and binned in
+    equal-area annuli of the final disc; with `growth_window` = 0 only the final frame is used.
+    The pooled frames are correlated, so `count` overstates the number of independent samples.
+    """
+    if growth_window < 0:
+        raise ValueError(f"growth_window must be >= 0, got {growth_window}")
+    radii = [_radius(fr) for _, fr in particle_frames(folder)]
+    if not radii:
+        raise ValueError(f"no frames in {folder}")
+    R_f = radii[-1]
+    keep = {i for i, R in enumerate(radii) if R >= R_f - growth_window} | {len(radii) - 1}
+    r, length, stress = [], [], []
+    for i, (_, fr) in enumerate(particle_frames(folder)):
+        if i in keep:
+            cx, cy = centroid(fr["x"], fr["y"], fr["length"])
+            r.append(np.hypot(fr["x"] - cx, fr["y"] - cy))
+            length.append(fr["length"])
+            stress.append(fr["stress"])
+    r, length, stress = (np.concatenate(a) for a in (r, length, stress))
+    out: dict[str, np.ndarray] = {}
+    for name, v in (("mean_length", length), ("stress", stress)):
+        r_mid, mean, std, count = equal_area_annuli(r, v, radius=max(R_f, r.max()),
+                                                    edge_width=edge_width)
+        out["r"], out[name], out[f"{name}_std"], out["count"] = r_mid, mean, std, count
+    out["count"] = out.pop("count")
+    return out
+
+
+def final_ring_coherence(folder: str | os.PathLike, width: float = 1.0) -> tuple[float, float]:
+    """:func:`ring_coherence` (C, z) of the lengths in the last frame of a particle run.
+
+    (nan, nan) for a colony too small for five annuli of ``width`` over its outer half.
+    """
+    ((_, last),) = particle_frames(folder, last_only=True)
+    r = np.hypot(last["x"] - last["x"].mean(), last["y"] - last["y"].mean())
+    if r.size == 0 or 0.5 * r.max() < 5 * width:
+        return math.nan, math.nan
+    return ring_coherence(last["x"], last["y"], last["length"], width=width)
+
