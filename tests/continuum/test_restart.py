@@ -6,9 +6,9 @@ uninterrupted run, compared file by file (history.csv, boundary.csv, config.json
 every VTU) and array by array (history, points, triangles, every field). The returned
 simulation is ``continuum.run``'s.
 
-The small configuration remeshes at steps 14, 17 and 20 of its 21 steps (boundary criterion,
-with h_max = 0.25 and stretch = 1.2) and writes a VTU frame every 0.5 time units (t = 4.07 at
-the end); each run takes about 0.3 s.
+The small configuration (SMALL of conftest.py) remeshes at steps 14, 17 and 20 of its 21 steps
+(boundary criterion, with h_max = 0.25 and stretch = 1.2) and writes a VTU frame every 0.5 time
+units (t = 4.07 at the end); each run takes about 0.3 s.
 """
 
 from __future__ import annotations
@@ -25,15 +25,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from continuum import Config, Simulation, run
+from continuum import Simulation, run
 from continuum.checkpoint import CHECKPOINT
 
-SMALL = dict(lam=1e-2, radius=3.0, n_nodes=100, h_max=0.25, stretch=1.2, output_every=0.5)
-"""Remeshes and writes frames within a fraction of a second (module docstring)."""
-
-
-def config(**changes) -> Config:
-    return Config(**{**SMALL, **changes})
+from .conftest import SMALL, small_config, state_bytes
 
 
 def folder_digest(folder: Path) -> dict:
@@ -45,25 +40,11 @@ def folder_digest(folder: Path) -> dict:
     }
 
 
-def state_bytes(sim) -> dict:
-    """The raw bytes of a simulation's history and state arrays."""
-    state = sim.state
-    out = {
-        "history": np.array([[float(v) for v in row.values()] for row in sim.history]).tobytes(),
-        "points": state.points.tobytes(),
-        "triangles": state.triangles.tobytes(),
-        "boundary": state.boundary.tobytes(),
-        "t": np.float64(state.t).tobytes(),
-    }
-    out.update({f"field {k}": np.ascontiguousarray(v).tobytes() for k, v in state.fields.items()})
-    return out
-
-
 @pytest.fixture(scope="module")
 def reference(tmp_path_factory):
     """The uninterrupted run of SMALL: (folder, returned simulation)."""
     out = tmp_path_factory.mktemp("reference")
-    return out, run(config(), out=out)
+    return out, run(small_config(), out=out)
 
 
 def frame_steps(history: list, output_every: float) -> list[int]:
@@ -79,17 +60,17 @@ def frame_steps(history: list, output_every: float) -> list[int]:
 def test_same_configuration_same_bits_in_process():
     """Two runs in one process give the same bytes (the AMG setup no longer draws random
     start vectors from numpy's global generator; continuum.pressure.amg_hierarchy)."""
-    assert state_bytes(run(config())) == state_bytes(run(config()))
+    assert state_bytes(run(small_config())) == state_bytes(run(small_config()))
 
 
 DIGEST_SCRIPT = """
 import hashlib, sys
 import numpy as np
-sys.path.insert(0, {tests!r})
-from test_continuum_restart import config, state_bytes
+sys.path.insert(0, {root!r})
+from tests.continuum.conftest import small_config, state_bytes
 from continuum import run
 h = hashlib.sha256()
-for k, v in sorted(state_bytes(run(config())).items()):
+for k, v in sorted(state_bytes(run(small_config())).items()):
     h.update(k.encode()); h.update(v)
 print(h.hexdigest())
 """
@@ -97,7 +78,7 @@ print(h.hexdigest())
 
 def test_same_configuration_same_bits_in_two_processes():
     """Two fresh interpreters give the same bytes, and the same as this process."""
-    script = DIGEST_SCRIPT.format(tests=str(Path(__file__).parent))
+    script = DIGEST_SCRIPT.format(root=str(Path(__file__).resolve().parents[2]))
     digests = [
         subprocess.run(
             [sys.executable, "-c", script], capture_output=True, text=True, check=True
@@ -105,7 +86,7 @@ def test_same_configuration_same_bits_in_two_processes():
         for _ in range(2)
     ]
     h = hashlib.sha256()
-    for k, v in sorted(state_bytes(run(config())).items()):
+    for k, v in sorted(state_bytes(run(small_config())).items()):
         h.update(k.encode())
         h.update(v)
     assert digests[0] == digests[1] == h.hexdigest()
@@ -116,17 +97,17 @@ def test_global_random_state_untouched():
     np.random.seed(7)
     expected = np.random.rand(3)
     np.random.seed(7)
-    run(config(radius=1.0))
+    run(small_config(radius=1.0))
     assert np.array_equal(np.random.rand(3), expected)
 
 
 def resumed_run(out: Path, stops: list[int]):
     """Run SMALL into ``out`` stopping after each count of ``stops`` steps, then to the end."""
     for n in stops:
-        state = run(config(), out=out, max_steps_this_call=n)
+        state = run(small_config(), out=out, max_steps_this_call=n)
         assert not state.finished
         assert (out / CHECKPOINT).is_file()
-    return run(config(), out=out)
+    return run(small_config(), out=out)
 
 
 def assert_same_run(reference, out: Path, state, skip: tuple = ()) -> None:
@@ -164,9 +145,9 @@ def test_stop_at_frame_step_resumes_bit_identical(reference, tmp_path):
     history = reference[1].history
     frames = frame_steps(history, SMALL["output_every"])
     assert len(frames) >= 3
-    run(config(), out=tmp_path, max_steps_this_call=frames[1])
+    run(small_config(), out=tmp_path, max_steps_this_call=frames[1])
     ckpt = (tmp_path / CHECKPOINT).read_bytes()
-    run(config(), out=tmp_path, max_steps_this_call=frames[2] - frames[1])
+    run(small_config(), out=tmp_path, max_steps_this_call=frames[2] - frames[1])
     (tmp_path / CHECKPOINT).write_bytes(ckpt)  # as if killed after frame 3 was written
     assert_same_run(reference, tmp_path, resumed_run(tmp_path, []))
 
@@ -176,7 +157,7 @@ def test_stop_after_every_step_resumes_bit_identical(reference, tmp_path):
     checkpoints carry the AMG matrix (measured: resuming with a fresh hierarchy instead changes
     the bits after 17 of these 20 stops)."""
     held = []
-    while not (state := run(config(), out=tmp_path, max_steps_this_call=1)).finished:
+    while not (state := run(small_config(), out=tmp_path, max_steps_this_call=1)).finished:
         with np.load(tmp_path / CHECKPOINT) as z:
             held.append("amg" in z.files)
     assert len(held) == len(reference[1].history) - 2 and any(held)
@@ -184,18 +165,18 @@ def test_stop_after_every_step_resumes_bit_identical(reference, tmp_path):
 
 
 def test_mismatched_configuration_refuses_to_resume(tmp_path):
-    run(config(), out=tmp_path, max_steps_this_call=2)
+    run(small_config(), out=tmp_path, max_steps_this_call=2)
     with pytest.raises(ValueError, match=r"differs in lam.*start afresh"):
-        run(config(lam=2e-2), out=tmp_path)
+        run(small_config(lam=2e-2), out=tmp_path)
     # an execution setting may differ
-    state = run(config(checkpoint_seconds=5.0), out=tmp_path, max_steps_this_call=1)
+    state = run(small_config(checkpoint_seconds=5.0), out=tmp_path, max_steps_this_call=1)
     assert len(state.history) == 4
 
 
 def test_periodic_checkpoints_do_not_change_the_result(reference, tmp_path):
     """checkpoint_seconds = 0 writes a checkpoint after every step: same files (config.json
     aside, which records checkpoint_seconds)."""
-    state = run(config(checkpoint_seconds=0.0), out=tmp_path)
+    state = run(small_config(checkpoint_seconds=0.0), out=tmp_path)
     assert_same_run(reference, tmp_path, state, skip=("config.json",))
     meta = json.loads(str(np.load(tmp_path / CHECKPOINT)["meta"]))
     assert len(meta["history"]) == len(state.history) - 1  # the last step before the goal
@@ -225,20 +206,20 @@ def test_sigint_finishes_the_step_checkpoints_and_resumes(reference, tmp_path, m
             "last": len(history) - 1}[where]
     interrupt_at(monkeypatch, step)
     with pytest.raises(KeyboardInterrupt):
-        run(config(), out=tmp_path)
+        run(small_config(), out=tmp_path)
     monkeypatch.undo()
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
     meta = json.loads(str(np.load(tmp_path / CHECKPOINT)["meta"]))
     assert len(meta["history"]) == step + 1 and meta["done"] == (where == "last")
-    assert_same_run(reference, tmp_path, run(config(), out=tmp_path))
+    assert_same_run(reference, tmp_path, run(small_config(), out=tmp_path))
 
 
 SIGTERM_SCRIPT = """
 import sys
-sys.path.insert(0, {tests!r})
-from test_continuum_restart import config
+sys.path.insert(0, {root!r})
+from tests.continuum.conftest import small_config
 from continuum import run
-run(config(radius=8.0), out={out!r})
+run(small_config(radius=8.0), out={out!r})
 """
 
 
@@ -247,10 +228,10 @@ def test_sigterm_checkpoints_and_resumes(tmp_path):
     uninterrupted one."""
     ref = tmp_path / "ref"
     ref.mkdir()
-    ref_state = run(config(radius=8.0), out=ref)
+    ref_state = run(small_config(radius=8.0), out=ref)
     out = tmp_path / "run"
     out.mkdir()
-    script = SIGTERM_SCRIPT.format(tests=str(Path(__file__).parent), out=str(out))
+    script = SIGTERM_SCRIPT.format(root=str(Path(__file__).resolve().parents[2]), out=str(out))
     proc = subprocess.Popen([sys.executable, "-c", script])
     try:
         deadline = time.monotonic() + 120
@@ -265,5 +246,5 @@ def test_sigterm_checkpoints_and_resumes(tmp_path):
     assert status == 128 + signal.SIGTERM
     assert (out / CHECKPOINT).is_file()
     assert not (out / "boundary.csv").exists()
-    state = run(config(radius=8.0), out=out)
+    state = run(small_config(radius=8.0), out=out)
     assert_same_run((ref, ref_state), out, state)

@@ -13,8 +13,7 @@ from particles.contact_solver import (
     problem_arrays,
     solve_contacts,
 )
-from particles.geometry import B, axial_stress, detect_contacts, find_contacts
-from particles.neighbours import candidate_pairs
+from particles.geometry import B, axial_stress, detect_contacts
 from particles.packings import ring_packing
 from particles.twolevel import (
     coarse_correction,
@@ -121,19 +120,12 @@ def test_kkt_and_bbpgd_agreement(packing, lam):
     assert len(h3) == 1 and np.array_equal(g3, g2)
 
 
-def chain(lengths):
-    right = np.cumsum(lengths)
-    x = right - lengths / 2 - right[-1] / 2
-    z = np.zeros_like(x)
-    return find_contacts(x, z, z, lengths, candidate_pairs(x, z, lengths, 0.05), 0.05)
-
-
-def test_chain_exact_lam0_and_lam_positive():
+def test_chain_exact_lam0_and_lam_positive(chain):
     n = 30
     lengths = np.random.default_rng(5).uniform(1.0, 2.0, n)
     dt = 0.01
-    c = chain(lengths)
-    # lam = 0: tridiagonal system (tests/test_particles_chain.py)
+    _, c = chain(lengths)
+    # lam = 0: tridiagonal system (tests/particles/test_chain.py)
     diag = dt * (1 / lengths[:-1] + 1 / lengths[1:])
     off = -dt / lengths[1:-1]
     ab = np.zeros((3, n - 1))

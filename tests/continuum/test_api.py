@@ -5,8 +5,8 @@ history row); ``Simulation.advance(radius=R)`` gives the bits of ``run(Config(ra
 with and without a run folder; ``save`` / ``load`` continue bit-identically (also across a
 remesh, with the AMG matrix in the checkpoint); the README's example runs.
 
-The small configuration is tests/test_continuum_restart.py's: it remeshes at steps 14, 17 and
-20 of its 21 steps to radius 3 (about 0.3 s a run).
+The small configuration is SMALL of tests/continuum/conftest.py: it remeshes at steps 14, 17
+and 20 of its 21 steps to radius 3 (about 0.3 s a run).
 """
 
 from __future__ import annotations
@@ -20,24 +20,9 @@ import pytest
 import continuum
 from continuum import Config, Simulation, State, StepRecord, run
 
-SMALL = dict(lam=1e-2, n_nodes=100, h_max=0.25, stretch=1.2, output_every=0.5)
-"""Remeshes and writes frames within a fraction of a second (module docstring)."""
+from .conftest import SMALL, SMALL_RADIUS, state_bytes
 
-GOAL = 3.0
-
-
-def digest(sim: Simulation) -> dict:
-    """The raw bytes of a simulation's history and state (mesh, fields, Psi, counters)."""
-    s = sim.state
-    out = {
-        "history": np.array([[float(v) for v in row.values()] for row in sim.history]).tobytes(),
-        "points": s.points.tobytes(),
-        "triangles": s.triangles.tobytes(),
-        "psi": s.sizes.n.tobytes(),
-        "scalars": np.array([s.t, s.step, s.n_remesh, s.newton, s.krylov, s.n_boundary]).tobytes(),
-    }
-    out.update({f"field {k}": np.ascontiguousarray(v).tobytes() for k, v in s.fields.items()})
-    return out
+GOAL = SMALL_RADIUS
 
 
 @pytest.fixture(scope="module")
@@ -96,7 +81,7 @@ def test_advance_equals_run(reference):
     sim = Simulation(Config(**SMALL))
     state = sim.advance(radius=GOAL)
     assert state is sim.state
-    assert digest(sim) == digest(reference)
+    assert state_bytes(sim) == state_bytes(reference)
     assert any(row["remesh"] for row in sim.history)  # the comparison covers remeshing
     # advancing to a goal already reached takes no step
     sim.advance(radius=GOAL)
@@ -109,7 +94,7 @@ def test_advance_by_time_equals_run():
     sim = Simulation(Config(time=t_end, **SMALL))
     sim.advance()  # the configuration's goal
     assert sim.state.t == pytest.approx(t_end, rel=1e-12)
-    assert digest(sim) == digest(ref)
+    assert state_bytes(sim) == state_bytes(ref)
 
 
 def test_simulation_with_folder_writes_the_run_files(tmp_path):
@@ -138,9 +123,9 @@ def test_save_load_continues_bit_identically(reference, tmp_path, steps):
         loaded = Simulation.load(path, config)
         assert np.array_equal(loaded.state.points, copy.points) and loaded.state.step == steps
         loaded.advance(radius=GOAL)
-        assert digest(loaded) == digest(reference)
+        assert state_bytes(loaded) == state_bytes(reference)
     sim.advance(radius=GOAL)  # the saved simulation itself continues unchanged
-    assert digest(sim) == digest(reference)
+    assert state_bytes(sim) == state_bytes(reference)
     assert copy.step == steps and copy.t < sim.state.t  # a copy is not changed by later steps
     with pytest.raises(ValueError, match="differs in lam"):
         Simulation.load(path, Config(**{**SMALL, "lam": 2e-2}))
@@ -153,7 +138,7 @@ def test_run_resumes_from_a_saved_simulation(reference, tmp_path):
         sim.step(radius=GOAL)
     sim.save(tmp_path / "checkpoint.npz")
     resumed = run(Config(radius=GOAL, **SMALL), out=tmp_path)
-    assert digest(resumed) == digest(reference)
+    assert state_bytes(resumed) == state_bytes(reference)
     assert (tmp_path / "history.csv").is_file() and (tmp_path / "boundary.csv").is_file()
 
 

@@ -18,12 +18,6 @@ import pytest
 from cases import cli, rundir
 
 
-def colony(capsys, *args):
-    """Run ``colony ARGS`` in-process; returns (exit status, stderr)."""
-    status = cli.main(list(args))
-    return status, capsys.readouterr().err
-
-
 def one_line_error(status, err, *needles):
     assert status == 2, err
     assert err.count("\n") == 1 and err.startswith("colony: error:"), err
@@ -47,64 +41,64 @@ SMALL_PARTICLES = ("particles", "--lam", "1e-2", "--radius", "2", "--quiet")
 
 @pytest.mark.parametrize("out,why", [("..", "working directory"), (".", "working directory"),
                                      ("../..", "working directory")])
-def test_out_is_the_working_directory_or_a_parent(capsys, tmp_path, monkeypatch, out, why):
+def test_out_is_the_working_directory_or_a_parent(colony, tmp_path, monkeypatch, out, why):
     work = tmp_path / "a" / "work"
     work.mkdir(parents=True)
     (tmp_path / "a" / "keep.txt").write_text("precious")
     (work / "notes.txt").write_text("mine")
     before = tree(tmp_path)
     monkeypatch.chdir(work)
-    status, err = colony(capsys, *SMALL_CONTINUUM, "--out", out, "--overwrite")
+    status, err = colony(*SMALL_CONTINUUM, "--out", out, "--overwrite")
     one_line_error(status, err, why, "refusing --out")
     assert tree(tmp_path) == before
 
 
-def test_out_is_root_or_home(capsys, tmp_path, monkeypatch):
+def test_out_is_root_or_home(colony, tmp_path, monkeypatch):
     monkeypatch.setenv("HOME", str(tmp_path))
     for out, why in (("/", "root folder"), (str(tmp_path), "home folder")):
-        status, err = colony(capsys, *SMALL_CONTINUUM, "--out", out, "--overwrite")
+        status, err = colony(*SMALL_CONTINUUM, "--out", out, "--overwrite")
         one_line_error(status, err, why)
 
 
-def test_out_is_a_file(capsys, tmp_path):
+def test_out_is_a_file(colony, tmp_path):
     f = tmp_path / "results.txt"
     f.write_text("data")
-    status, err = colony(capsys, *SMALL_CONTINUUM, "--out", str(f), "--overwrite")
+    status, err = colony(*SMALL_CONTINUUM, "--out", str(f), "--overwrite")
     one_line_error(status, err, "is a file")
     assert f.read_text() == "data" and not rundir.partial_of(f).exists()
 
 
-def test_existing_out_without_overwrite(capsys, tmp_path):
+def test_existing_out_without_overwrite(colony, tmp_path):
     out = tmp_path / "run"
     out.mkdir()
     (out / "config.json").write_text("{}")
-    status, err = colony(capsys, *SMALL_CONTINUUM, "--out", str(out))
+    status, err = colony(*SMALL_CONTINUUM, "--out", str(out))
     one_line_error(status, err, "exists", "--overwrite")
 
 
-def test_overwrite_refuses_a_folder_colony_did_not_write(capsys, tmp_path):
+def test_overwrite_refuses_a_folder_colony_did_not_write(colony, tmp_path):
     out = tmp_path / "thesis"
     out.mkdir()
     (out / "config.json").write_text("{}")
     (out / "chapter1.tex").write_text("years of work")
     before = tree(out)
-    status, err = colony(capsys, *SMALL_CONTINUUM, "--out", str(out), "--overwrite")
+    status, err = colony(*SMALL_CONTINUUM, "--out", str(out), "--overwrite")
     one_line_error(status, err, "chapter1.tex", "colony did not")
     assert tree(out) == before and not rundir.partial_of(out).exists()
 
 
-def test_overwrite_replaces_a_finished_run_only_once_the_new_one_is_complete(capsys, tmp_path):
+def test_overwrite_replaces_a_finished_run_only_once_the_new_one_is_complete(colony, tmp_path):
     out = tmp_path / "run"
-    assert colony(capsys, *SMALL_CONTINUUM, "--out", str(out))[0] == 0
+    assert colony(*SMALL_CONTINUUM, "--out", str(out))[0] == 0
     record = json.loads((out / "run.json").read_text())
     assert record["status"] == "finished" and set(record["files"]) == {
         p.name for p in out.iterdir()} - {"run.json"}
     # a user's file in the published folder: --overwrite refused, nothing removed
     (out / "my_analysis.py").write_text("x = 1")
-    status, err = colony(capsys, *SMALL_CONTINUUM, "--out", str(out), "--overwrite")
+    status, err = colony(*SMALL_CONTINUUM, "--out", str(out), "--overwrite")
     one_line_error(status, err, "my_analysis.py")
     (out / "my_analysis.py").unlink()
-    assert colony(capsys, *SMALL_CONTINUUM, "--out", str(out), "--overwrite")[0] == 0
+    assert colony(*SMALL_CONTINUUM, "--out", str(out), "--overwrite")[0] == 0
     assert json.loads((out / "run.json").read_text())["status"] == "finished"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["run"]
 
@@ -112,7 +106,7 @@ def test_overwrite_replaces_a_finished_run_only_once_the_new_one_is_complete(cap
 # --------------------------------------------------------------------------- stale stages
 
 
-def test_stale_stage_of_the_same_run_without_checkpoint_is_cleared(capsys, tmp_path):
+def test_stale_stage_of_the_same_run_without_checkpoint_is_cleared(colony, tmp_path):
     """A stage holding VTU frames of an earlier attempt: the published folder holds exactly
     the frames fields.pvd lists.
     """
@@ -122,13 +116,13 @@ def test_stale_stage_of_the_same_run_without_checkpoint_is_cleared(capsys, tmp_p
     for k in range(48):
         (partial / "fields" / f"frame_{k:05d}.vtu").write_text("stale")
     (partial / "config.json").write_text(json.dumps({"lam": 0.01, "shape": "circle"}))
-    assert colony(capsys, *SMALL_CONTINUUM, "--out", str(out))[0] == 0
+    assert colony(*SMALL_CONTINUUM, "--out", str(out))[0] == 0
     listed = (out / "fields.pvd").read_text().count(".vtu")
     assert len(list((out / "fields").iterdir())) == listed
     assert all(p.read_bytes() != b"stale" for p in (out / "fields").iterdir())
 
 
-def test_stage_of_another_engine_is_refused_until_overwrite(capsys, tmp_path):
+def test_stage_of_another_engine_is_refused_until_overwrite(colony, tmp_path):
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
     partial.mkdir()
@@ -136,31 +130,31 @@ def test_stage_of_another_engine_is_refused_until_overwrite(capsys, tmp_path):
 
     run(Config(lam=1e-2, radius=3.0), partial, stop_after=5)
     before = tree(partial)
-    status, err = colony(capsys, *SMALL_CONTINUUM, "--out", str(out))
+    status, err = colony(*SMALL_CONTINUUM, "--out", str(out))
     one_line_error(status, err, "stopped particles run", "--overwrite")
     assert tree(partial) == before
-    assert colony(capsys, *SMALL_CONTINUUM, "--out", str(out), "--overwrite")[0] == 0
+    assert colony(*SMALL_CONTINUUM, "--out", str(out), "--overwrite")[0] == 0
     assert not (out / "trajectory.gsd").exists() and not (out / "particles.csv").exists()
 
 
-def test_stage_of_another_configuration_is_refused(capsys, tmp_path):
+def test_stage_of_another_configuration_is_refused(colony, tmp_path):
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
     partial.mkdir()
     from particles import Config, run
 
     run(Config(lam=2e-2, radius=2.0), partial, stop_after=5)
-    status, err = colony(capsys, *SMALL_PARTICLES, "--out", str(out))
+    status, err = colony(*SMALL_PARTICLES, "--out", str(out))
     one_line_error(status, err, "differs in lam", "--overwrite")
     assert (partial / "checkpoint.npz").exists()
 
 
-def test_stage_with_foreign_files_is_refused_even_with_overwrite(capsys, tmp_path):
+def test_stage_with_foreign_files_is_refused_even_with_overwrite(colony, tmp_path):
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
     partial.mkdir()
     (partial / "data.h5").write_text("not ours")
-    status, err = colony(capsys, *SMALL_CONTINUUM, "--out", str(out), "--overwrite")
+    status, err = colony(*SMALL_CONTINUUM, "--out", str(out), "--overwrite")
     one_line_error(status, err, "data.h5", "colony did not write")
     assert (partial / "data.h5").read_text() == "not ours"
 
@@ -168,16 +162,16 @@ def test_stage_with_foreign_files_is_refused_even_with_overwrite(capsys, tmp_pat
 # --------------------------------------------------------------------------- resources
 
 
-def test_no_space_before_the_run(capsys, tmp_path, monkeypatch):
+def test_no_space_before_the_run(colony, tmp_path, monkeypatch):
     real = rundir.shutil.disk_usage
     monkeypatch.setattr(rundir.shutil, "disk_usage",
                         lambda p: real(p)._replace(free=280 * 1024))
-    status, err = colony(capsys, *SMALL_PARTICLES, "--out", str(tmp_path / "run"))
+    status, err = colony(*SMALL_PARTICLES, "--out", str(tmp_path / "run"))
     one_line_error(status, err, "no space left on", "0.3 MB free")
     assert not any(tmp_path.iterdir())
 
 
-def test_no_space_during_the_run_keeps_the_last_checkpoint(capsys, tmp_path, monkeypatch):
+def test_no_space_during_the_run_keeps_the_last_checkpoint(colony, tmp_path, monkeypatch):
     """The disk fills after a checkpoint: the run stops with one line before writing into the
     full file system (a trajectory write there can end the process with SIGBUS), the
     checkpoint is intact and the run resumes from it once space is back.
@@ -195,7 +189,7 @@ def test_no_space_during_the_run_keeps_the_last_checkpoint(capsys, tmp_path, mon
 
     monkeypatch.setattr(sim.shutil, "disk_usage", filling)
     args = (*SMALL_PARTICLES, "--set", "checkpoint_seconds=0", "--set", "output_every=1")
-    status, err = colony(capsys, *args, "--out", str(out))
+    status, err = colony(*args, "--out", str(out))
     one_line_error(status, err, "no space left on")
     partial = rundir.partial_of(out)
     assert json.loads((partial / "run.json").read_text())["status"] == "failed"
@@ -203,9 +197,9 @@ def test_no_space_during_the_run_keeps_the_last_checkpoint(capsys, tmp_path, mon
     checkpoint_step = checkpoint.checkpoint_config(partial / "checkpoint.npz")  # loads
     assert checkpoint_step.lam == 1e-2
     monkeypatch.setattr(sim.shutil, "disk_usage", real)
-    assert colony(capsys, *args, "--out", str(out))[0] == 0
+    assert colony(*args, "--out", str(out))[0] == 0
     reference = tmp_path / "reference"
-    assert colony(capsys, *args, "--out", str(reference))[0] == 0
+    assert colony(*args, "--out", str(reference))[0] == 0
     for name in ("particles.csv", "history.csv", "trajectory.gsd"):
         assert (out / name).read_bytes() == (reference / name).read_bytes(), name
 
@@ -227,8 +221,8 @@ def test_failed_checkpoint_write_leaves_the_previous_one(tmp_path, monkeypatch):
     assert sorted(p.name for p in tmp_path.iterdir() if ".tmp" in p.name) == []
 
 
-def test_continuum_too_large_for_memory(capsys, tmp_path):
-    status, err = colony(capsys, "continuum", "--lam", "1e-2", "--time", "0.01", "--shape",
+def test_continuum_too_large_for_memory(colony, tmp_path):
+    status, err = colony("continuum", "--lam", "1e-2", "--time", "0.01", "--shape",
                          "ellipse:1e6,1e6", "--out", str(tmp_path / "run"))
     one_line_error(status, err, "mesh nodes", "GiB", "h_max")
     assert not any(tmp_path.iterdir())
@@ -236,8 +230,8 @@ def test_continuum_too_large_for_memory(capsys, tmp_path):
 
 def test_memory_estimate_against_a_run():
     """The node estimate of continuum.budget against the node count of a run at radius 12."""
-    from continuum.budget import estimate_nodes
     from continuum import Config, run
+    from continuum.budget import estimate_nodes
 
     config = Config(lam=1e-2, radius=12.0, write_fields=False)
     state = run(config).state
@@ -248,48 +242,48 @@ def test_memory_estimate_against_a_run():
 # --------------------------------------------------------------------------- input
 
 
-def test_overlapping_or_identical_init(capsys, tmp_path):
+def test_overlapping_or_identical_init(colony, tmp_path):
     for name, rows in (("same", "0,0,0,1\n0,0,0,1\n"), ("cross", "0,0,0,1.5\n0.3,0.1,1,1.2\n")):
         f = tmp_path / f"{name}.csv"
         f.write_text("x,y,theta,length\n" + rows)
-        status, err = colony(capsys, *SMALL_PARTICLES, "--init", str(f),
+        status, err = colony(*SMALL_PARTICLES, "--init", str(f),
                              "--out", str(tmp_path / "run"))
         one_line_error(status, err, str(f), "overlap by")
     assert not (tmp_path / "run").exists() and not (tmp_path / "run.partial").exists()
 
 
-def test_binary_init(capsys, tmp_path):
+def test_binary_init(colony, tmp_path):
     f = tmp_path / "image.csv"
     f.write_bytes(bytes(range(256)) * 4)
-    status, err = colony(capsys, *SMALL_PARTICLES, "--init", str(f), "--out", str(tmp_path / "r"))
+    status, err = colony(*SMALL_PARTICLES, "--init", str(f), "--out", str(tmp_path / "r"))
     one_line_error(status, err, str(f), "not a text CSV")
 
 
-def test_radius_not_larger_than_the_initial_colony(capsys, tmp_path):
-    status, err = colony(capsys, "particles", "--lam", "1e-2", "--radius", "0.1",
+def test_radius_not_larger_than_the_initial_colony(colony, tmp_path):
+    status, err = colony("particles", "--lam", "1e-2", "--radius", "0.1",
                          "--out", str(tmp_path / "r"))
     one_line_error(status, err, "not larger than the initial colony radius")
     assert not any(tmp_path.iterdir())
 
 
-def test_lam_from_the_config_or_the_flag_never_silently_overridden(capsys, tmp_path):
-    status, err = colony(capsys, "particles", "--radius", "2", "--set", "lam=0.02",
+def test_lam_from_the_config_or_the_flag_never_silently_overridden(colony, tmp_path):
+    status, err = colony("particles", "--radius", "2", "--set", "lam=0.02",
                          "--lam", "0.01", "--out", str(tmp_path / "a"))
     one_line_error(status, err, "lam given twice")
-    status, err = colony(capsys, "particles", "--radius", "2", "--out", str(tmp_path / "b"))
+    status, err = colony("particles", "--radius", "2", "--out", str(tmp_path / "b"))
     one_line_error(status, err, "lam is required")
     toml = tmp_path / "c.toml"
     toml.write_text("lam = 0.02\n")
-    status, err = colony(capsys, "particles", "--radius", "2", "--config", str(toml), "--quiet",
+    status, err = colony("particles", "--radius", "2", "--config", str(toml), "--quiet",
                          "--out", str(tmp_path / "c"))
     assert status == 0, err
     assert json.loads((tmp_path / "c" / "config.json").read_text())["lam"] == 0.02
 
 
-def test_closed_two_point_polygon(capsys, tmp_path):
+def test_closed_two_point_polygon(colony, tmp_path):
     f = tmp_path / "p.csv"
     f.write_text("x,y\n0,0\n1,0\n0,0\n")
-    status, err = colony(capsys, "continuum", "--lam", "1e-2", "--radius", "5", "--shape",
+    status, err = colony("continuum", "--lam", "1e-2", "--radius", "5", "--shape",
                          f"polygon:{f}", "--out", str(tmp_path / "r"))
     one_line_error(status, err, "2 distinct vertices")
 
@@ -324,9 +318,9 @@ def test_signal_ends_with_a_line_and_a_checkpoint(tmp_path, sig, status, word):
     assert json.loads((partial / "run.json").read_text())["status"] == "stopped"
 
 
-def test_info_prints_the_provenance(capsys, tmp_path):
+def test_info_prints_the_provenance(colony, capsys, tmp_path):
     out = tmp_path / "run"
-    assert colony(capsys, *SMALL_CONTINUUM, "--out", str(out))[0] == 0
+    assert colony(*SMALL_CONTINUUM, "--out", str(out))[0] == 0
     status = cli.main(["info", str(out)])
     text = capsys.readouterr().out
     assert status == 0
@@ -335,6 +329,6 @@ def test_info_prints_the_provenance(capsys, tmp_path):
         assert needle in text
     record = json.loads((out / "run.json").read_text())
     assert record["package_version"] and record["sessions"][0]["cpu_seconds"] >= 0
-    status, err = colony(capsys, "info", str(tmp_path / "nothing"))
+    status, err = colony("info", str(tmp_path / "nothing"))
     one_line_error(status, err, "no run folder")
 

@@ -1,6 +1,6 @@
 """Jacobi-scaled APGD contact solver (particles/apgd.py) against exact answers and BBPGD.
 
-The exact chain answers are checked for both solvers in tests/test_particles_chain.py.
+The exact chain answers are checked for both solvers in tests/particles/test_chain.py.
 References here:
 - dense packings (a small colony grown by the engine, concentric rings of
   particles.packings.ring_packing):
@@ -11,7 +11,6 @@ References here:
 import numba
 import numpy as np
 import pytest
-from test_particles_chain import chain
 
 import particles
 from particles.apgd import apgd_kernel, lipschitz_bound, solve_contacts_apgd
@@ -144,7 +143,7 @@ def test_failure_raises_contact_solve_error_with_history(grown):
     assert f"N={x.size}" in str(e)
 
 
-def test_bad_input_raises_value_error():
+def test_bad_input_raises_value_error(chain):
     x, c = chain(np.ones(4))
     length = np.ones(4)
     with pytest.raises(ValueError, match="dt"):
@@ -170,36 +169,6 @@ def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
     # same law: total length and number agree to the tolerance-driven scatter
     assert abs(ca.length.sum() / cb.length.sum() - 1) < 0.02
     assert abs(ca.n - cb.n) <= 0.1 * cb.n
-
-
-def test_bench_particles_both_solvers_same_states(tmp_path):
-    """cases.bench.particles (issue 4): both solvers on the same grown and CSV states."""
-    from cases.bench import particles as bench_particles
-
-    grown = bench_particles.grow_states(particles.Config(lam=1e-2, time=1e9), [60],
-                                        tmp_path)
-    state, *_ = bench_particles.load_state(grown[0])
-    csv = tmp_path / "colony.csv"
-    np.savetxt(csv, np.c_[state.x, state.y, state.theta, state.length], delimiter=",",
-               header="x,y,theta,length", comments="")
-    threads = ["1", "2"] if numba.config.NUMBA_NUM_THREADS >= 2 else ["1"]
-    res = bench_particles.main(["--sizes", "60", "--state", str(csv), "--steps", "2",
-                                "--folder", str(tmp_path), "--threads", *threads])
-    assert sorted(res) == sorted(["apgd", "bbpgd"] + [f"{s}@2" for s in ("apgd", "bbpgd")
-                                                      if threads == ["1", "2"]])
-    if len(threads) == 2:  # the same iterates on two threads
-        assert [r["iterations"] for r in res["bbpgd"]] == [r["iterations"]
-                                                           for r in res["bbpgd@2"]]
-    for rows in res.values():
-        assert [r["N"] for r in rows] == [state.n, state.n]  # the same two states, both solvers
-        assert all(r["iterations"] > 0 and r["contacts"] > 0 for r in rows)
-    # every measurement in a fresh process, thread counts alternating
-    secs = bench_particles.main(["--sizes", "60", "--steps", "1", "--folder", str(tmp_path),
-                                 "--threads", *threads, "--alternate", "1"])
-    assert sorted(secs) == [int(t) for t in threads]
-    assert all(list(v) == [state.n] and len(v[state.n]) == 1 for v in secs.values())
-    with pytest.raises(SystemExit):
-        bench_particles.main(["--state", str(tmp_path / "missing.csv")])
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")

@@ -25,19 +25,8 @@ from scipy.optimize import brentq, root
 
 from particles.apgd import solve_contacts_apgd
 from particles.contact_solver import linearised_gap, solve_contacts
-from particles.geometry import axial_stress, find_contacts
-from particles.neighbours import candidate_pairs
+from particles.geometry import axial_stress
 from particles.twolevel import solve_contacts_twolevel
-
-
-def chain(lengths):
-    lengths = np.asarray(lengths, dtype=float)
-    right = np.cumsum(lengths)
-    x = right - lengths / 2 - right[-1] / 2
-    y = np.zeros_like(x)
-    th = np.zeros_like(x)
-    c = find_contacts(x, y, th, lengths, candidate_pairs(x, y, lengths, 0.05), 0.05)
-    return x, c
 
 
 def residual_reference(gamma, lengths, dt, lam):
@@ -52,7 +41,7 @@ def residual_reference(gamma, lengths, dt, lam):
     return a - 0.5 * (rate[:-1] + rate[1:])
 
 
-def test_chain_contacts_are_end_to_end():
+def test_chain_contacts_are_end_to_end(chain):
     rng = np.random.default_rng(1)
     lengths = rng.uniform(1.0, 2.0, 12)
     _, c = chain(lengths)
@@ -71,7 +60,7 @@ SOLVERS = pytest.mark.parametrize(
 
 @SOLVERS
 @pytest.mark.parametrize("n", [5, 20])
-def test_chain_lam0_tridiagonal(n, solve):
+def test_chain_lam0_tridiagonal(chain, n, solve):
     rng = np.random.default_rng(n)
     lengths = rng.uniform(1.0, 2.0, n)
     dt = 0.01
@@ -98,7 +87,7 @@ def test_chain_lam0_tridiagonal(n, solve):
 
 @SOLVERS
 @pytest.mark.parametrize("lam", [0.05, 0.5])
-def test_chain_lam_positive_nonlinear(lam, solve):
+def test_chain_lam_positive_nonlinear(chain, lam, solve):
     n = 15
     rng = np.random.default_rng(7)
     lengths = rng.uniform(1.0, 2.0, n)
@@ -127,7 +116,7 @@ def continuum_1d(x, radius, lam):
 
 @SOLVERS
 @pytest.mark.parametrize("lam_r2", [0.0, 2.0])
-def test_long_chain_matches_1d_continuum_second_order(lam_r2, solve):
+def test_long_chain_matches_1d_continuum_second_order(chain, lam_r2, solve):
     ns = np.array([16, 32, 64, 128])
     errs = []
     for n in ns:
@@ -146,7 +135,7 @@ def test_long_chain_matches_1d_continuum_second_order(lam_r2, solve):
 
 
 @SOLVERS
-def test_chain_error_is_first_order_in_the_tolerance(solve):
+def test_chain_error_is_first_order_in_the_tolerance(chain, solve):
     """|gamma - gamma_exact| <= |A^-1|_inf res: the error follows the tolerance, order 1."""
     n = 40
     lengths = np.random.default_rng(3).uniform(1.0, 2.0, n)

@@ -1,7 +1,8 @@
 """cases.viewer: pictures and movies redrawn from a run folder of either engine.
 
 Tiny runs (particles to radius 4, 16 particles; continuum to radius 2, 17 VTU frames) are made
-once per module; the movies are read back with imageio-ffmpeg and hold one frame per saved frame.
+once per session (tests/conftest.py); the movies are read back with imageio-ffmpeg and hold one
+frame per saved frame.
 """
 
 from __future__ import annotations
@@ -16,24 +17,6 @@ imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
 from cases.analysis import continuum_frames  # noqa: E402
 from cases.viewer import boundary_edges, movie_run, plot_run, run_kind  # noqa: E402
 from particles.output import count_frames  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def particle_run(tmp_path_factory):
-    from particles.simulation import ParticleConfig, run
-
-    out = tmp_path_factory.mktemp("particles")
-    run(ParticleConfig(lam=1e-2, radius=4, output_every=20, threads=1), out=out)
-    return out
-
-
-@pytest.fixture(scope="module")
-def continuum_run(tmp_path_factory):
-    from continuum import Config, run
-
-    out = tmp_path_factory.mktemp("continuum")
-    run(Config(lam=1e-2, radius=2, output_every=0.2), out=out)
-    return out
 
 
 def _is_png(path):

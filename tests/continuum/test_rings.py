@@ -131,9 +131,8 @@ RUN_RING_TOL_TIME = 0.025
 def test_continuum_run_rings_against_radial(tmp_path):
     """(c) the rings of a real run (rings.csv and the final VTU frame) vs continuum.radial."""
     from cases.analysis import continuum_frames, mesh_radius, read_continuum_frame, read_csv
-    from continuum import radial
+    from continuum import Config, radial, run
     from continuum.output import write_rings
-    from continuum import Config, run
 
     lam = 1e-2
     state = run(Config(lam=lam, radius=12.0, output_every=100.0), out=tmp_path).state

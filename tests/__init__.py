@@ -1,0 +1,1 @@
+"""Tests of colony-mechanics, by package: continuum/, particles/, cases/; docs at the top."""

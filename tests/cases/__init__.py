@@ -1,0 +1,1 @@
+"""Tests of the cases layer: CLI, faults, analysis, figures, sweeps, viewer, benchmarks."""

@@ -1,0 +1,115 @@
+"""The benchmark scripts of cases/bench/, run small (``python -m cases.bench.NAME``).
+
+The continuum target run to radius 150 is marked slow; the others run a few steps of small
+colonies and check that the scripts' numbers add up.
+"""
+
+from dataclasses import replace
+
+import numba
+import numpy as np
+import pytest
+
+import particles
+from particles import Config, run
+
+
+@pytest.mark.slow
+def test_target_run_radius_150_rings():
+    """The benchmark target (cases.bench.continuum): lam = 1e-2 to radius 150 with the default
+    settings; the two outer rings within 1% of the local ring spacing of the 1D reference at
+    the same radius (measured 0.50% and 0.35%, 86 s CPU, see the report in the README)."""
+    from cases.bench.continuum import target_run
+
+    r = target_run(150.0)
+    assert r["outer_max_rel_err"] < 0.01, r["rings"][-2:]
+    assert r["all_max_rel_err"] < 0.015, r["rings"]
+
+
+def test_bench_particles_both_solvers_same_states(tmp_path):
+    """cases.bench.particles (issue 4): both solvers on the same grown and CSV states."""
+    from cases.bench import particles as bench_particles
+
+    grown = bench_particles.grow_states(particles.Config(lam=1e-2, time=1e9), [60],
+                                        tmp_path)
+    state, *_ = bench_particles.load_state(grown[0])
+    csv = tmp_path / "colony.csv"
+    np.savetxt(csv, np.c_[state.x, state.y, state.theta, state.length], delimiter=",",
+               header="x,y,theta,length", comments="")
+    threads = ["1", "2"] if numba.config.NUMBA_NUM_THREADS >= 2 else ["1"]
+    res = bench_particles.main(["--sizes", "60", "--state", str(csv), "--steps", "2",
+                                "--folder", str(tmp_path), "--threads", *threads])
+    assert sorted(res) == sorted(["apgd", "bbpgd"] + [f"{s}@2" for s in ("apgd", "bbpgd")
+                                                      if threads == ["1", "2"]])
+    if len(threads) == 2:  # the same iterates on two threads
+        assert [r["iterations"] for r in res["bbpgd"]] == [r["iterations"]
+                                                           for r in res["bbpgd@2"]]
+    for rows in res.values():
+        assert [r["N"] for r in rows] == [state.n, state.n]  # the same two states, both solvers
+        assert all(r["iterations"] > 0 and r["contacts"] > 0 for r in rows)
+    # every measurement in a fresh process, thread counts alternating
+    secs = bench_particles.main(["--sizes", "60", "--steps", "1", "--folder", str(tmp_path),
+                                 "--threads", *threads, "--alternate", "1"])
+    assert sorted(secs) == [int(t) for t in threads]
+    assert all(list(v) == [state.n] and len(v[state.n]) == 1 for v in secs.values())
+    with pytest.raises(SystemExit):
+        bench_particles.main(["--state", str(tmp_path / "missing.csv")])
+
+
+def test_bench_timestep_small(tmp_path, capsys):
+    """cases.bench.timestep (issue 4): every run reaches the radius, the work adds up, the
+    uncapped variant runs, a bad policy is a usage error.
+    """
+    from cases.bench import timestep as bench_timestep
+
+    out = tmp_path / "b.csv"
+    rows = bench_timestep.main(["--radius", "4", "--lams", "1e-2", "--policies", "fixed:0.02",
+                                "adaptive:0.08", "--uncapped", "--out", str(out)])
+    assert [(r["policy"], r["uncapped"]) for r in rows] == [
+        ("fixed:0.02", False), ("fixed:0.02", True), ("adaptive:0.08", False)]
+    for r in rows:
+        assert r["main_iterations"] > 0 and r["steps"] > 10 and r["n_particles"] > 4
+    assert rows[0]["t_at_radius"] == pytest.approx(rows[2]["t_at_radius"], rel=0.05)
+    assert len(np.genfromtxt(out, delimiter=",", names=True, dtype=None)) == 3
+    assert "| 0.01 | adaptive:0.08 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench_timestep.main(["--policies", "fixed:abc"])
+
+
+def test_bench_timestep_from_checkpoint(tmp_path, capsys):
+    """cases.bench.timestep --checkpoint: with the run's own step it continues the run exactly
+    (same iterations and particles as the uninterrupted run's next steps); a policy with half
+    the step takes twice the steps; a missing checkpoint is a usage error.
+    """
+    from cases.bench import timestep as bench_timestep
+
+    cfg = Config(lam=1e-2, time=3.6, dt=0.02, seed=3)
+    full, part = tmp_path / "full", tmp_path / "part"
+    full.mkdir()
+    part.mkdir()
+    a = run(cfg, full)
+    run(cfg, part, stop_after=150)
+    rows = bench_timestep.main(["--checkpoint", str(part / "checkpoint.npz"), "--duration",
+                                "0.2", "--policies", "fixed:0.02", "fixed:0.01", "--out",
+                                str(tmp_path / "c.csv")])
+    same, half = rows
+    nxt = a.history[150:160]
+    assert same["steps"] == 10 and half["steps"] == 20 and same["duration"] == pytest.approx(0.2)
+    assert same["main_per_time"] * 0.2 == pytest.approx(
+        sum(r["iterations"] - r["pass_iterations"] for r in nxt))
+    assert same["n_particles"] == nxt[-1]["n_particles"] > 4
+    assert 0 < same["rotation_q999"] <= same["max_rotation"]
+    assert "| fixed:0.01 | 20 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench_timestep.main(["--checkpoint", str(tmp_path / "none.npz")])
+    # --history: the segments of a run resumed with another dt add up to its history
+    run(replace(cfg, dt=0.01), part, change_step_policy=True)
+    seg = bench_timestep.main(["--history", str(part)])
+    h = np.genfromtxt(part / "history.csv", delimiter=",", names=True)
+    assert [(r["first_step"], r["last_step"]) for r in seg] == [(1, 150), (151, len(h))]
+    assert [r["dt_max"] for r in seg] == pytest.approx([0.02, 0.01])
+    work = h["iterations"] + h["failed_iterations"]
+    assert sum(r["per_time"] * r["steps"] * r["dt_max"] for r in seg) == pytest.approx(
+        work.sum(), rel=1e-6)
+    with pytest.raises(SystemExit):
+        bench_timestep.main(["--history", str(tmp_path / "none")])

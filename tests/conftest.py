@@ -1,0 +1,27 @@
+"""Fixtures shared by the tests of every package: tiny finished runs of both engines.
+
+Each is made once per session into a temporary folder; a test that changes a run's files puts
+them back.
+"""
+
+import pytest
+
+
+@pytest.fixture(scope="session")
+def particle_run(tmp_path_factory):
+    """Folder of a particle run: lam = 1e-2 to radius 4 (16 particles), a frame every 20 steps."""
+    from particles import Config, run
+
+    out = tmp_path_factory.mktemp("particles")
+    run(Config(lam=1e-2, radius=4, output_every=20, threads=1), out=out)
+    return out
+
+
+@pytest.fixture(scope="session")
+def continuum_run(tmp_path_factory):
+    """Folder of a continuum run: lam = 1e-2 to radius 2, 17 VTU frames (output_every 0.2)."""
+    from continuum import Config, run
+
+    out = tmp_path_factory.mktemp("continuum")
+    run(Config(lam=1e-2, radius=2, output_every=0.2), out=out)
+    return out
