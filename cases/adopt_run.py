@@ -1,5 +1,6 @@
-"""Adopt a run made by hand (`colony particles ...`) into a sweep's runs folder, and record its
-small data in the repository.
+"""Adopt a run made by hand into a sweep's runs folder, and record its small data.
+
+The run is one made with ``colony particles ...``; its small data go into the repository.
 
 A paper-scale particle colony takes hours to days and is grown by one command resumed over
 several sessions, not by the sweep; once finished it is adopted:
@@ -40,8 +41,11 @@ SMALL_FILES = ("profile.csv", "config.json")
 
 
 def initial_config(config: dict) -> dict:
-    """The configuration a run started with: ``config`` (a config.json) with the step-policy
-    changes it records (``step_policy_changes``, particles.output.write_config) undone."""
+    """The configuration a run started with.
+
+    That is ``config`` (a config.json) with the step-policy changes it records
+    (``step_policy_changes``, particles.output.write_config) undone.
+    """
     config = dict(config)
     for change in reversed(config.pop("step_policy_changes", [])):
         config |= {k: v[0] for k, v in change.items() if k != "step"}
@@ -83,16 +87,20 @@ def adopt(run: str | Path, runs: str | Path, scale: str = "paper",
 
 
 def time_reports(text: str, lines: int = 23) -> str:
-    """The first ``lines`` lines of every ``/usr/bin/time -v`` report in ``text`` (command,
-    CPU and wall time, memory), one report after the other."""
+    """The first ``lines`` lines of every ``/usr/bin/time -v`` report in ``text``.
+
+    These are the command, CPU and wall time and memory, one report after the other.
+    """
     blocks = text.split("\tCommand being timed")[1:]
     return "".join("\tCommand being timed" + "\n".join(b.splitlines()[:lines]) + "\n"
                    for b in blocks)
 
 
 def record(run: str | Path, data: str | Path, time_log: str | Path | None = None) -> Path:
-    """Copy the small data of the adopted run ``run`` to ``data/lam=LAM/`` (module docstring);
-    returns that folder."""
+    """Copy the small data of the adopted run ``run`` to ``data/lam=LAM/`` (module docstring).
+
+    Returns that folder.
+    """
     run = Path(run)
     lam = float(json.loads((run / "config.json").read_text())["lam"])
     dest = Path(data) / f"lam={lam:g}"

@@ -480,8 +480,10 @@ def _report(args) -> int:
 
 
 def configure_logging(quiet: bool, verbose: bool) -> None:
-    """Library modules log through ``logging``: WARNING with --quiet, INFO by default, DEBUG
-    with --verbose; records go to stderr as ``colony: message``."""
+    """Route the library modules' ``logging`` records to stderr as ``colony: message``.
+
+    The level is WARNING with --quiet, INFO by default, DEBUG with --verbose.
+    """
     level = logging.WARNING if quiet else logging.DEBUG if verbose else logging.INFO
     logging.basicConfig(level=level, format="colony: %(message)s", stream=sys.stderr)
     for noisy in ("numba", "matplotlib", "PIL", "distributed", "fsspec", "gsd", "asyncio"):

@@ -38,7 +38,7 @@ import sys
 import time
 from contextlib import contextmanager
 from dataclasses import asdict
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from importlib import metadata
 from pathlib import Path
 
@@ -290,6 +290,7 @@ def git_commit() -> str | None:
 
 
 def package_version() -> str:
+    """The installed version of colony-mechanics ("unknown" in a checkout not installed)."""
     try:
         return metadata.version("colony-mechanics")
     except metadata.PackageNotFoundError:
@@ -297,7 +298,7 @@ def package_version() -> str:
 
 
 def _now() -> str:
-    return datetime.now(timezone.utc).isoformat(timespec="seconds")
+    return datetime.now(UTC).isoformat(timespec="seconds")
 
 
 def write_record(folder: Path, record: dict) -> None:
@@ -396,4 +397,5 @@ def _last_history_row(folder: Path) -> dict:
         return {}
     keys, values = lines[0].split(","), lines[-1].split(",")
     wanted = ("t", "radius", "n_particles", "n_nodes", "max_pressure", "max_stress")
-    return {k: v for k, v in zip(keys, values) if k in wanted}
+    # strict=False: the last line may be one being written (fewer fields than the header).
+    return {k: v for k, v in zip(keys, values, strict=False) if k in wanted}

@@ -268,8 +268,11 @@ def scale_config(scale: str) -> dict[str, Any]:
 
 
 def _engine_params(engine: str, lam: float, cfg: Mapping[str, Any]) -> dict[str, Any]:
-    """The sweep parameters of run (engine, lam) at the run sizes ``cfg`` of SCALES: the engine's
-    settings, overridden for lam < below by those of ``ENGINE_small_lam`` where present."""
+    """The sweep parameters of run (engine, lam) at the run sizes ``cfg`` of SCALES.
+
+    These are the engine's settings, overridden for lam < below by those of
+    ``ENGINE_small_lam`` where present.
+    """
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     settings = dict(cfg[engine])
@@ -306,11 +309,12 @@ def finished_runs(runs: Sequence[tuple[str, float]], scale: str, root: str | Pat
     return {k: f for k, f in folders.items() if is_done(f)}
 
 
-def case_runs(case: str, needed: Sequence[tuple[str, float]], scale: str, out: str | Path,
-              runs: str | Path | None = None, scheduler: str | None = None, n_workers: int = 2,
-              engines: Sequence[str] = ENGINES, needs_continuum: bool = True,
-              finished_only: Sequence[str] = (),
-              ) -> dict[tuple[str, float], Path]:
+def case_runs(  # noqa: PLR0913 (the run options of every figure case, as the CLI's)
+    case: str, needed: Sequence[tuple[str, float]], scale: str, out: str | Path,
+    runs: str | Path | None = None, scheduler: str | None = None, n_workers: int = 2,
+    engines: Sequence[str] = ENGINES, needs_continuum: bool = True,
+    finished_only: Sequence[str] = (),
+) -> dict[tuple[str, float], Path]:
     """The engine runs of a figure case (run or reused under ``runs``, default ``out/runs``).
 
     Every figure case (fig2, fig3, fig4, crosscheck) gets its runs here. ``engines =

@@ -3,7 +3,7 @@
 ``plot_run(DIR)`` (``colony plot DIR``) and ``movie_run(DIR, OUT.mp4)`` (``colony movie DIR``)
 read a run folder of either engine (docs/DESIGN.md, output contract):
 
-- continuum: config.json, history.csv, fields.pvd + fields/*.vtu (point data G);
+- continuum: config.json, history.csv, fields.pvd + ``fields/*.vtu`` (point data G);
 - particles: config.json, history.csv, trajectory.gsd (particles.csv for the final picture).
 
 Particles are sphero-cylinders coloured by their length l, the continuum is its mean length

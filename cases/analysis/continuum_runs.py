@@ -34,7 +34,7 @@ __all__ = [
 
 
 def mesh_radius(points: np.ndarray, triangles: np.ndarray) -> float:
-    """Colony radius sqrt(A / pi) of a frame, A = sum of the triangles' areas |T|."""
+    """Colony radius sqrt(A / pi) of a frame, A = sum of the triangles' areas ``|T|``."""
     return math.sqrt(float(np.abs(triangle_areas(points, triangles)).sum()) / math.pi)
 
 

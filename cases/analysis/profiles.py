@@ -136,7 +136,7 @@ def radial_profile(
     """Radial profiles of several fields in equal-area annuli about the colony centre.
 
     The centre is `center` or the weighted centroid sum w_i x_i / sum w_i of the samples; the
-    samples' distances r_i = |x_i - centre| are binned by :func:`equal_area_annuli`.
+    samples' distances ``r_i = |x_i - centre|`` are binned by :func:`equal_area_annuli`.
 
     Parameters
     ----------

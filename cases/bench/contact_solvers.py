@@ -82,7 +82,7 @@ comparison (at tol 1e-3 both solvers' loads then differ from the reference by 20
 N ~ 1e4: the gap tolerance does not pin the loads).
 
 Prints a table of medians over ``--repeat`` runs (iterations, gradient evaluations, seconds,
-final residual, max |sigma - sigma_ref|) and the fitted exponents of iterations and seconds in
+final residual, max ``|sigma - sigma_ref|``) and the fitted exponents of iterations and seconds in
 N, and writes the rows to ``--out`` (CSV).  Record ``uptime`` beside the timings: the machine
 may be shared.
 """
@@ -110,7 +110,7 @@ SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1),
 
 
 def residual(c, length, dt, lam, gamma) -> float:
-    """Projected residual max_k |min(a_kk gamma_k, q_k)| (contact_solver's definition)."""
+    """Projected residual ``max_k |min(a_kk gamma_k, q_k)|`` (contact_solver's definition)."""
     ti = c.rix * c.ny - c.riy * c.nx
     tj = c.rjx * c.ny - c.rjy * c.nx
     akk = dt * (1 / length[c.i] + 1 / length[c.j] + 12 / length[c.i] ** 3 * ti**2
@@ -131,6 +131,7 @@ def measure(name, c, length, dt, lam, gamma0, tol, repeat):
 
 
 def states(args):
+    """The states to measure: (label, (x, y, theta, length), seconds to make it) each."""
     for n in args.sizes:
         t0 = time.perf_counter()
         st = ring_packing(n, seed=args.seed)
@@ -141,6 +142,7 @@ def states(args):
 
 
 def main(argv=None) -> None:
+    """Command line (module docstring)."""
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000],
                    help="target particle numbers of synthetic ring packings")
@@ -168,7 +170,7 @@ def main(argv=None) -> None:
     hdr = (f"{'state':>14} {'N':>7} {'K':>7} {'start':>5} {'tol':>7} {'solver':>6} {'iters':>7} "
            f"{'grads':>7} {'sec':>8} {'res':>9} {'dsig/sig':>9}")
     print(hdr)
-    for label, st, tmake in states(args):
+    for label, st, _seconds in states(args):
         x, y, theta, length = st
         n = x.shape[0]
         c = detect_contacts(x, y, theta, length, args.margin)

@@ -71,7 +71,7 @@ def ring_errors(state, lam: float, same: str = "radius") -> list[tuple[int, floa
     rays = rr[None, :, None] * np.stack([np.cos(ang), np.sin(ang)], -1)[:, None, :]
     G = state.sample(rays.reshape(-1, 2))["G"].reshape(len(ang), len(rr))
     out = []
-    for i, (r0, k) in enumerate(zip(ref, ks)):
+    for i, (r0, k) in enumerate(zip(ref, ks, strict=True)):
         if r0 < 3.0 or r0 > rr[-1]:
             continue
         cross = []
@@ -117,6 +117,7 @@ def target_run(radius: float = 150.0, lam: float = 1e-2, **overrides) -> dict:
 
 
 def main(argv=None) -> None:
+    """Command line (module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000, 100000])
     ap.add_argument("--steps", type=int, default=5)

@@ -137,9 +137,10 @@ def _table(res: list[dict]) -> None:
 
 
 def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -> dict:
-    """{threads: {N: [seconds per step of each repetition]}} of the first solver, each
-    measurement a fresh ``python -m cases.bench.particles ARGV --threads T`` process, the
-    numbers of threads alternating.
+    """{threads: {N: [seconds per step of each repetition]}} of the first solver.
+
+    Each measurement is a fresh ``python -m cases.bench.particles ARGV --threads T`` process,
+    the numbers of threads alternating.
     """
     secs: dict = {t: {} for t in threads}
     for rep in range(repeats):
@@ -168,6 +169,7 @@ def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -
 
 
 def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
+    """Command line (module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000])
     ap.add_argument("--state", type=Path, action="append", default=[],

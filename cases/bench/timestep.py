@@ -18,6 +18,8 @@ iterations per unit time (main, passes, failed attempts), the halved steps and t
 the particles in one step (largest and 99.9 % quantile: beyond ~0.1 rad the linearised contacts
 no longer hold and the passes meet crossed rods).
 
+Command line::
+
     python -m cases.bench.timestep [--radius 40] [--lams 1e-2 1e-3 1e-4 0]
                                    [--policies fixed:0.005 fixed:0.01 fixed:0.02 adaptive:0.04]
                                    [--uncapped] [--out runs/bench_timestep.csv]
@@ -99,8 +101,9 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
 
 
 def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
-    """Advance the state of checkpoint ``path`` by ``duration`` under ``policy`` (module
-    docstring); the run's configuration otherwise.  Iterations are per unit time.
+    """Advance the state of checkpoint ``path`` by ``duration`` under ``policy``.
+
+    See the module docstring; the run's configuration otherwise. Iterations are per unit time.
     """
     config = checkpoint_config(Path(path))
     state, *_ = load_checkpoint(Path(path), config)
@@ -135,10 +138,11 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
 
 
 def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
-    """Per step-policy segment of the run folder ``run`` (module docstring): first and last
-    step, N range, dt range, steps, halved steps, iterations per unit time (main, passes and
-    failed attempts; failed counted 0 where the history predates the column) and the failed
-    share.
+    """Per step-policy segment of the run folder ``run`` (module docstring), its statistics.
+
+    These are: first and last step, N range, dt range, steps, halved steps, iterations per unit
+    time (main, passes and failed attempts; failed counted 0 where the history predates the
+    column) and the failed share.
     """
     run = Path(run)
     h = A.read_csv(run / "history.csv")
@@ -146,7 +150,7 @@ def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
     bounds = [0, *(c["step"] for c in changes), math.inf]
     failed = np.nan_to_num(h["failed_iterations"])
     rows = []
-    for a, b in zip(bounds[:-1], bounds[1:]):
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
         m = (h["step"] > a) & (h["step"] <= b) & (h["n_particles"] >= min_particles)
         if not m.any():
             continue
@@ -200,6 +204,7 @@ def _table(rows: list[dict]) -> None:
 
 
 def main(argv: list[str] | None = None) -> list[dict]:
+    """Command line (module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--radius", type=float, default=40.0)
     ap.add_argument("--lams", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 0.0])

@@ -1,7 +1,8 @@
 """Discrete-continuum cross-check: the results table of the README, with numbers.
 
 For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 included):
-- R(t): largest relative difference |R_p - R_c| / R_c of the particle radius (interpolated at
+
+- R(t): largest relative difference ``|R_p - R_c| / R_c`` of the particle radius (interpolated at
   the continuum's output times) over the common time range and over the part where
   R_c >= R_f / 2, for both particle radii of the history (the smallest centroid disc holding
   every particle, and sqrt(hull area / pi), closer to the continuum's sqrt(area / pi) while the
@@ -17,6 +18,7 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
   mean-length profile), and whether the particle colony has rings at all: the azimuthal
   coherence C of its final length pattern and its significance z
   (:func:`cases.analysis.ring_coherence`; z >= analysis.RING_Z: rings);
+
 and the power-law exponents fitted against lam (lam > 0, finite values) of the wavelengths and
 maximum stresses, beside the paper's statements; the particle wavelength's over the lam whose
 colony has rings only (elsewhere the peak finder measures noise). Nothing is tuned: every
@@ -176,8 +178,10 @@ def _particle_row(fp: Path, fc: Path, lam: float, data: Path) -> dict[str, float
 
 
 def exponents(table: dict[str, list]) -> dict[str, np.ndarray]:
-    """Fitted exponent a of y = C lam^a (lam > 0, finite y) per EXPONENTS row; nan if < 2 points.
-    The particle wavelength is fitted over the lam with rings (ring_z_particles >= RING_Z) only.
+    """Fitted exponent a of y = C lam^a (lam > 0, finite y) per EXPONENTS row.
+
+    nan if fewer than 2 points. The particle wavelength is fitted over the lam with rings
+    (ring_z_particles >= RING_Z) only.
 
     Columns: row (index into EXPONENTS), exponent, prefactor, n_points.
     """

@@ -66,7 +66,7 @@ def spherocylinder_polygons(
     return np.stack([vx, vy], axis=-1)
 
 
-def draw_particles(
+def draw_particles(  # noqa: PLR0913 (drawing options, all keywords with defaults)
     x: np.ndarray,
     y: np.ndarray,
     theta: np.ndarray,

@@ -52,9 +52,12 @@ def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
 
 
 def exact_wavelength(lam: float, radius: float) -> float:
-    """Wavelength of the 1D radial reference at colony radius R: the difference of its two
-    outermost ring radii, G(r) = k ln 2 (continuum.radial.ring_radii, |G - k ln 2| <= 1e-11);
-    nan with fewer than two rings (lam = 0 has none)."""
+    """Wavelength of the 1D radial reference at colony radius R.
+
+    It is the difference of its two outermost ring radii, G(r) = k ln 2
+    (continuum.radial.ring_radii, ``|G - k ln 2| <= 1e-11``); nan with fewer than two rings
+    (lam = 0 has none).
+    """
     from continuum import radial
 
     if lam <= 0:

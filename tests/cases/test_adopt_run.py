@@ -58,8 +58,10 @@ def test_adopt_refuses_mismatch_and_existing_target_without_touching_anything(tm
 
 
 def test_adopt_checks_the_configuration_the_run_started_with(tmp_path):
-    """A run resumed with another step (config.json's step_policy_changes) is checked against
-    the sweep with its starting step (paper scale, lam = 1e-3: dt = 0.005)."""
+    """A run resumed with another step is checked against the sweep with its starting step.
+
+    The changes are config.json's step_policy_changes; paper scale, lam = 1e-3: dt = 0.005.
+    """
     paper = {"lam": 1e-3, "radius": 150.0, "output_every": 100}
     changes = [{"step": 100, "adaptive_dt": [False, True]},
                {"step": 150, "dt": [0.005, 0.0025], "adaptive_dt": [True, False]}]

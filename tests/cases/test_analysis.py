@@ -10,7 +10,7 @@ from continuum.growth import mean_length
 
 
 def _uniform_disc(n: int, R: float, rng: np.random.Generator) -> np.ndarray:
-    """n points uniform in the disc of radius R (r = R sqrt(U))."""
+    """Draw n points uniform in the disc of radius R (r = R sqrt(U))."""
     r = R * np.sqrt(rng.random(n))
     phi = 2 * np.pi * rng.random(n)
     return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
@@ -96,9 +96,12 @@ def test_bad_input_errors():
 
 @pytest.mark.parametrize("w", [3.0, 5.0, 12.0])
 def test_ring_wavelength_of_noisy_cosine_from_particles(w):
-    """Particles uniform in a disc, length 1.5 + 0.25 cos(2 pi r / w) + noise(0.15), binned in
-    equal-area annuli like the real data: the wavelength is w within 3 %, and every peak where
-    the annuli resolve the wave (width <= w/4) is found, none spurious."""
+    """Particles uniform in a disc with a radial length wave, binned like the real data.
+
+    Length 1.5 + 0.25 cos(2 pi r / w) + noise(0.15), equal-area annuli: the wavelength is w
+    within 3 %, and every peak where the annuli resolve the wave (width <= w/4) is found, none
+    spurious.
+    """
     rng = np.random.default_rng(int(w * 10))
     R = 60.0
     xy = _uniform_disc(60000, R, rng)
@@ -120,8 +123,11 @@ def test_ring_wavelength_of_noisy_cosine_from_particles(w):
 
 
 def test_noise_threshold_uses_standard_errors():
-    """A weak wave (amplitude 0.05) under noise 0.03 per sample: without stderr the noise makes
-    spurious peaks; with stderr the 3-sigma prominence rejects them and finds the wave."""
+    """A weak wave (amplitude 0.05) under noise 0.03 per sample.
+
+    Without stderr the noise makes spurious peaks; with stderr the 3-sigma prominence rejects
+    them and finds the wave.
+    """
     rng = np.random.default_rng(5)
     r = np.linspace(0, 40, 800)
     f = 1.5 + 0.05 * np.cos(2 * np.pi * r / 8.0) + rng.normal(0, 0.03, r.size)
@@ -152,9 +158,12 @@ def test_pure_noise_and_short_profiles_give_nan():
 
 
 def test_ring_coherence_is_standard_normal_on_noise_and_large_on_rings():
-    """ring_coherence's z: over 300 colonies of noise on a radial trend its mean is 0 and its
-    standard deviation 1 (the normalisation of the docstring); concentric rings under three
-    times their amplitude in noise give z >> 3, C near the expected correlation."""
+    """The z of ring_coherence: mean 0, standard deviation 1 on noise; z >> 3 on rings.
+
+    Over 300 colonies of noise on a radial trend its mean is 0 and its standard deviation 1
+    (the normalisation of the docstring); concentric rings under three times their amplitude
+    in noise give z >> 3, C near the expected correlation.
+    """
     rng = np.random.default_rng(11)
     R = 60.0
     zs = []
@@ -230,9 +239,12 @@ def test_ecoli_lambda_is_the_papers_estimate():
 
 @pytest.mark.parametrize("lam, R", [(1e-2, 150.0), (0.1, 30.0)])
 def test_wavelength_of_exact_radial_profile_matches_ring_spacing(lam, R):
-    """The 1D radial reference lbar(r) (a sawtooth dropping from 2 to 1 at each ring): the
-    distance between its last two peaks is the spacing of its last two rings within 3 %
-    (smoothing over b = 0.5 moves each peak inwards by a fraction of b)."""
+    """The 1D radial reference lbar(r): its last two peaks are its last two rings' spacing.
+
+    lbar(r) is a sawtooth dropping from 2 to 1 at each ring; the distance between its last two
+    peaks is the spacing of its last two rings within 3 % (smoothing over b = 0.5 moves each
+    peak inwards by a fraction of b).
+    """
     radial = pytest.importorskip("continuum.radial")
     r = np.linspace(0, R, 6001)
     w = A.ring_wavelength(r, radial.mean_length_profile(lam, r, radius=R))

@@ -16,9 +16,11 @@ from particles import Config, run
 
 @pytest.mark.slow
 def test_target_run_radius_150_rings():
-    """The benchmark target (cases.bench.continuum): lam = 1e-2 to radius 150 with the default
-    settings; the two outer rings within 1% of the local ring spacing of the 1D reference at
-    the same radius (measured 0.50% and 0.35%, 86 s CPU, see the report in the README)."""
+    """The benchmark target (cases.bench.continuum): lam = 1e-2 to radius 150, default settings.
+
+    The two outer rings lie within 1% of the local ring spacing of the 1D reference at the same
+    radius (measured 0.50% and 0.35%, 86 s CPU, see the report in the README).
+    """
     from cases.bench.continuum import target_run
 
     r = target_run(150.0)
@@ -57,8 +59,10 @@ def test_bench_particles_both_solvers_same_states(tmp_path):
 
 
 def test_bench_timestep_small(tmp_path, capsys):
-    """cases.bench.timestep (issue 4): every run reaches the radius, the work adds up, the
-    uncapped variant runs, a bad policy is a usage error.
+    """The step-policy benchmark cases.bench.timestep (issue 4).
+
+    Every run reaches the radius, the work adds up, the uncapped variant runs, a bad policy is
+    a usage error.
     """
     from cases.bench import timestep as bench_timestep
 
@@ -77,9 +81,11 @@ def test_bench_timestep_small(tmp_path, capsys):
 
 
 def test_bench_timestep_from_checkpoint(tmp_path, capsys):
-    """cases.bench.timestep --checkpoint: with the run's own step it continues the run exactly
-    (same iterations and particles as the uninterrupted run's next steps); a policy with half
-    the step takes twice the steps; a missing checkpoint is a usage error.
+    """The step-policy benchmark from a checkpoint (cases.bench.timestep --checkpoint).
+
+    With the run's own step it continues the run exactly (same iterations and particles as the
+    uninterrupted run's next steps); a policy with half the step takes twice the steps; a
+    missing checkpoint is a usage error.
     """
     from cases.bench import timestep as bench_timestep
 

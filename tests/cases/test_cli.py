@@ -150,8 +150,10 @@ def test_case_from_committed_data(tmp_path, data_set):
 
 
 def test_particles_resume_with_another_step_only_when_asked(tmp_path):
-    """A stopped run (checkpoint in DIR.partial) given another --dt: refused with a one-line
-    error naming --change-step-policy; with it, resumed and the change recorded.
+    """A stopped run (checkpoint in DIR.partial) given another --dt.
+
+    It is refused with a one-line error naming --change-step-policy; with that option, resumed
+    and the change recorded.
     """
     from particles import Config, run
 
@@ -172,8 +174,10 @@ def test_particles_resume_with_another_step_only_when_asked(tmp_path):
 
 
 def test_plot_and_movie_of_a_run(tmp_path):
-    """``colony plot DIR`` and ``colony movie DIR`` redraw a finished run; the folder stays
-    replaceable by --overwrite; a folder that is not a run is one line, exit 2.
+    """``colony plot DIR`` and ``colony movie DIR`` redraw a finished run.
+
+    The folder stays replaceable by --overwrite; a folder that is not a run is one line,
+    exit 2.
     """
     out = tmp_path / "c"
     assert cli.main(["continuum", "--lam", "1e-2", "--radius", "1.5", "--out", str(out),

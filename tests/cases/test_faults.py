@@ -1,5 +1,7 @@
-"""Bad input and faults of the ``colony`` command: one test per row of README's
-"Bad input and faults" table (message, exit status, state of the output folder).
+"""Bad input and faults of the ``colony`` command.
+
+One test per row of README's "Bad input and faults" table (message, exit status, state of the
+output folder).
 
 Runs go through ``cases.cli.main`` in this process (fast) unless a signal is involved.
 """
@@ -107,8 +109,9 @@ def test_overwrite_replaces_a_finished_run_only_once_the_new_one_is_complete(col
 
 
 def test_stale_stage_of_the_same_run_without_checkpoint_is_cleared(colony, tmp_path):
-    """A stage holding VTU frames of an earlier attempt: the published folder holds exactly
-    the frames fields.pvd lists.
+    """A stage holding VTU frames of an earlier attempt.
+
+    The published folder holds exactly the frames fields.pvd lists.
     """
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
@@ -172,9 +175,11 @@ def test_no_space_before_the_run(colony, tmp_path, monkeypatch):
 
 
 def test_no_space_during_the_run_keeps_the_last_checkpoint(colony, tmp_path, monkeypatch):
-    """The disk fills after a checkpoint: the run stops with one line before writing into the
-    full file system (a trajectory write there can end the process with SIGBUS), the
-    checkpoint is intact and the run resumes from it once space is back.
+    """The disk fills after a checkpoint.
+
+    The run stops with one line before writing into the full file system (a trajectory write
+    there can end the process with SIGBUS), the checkpoint is intact and the run resumes from
+    it once space is back.
     """
     import particles.checkpoint as checkpoint
     import particles.output as sim

@@ -50,8 +50,10 @@ def mean_length(r: np.ndarray, lam: float) -> np.ndarray:
 
 
 def phase(r: np.ndarray, lam: float) -> np.ndarray:
-    """Synthetic continuum growth phase: rings G = k ln 2 at r = (k - 1/4) w; lam = 0: G = ln 1.5
-    (no ring, lbar = 1.5)."""
+    """Synthetic continuum growth phase: rings G = k ln 2 at r = (k - 1/4) w.
+
+    For lam = 0: G = ln 1.5 (no ring, lbar = 1.5).
+    """
     if lam == 0:
         return math.log(1.5) + 0 * r
     return math.log(2.0) * (r / wavelength(lam) + 0.25)

@@ -105,8 +105,11 @@ def test_case_runs_finished_only_reuses_and_never_starts(tmp_path):
 
 
 def test_paper_scale_particles_at_small_lam_take_the_smaller_step():
-    """SCALES["paper"]: particle runs below lam = 1e-2 use dt = 0.005 (frames every 100 steps,
-    i.e. every 0.5 time units as above); the continuum and larger lam keep the defaults."""
+    """SCALES["paper"]: particle runs below lam = 1e-2 use dt = 0.005.
+
+    Frames every 100 steps, i.e. every 0.5 time units as above; the continuum and larger lam
+    keep the defaults.
+    """
     from cases.sweep import _engine_params, scale_config
     cfg = scale_config("paper")
     assert _engine_params("particles", 1e-3, cfg) == {

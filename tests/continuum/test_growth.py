@@ -1,5 +1,6 @@
-"""Moving-boundary growth against exact solutions (continuum.simulation, continuum.motion,
-continuum.remesh).
+"""Moving-boundary growth against exact solutions.
+
+Modules: continuum.simulation, continuum.motion, continuum.remesh.
 
 References: the radial solution R(t), p and the growth phase G along characteristics
 (continuum.radial), and the lam = 0 ellipse, which stays an ellipse with
@@ -39,8 +40,10 @@ def ellipse_axes(poly: np.ndarray) -> tuple[float, float]:
 
 
 def test_gradient_corrected_transfer_is_exact_for_quadratics():
-    """Quadratic f: the corrected interpolation's error is the gradient-recovery error only,
-    far below the linear interpolant's systematic O(h^2) bias."""
+    """Quadratic f: the corrected interpolation's error is the gradient-recovery error only.
+
+    It is far below the linear interpolant's systematic O(h^2) bias.
+    """
     bnd = M.resample_polygon(M.circle_polygon(5.0, 400), spacing=0.25)
     pts, tri = M.triangulate(bnd, 0.25)
     A = P1Assembler(tri, len(pts), len(bnd))
@@ -83,9 +86,11 @@ def test_locator_inside_outside():
 
 @pytest.mark.parametrize("lam", [0.0, 1e-3, 1e-2])
 def test_radial_growth_converges_second_order(lam):
-    """Disc R = 5 grown for t = 1.5 at three resolutions (dt ~ h): R(t) and the nodal
-    pressure against the radial reference, observed order ~2; G along the material paths
-    converges at order >= 1 (the P1 velocity at nodes is O(h) on unstructured meshes)."""
+    """Disc R = 5 grown for t = 1.5 at three resolutions (dt ~ h) against the radial reference.
+
+    R(t) and the nodal pressure: observed order ~2; G along the material paths converges at
+    order >= 1 (the P1 velocity at nodes is O(h) on unstructured meshes).
+    """
     r_init, t_end = 5.0, 1.5
     hs, r_err, p_err, g_err = [], [], [], []
     for n in (250, 1000, 4000):
@@ -124,7 +129,7 @@ def test_radial_growth_converges_second_order(lam):
 
 
 def test_ellipse_lam0():
-    """lam = 0 from semi-axes 1 : 0.5 to t = 2: a(t), b(t) within 1e-3 relative of the ODE."""
+    """With lam = 0 from semi-axes 1 : 0.5 to t = 2: a(t), b(t) within 1e-3 of the ODE."""
     sol = solve_ivp(
         lambda t, z: [
             z[0] * z[1] ** 2 / (z[0] ** 2 + z[1] ** 2),
@@ -165,8 +170,11 @@ def ring_radii_2d(state, ks, r_max, n_angles=24):
 
 
 def test_rings_at_radius_40():
-    """lam = 1e-2 from R0 to radius 40 with the default resolution: every ring (G = k ln 2)
-    beyond r = 3 within 2% of the local ring spacing of the 1D reference."""
+    """With lam = 1e-2 from R0 to radius 40 (default resolution) the rings match the 1D reference.
+
+    Every ring (G = k ln 2) beyond r = 3 lies within 2% of the local ring spacing of the 1D
+    reference.
+    """
     lam = 1e-2
     sim = run(Config(lam=lam, radius=40.0, write_fields=False))
     s = sim.state
@@ -175,7 +183,7 @@ def test_rings_at_radius_40():
     keep = ref > 3.0
     spacing = np.diff(ref)
     spacing = np.append(spacing, spacing[-1])[keep]
-    got = ring_radii_2d(s, list(zip(k[keep], ref[keep])), 0.999 * 40.0)
+    got = ring_radii_2d(s, list(zip(k[keep], ref[keep], strict=True)), 0.999 * 40.0)
     rel = (got - ref[keep]) / spacing
     assert len(rel) >= 3
     assert np.max(np.abs(rel)) < 0.02, rel
@@ -185,7 +193,7 @@ def test_rings_at_radius_40():
 
 
 def test_negative_lam_past_critical_size_raises():
-    """lam = -0.1: R_crit = sqrt(2/0.1) = 4.5; growing toward radius 6 must fail cleanly."""
+    """With lam = -0.1: R_crit = sqrt(2/0.1) = 4.5; growing toward radius 6 must fail cleanly."""
     with pytest.raises(PressureDivergence, match="critical size"):
         run(
             Config(

@@ -109,8 +109,10 @@ def test_triangulate_bad_size(h):
 
 
 def test_resample_keeps_corners_of_a_polygon():
-    """A square (turning angle pi/2 > corner_angle) is resampled piecewise linearly: its area
-    is kept exactly (a periodic spline through the corners would bulge out)."""
+    """A square (turning angle pi/2 > corner_angle) is resampled piecewise linearly.
+
+    Its area is kept exactly (a periodic spline through the corners would bulge out).
+    """
     sq = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], float)
     out = M.resample_polygon(sq, spacing=0.1)
     assert len(out) == 80

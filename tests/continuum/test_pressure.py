@@ -108,8 +108,11 @@ def test_bad_lam(lam):
 
 
 def test_warm_start_and_amg_reuse():
-    """Moving the nodes slightly: the warm-started solve reuses the hierarchy and contracts the
-    residual by >= 100 per Newton step (the Jacobian's lumped reaction term is O(lam h^2) off)."""
+    """Moving the nodes slightly: the warm-started solve reuses the hierarchy.
+
+    It contracts the residual by >= 100 per Newton step (the Jacobian's lumped reaction term is
+    O(lam h^2) off).
+    """
     bnd, pts, tri = disc(0.5)
     S = PressureSolver(1e-2)
     S.set_mesh(tri, len(pts), len(bnd))

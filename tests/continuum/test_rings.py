@@ -58,7 +58,7 @@ def test_ring_levels():
 
 def test_radial_table_shape(radial_errors):
     *_, tables = radial_errors
-    for tab, rk in tables:
+    for tab, _rk in tables:
         assert tab["k"].tolist() == [1, 2, 3, 4]
         assert np.allclose(tab["level"], tab["k"] * LN2)
         assert np.all(tab["n_pieces"] == 1)  # each ring one closed curve

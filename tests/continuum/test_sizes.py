@@ -31,7 +31,8 @@ def _order(errs):
 def _run(f0, n_cells, g, phase, seed=0, record=None):
     """Advance rows with speeds g by random dt until node 0 has growth phase G = phase.
 
-    Returns (distribution, G per node, list of (G, number, total_length) if record)."""
+    Returns (distribution, G per node, list of (G, number, total_length) if record).
+    """
     grid = LengthGrid(n_cells)
     sd = SizeDistribution.from_function(grid, g.size, f0)
     rng = np.random.default_rng(seed)
@@ -187,8 +188,11 @@ def _lbar(grid, n):
 
 
 def test_exact_bump_mean_length_is_within_its_width_of_the_delta_limit():
-    """Support (0, 2w) shifted by sigma: while it does not straddle s = 1, lbar / 2^frac(sigma)
-    lies in (1, 2^(2w)) (all lengths lie in (2^frac(sigma), 2^(frac(sigma) + 2w)))."""
+    """Support (0, 2w) shifted by sigma: lbar / 2^frac(sigma) lies in (1, 2^(2w)).
+
+    This holds while the support does not straddle s = 1 (all lengths lie in
+    (2^frac(sigma), 2^(frac(sigma) + 2w))).
+    """
     width = 0.06
     grid = LengthGrid(512)
     f0 = _bump_profile(width)
@@ -204,7 +208,7 @@ def test_exact_bump_mean_length_is_within_its_width_of_the_delta_limit():
 
 
 def test_fv_bump_mean_length_converges_to_the_exact_bump():
-    """max over t of |lbar_FV - lbar_exact| over 3.5 divisions converges at order >= 1.5."""
+    """The max over t of |lbar_FV - lbar_exact| over 3.5 divisions converges at order >= 1.5."""
     width = 0.15
     f0 = _bump_profile(width)
     errs = []

@@ -41,9 +41,11 @@ def test_recovery_exact_for_linear_fields(spr):
 
 @pytest.mark.parametrize("lam", [0.0, 1e-2])
 def test_interior_velocity_order(lam):
-    """Patch-recovered u = -grad p at interior nodes: observed order ~1 in the RMS (measured
-    0.99-1.05 on these smoothed Delaunay meshes: the P1 gradient itself carries an O(h)
-    mesh-scale error there), about 5x smaller than the plain patch average."""
+    """Patch-recovered u = -grad p at interior nodes: observed order ~1 in the RMS.
+
+    Measured 0.99-1.05 on these smoothed Delaunay meshes (the P1 gradient itself carries an
+    O(h) mesh-scale error there), about 5x smaller than the plain patch average.
+    """
     spr, avg = [], []
     for h in HS:
         S, bnd, pts, tri, p, r, _ = solved_disc(h, lam)
@@ -62,8 +64,10 @@ def test_interior_velocity_order(lam):
 
 @pytest.mark.parametrize("lam", [0.0, 1e-3, 1e-2])
 def test_boundary_flux(lam):
-    """Residual flux: total exactly int g_h (discrete conservation); its mean normal velocity
-    converges at order 2; node by node (RMS) at order >= 1."""
+    """Residual flux: total exactly int g_h (discrete conservation).
+
+    Its mean normal velocity converges at order 2; node by node (RMS) at order >= 1.
+    """
     mean_err, rms_err = [], []
     for h in HS:
         S, bnd, pts, tri, p, r, b = solved_disc(h, lam)

@@ -1,5 +1,8 @@
-"""The public API of the particle engine (issue 15): names, the step record, advance = run bit
-for bit, save/load continuing bit for bit, and the README example."""
+"""The public API of the particle engine (issue 15).
+
+Names, the step record, advance = run bit for bit, save/load continuing bit for bit, and the
+README example.
+"""
 
 from dataclasses import FrozenInstanceError, replace
 
@@ -54,8 +57,10 @@ def test_advance_equals_run_bit_for_bit(goal):
 
 
 def test_save_load_continues_bit_for_bit(tmp_path):
-    """Steps after save + load are those of the uninterrupted simulation (adaptive dt, so the
-    step length and the warm start are part of the saved state)."""
+    """Steps after save + load are those of the uninterrupted simulation.
+
+    With adaptive dt, so the step length and the warm start are part of the saved state.
+    """
     cfg = Config(lam=1e-2, seed=4, dt=0.02, adaptive_dt=True)
     whole = Simulation(cfg)
     for _ in range(120):

@@ -31,7 +31,7 @@ def diagonal(c, length, dt):
 
 
 def assert_kkt(c, length, dt, lam, gamma, tol, growth=True):
-    """gamma >= 0, q >= -tol, |min(a gamma, q)| <= tol (so gamma_k > tol/a_kk => |q_k| <= tol)."""
+    """KKT: gamma >= 0, q >= -tol, |min(a gamma, q)| <= tol (gamma_k > tol/a_kk => |q_k| <= tol)."""
     q = linearised_gap(c, length, dt, lam, gamma, growth)
     a = diagonal(c, length, dt)
     assert np.all(gamma >= 0)

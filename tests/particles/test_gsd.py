@@ -1,5 +1,7 @@
-"""trajectory.gsd (particles/output.py): the HOOMD frames read back exactly, and OVITO's GSD reader
-draws each particle as a sphero-cylinder of its own length lying in the plane along theta.
+"""The trajectory.gsd file (particles/output.py), read back by gsd and by OVITO.
+
+The HOOMD frames read back exactly, and OVITO's GSD reader draws each particle as a
+sphero-cylinder of its own length lying in the plane along theta.
 
 The OVITO tests need the optional ``ovito`` module (skipped without it); they open the file with
 ``ovito.io.import_file`` alone, as a user would, so they check the file, not a helper pipeline.

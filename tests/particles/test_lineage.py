@@ -1,6 +1,7 @@
-"""Lineage of the particles (state.ParticleState.parent, .generation; growth.divide) and the time
-of each trajectory frame (log/Time): checked by invariants of the division tree, not by stored
-trajectories.
+"""Lineage of the particles and the time of each trajectory frame.
+
+Lineage: state.ParticleState.parent, .generation; growth.divide. Time: log/Time. Checked by
+invariants of the division tree, not by stored trajectories.
 """
 
 import json
@@ -24,7 +25,7 @@ def grown(tmp_path_factory):
 
 
 def _tree(frames):
-    """id -> (parent, generation) over all frames, checking each id keeps its values."""
+    """Map id -> (parent, generation) over all frames, checking each id keeps its values."""
     tree = {}
     for fr in frames:
         for i, p, g in zip(fr.ids.tolist(), fr.parent.tolist(), fr.generation.tolist(),
@@ -52,9 +53,9 @@ def test_divide_gives_both_daughters_the_mother_and_generation_plus_one():
 
 
 def test_generation_is_the_length_of_the_parent_chain(grown):
-    """Following parent ids back through the frames reaches the initial cell (id 0) in exactly
-    ``generation`` steps; ids are unique; every mother has exactly two daughters, both of her
-    generation + 1.
+    """Following parent ids back reaches the initial cell (id 0) in ``generation`` steps.
+
+    Ids are unique; every mother has exactly two daughters, both of her generation + 1.
     """
     out, colony = grown
     frames = list(read_trajectory(out / "trajectory.gsd"))
@@ -62,14 +63,14 @@ def test_generation_is_the_length_of_the_parent_chain(grown):
         assert np.unique(fr.ids).size == fr.n
     tree = _tree(frames)
     assert tree[0] == (-1, 0) and frames[0].ids.tolist() == [0]
-    for i, (p, g) in tree.items():
+    for i, (_parent, g) in tree.items():
         steps, j = 0, i
         while tree[j][0] != -1:
             j = tree[j][0]
             steps += 1
         assert (j, steps) == (0, g), f"id {i}"
     children = {}
-    for i, (p, g) in tree.items():
+    for i, (p, _generation) in tree.items():
         if p != -1:
             children.setdefault(p, []).append(i)
     for p, kids in children.items():
@@ -118,8 +119,9 @@ def test_resumed_run_has_the_lineage_of_an_uninterrupted_one(tmp_path):
 
 
 def test_checkpoint_without_lineage_resumes_counting_from_its_particles(tmp_path):
-    """A checkpoint written before parent and generation were saved resumes with the same
-    result; its particles count as initial ones (parent -1, generation 0).
+    """A checkpoint written before parent and generation were saved resumes alike.
+
+    Same result; its particles count as initial ones (parent -1, generation 0).
     """
     cfg = Config(lam=1e-2, time=2.2, dt=0.01, seed=2)
     full, old = tmp_path / "full", tmp_path / "old"

@@ -118,9 +118,10 @@ def test_outputs_and_checkpoint_resume(tmp_path, adaptive, dt, stop):
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
 def test_resume_on_another_number_of_threads(tmp_path):
-    """threads and checkpoint_seconds are execution settings: a run stopped on two threads and
-    resumed on one, checkpointing at another interval, gives the files of an uninterrupted
-    one-thread run (config.json records the last setting).
+    """The settings threads and checkpoint_seconds change no result.
+
+    A run stopped on two threads and resumed on one, checkpointing at another interval, gives
+    the files of an uninterrupted one-thread run (config.json records the last setting).
     """
     cfg = Config(lam=1e-2, time=3.0, dt=0.01, seed=1)
     full, part = tmp_path / "full", tmp_path / "part"
@@ -134,10 +135,10 @@ def test_resume_on_another_number_of_threads(tmp_path):
 
 
 def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
-    """A run stopped with a fixed step resumes with --adaptive-dt, then with another fixed dt,
-    only under change_step_policy: its first steps are those of the fixed run, the next ones
-    adapted, the last ones of the new dt, and config.json records the changes; any other
-    change is refused.
+    """A fixed-step run resumes adaptive, then with another dt, only under change_step_policy.
+
+    Its first steps are those of the fixed run, the next ones adapted, the last ones of the new
+    dt, and config.json records the changes; any other change is refused.
     """
     fixed = Config(lam=1e-2, time=3.0, dt=0.08, seed=2)
     adaptive = replace(fixed, adaptive_dt=True)
@@ -163,8 +164,9 @@ def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
 
 
 def test_checkpoint_of_earlier_version_resumes(tmp_path):
-    """A checkpoint written before adaptive_dt (and the pass counts) existed resumes, with the
-    configuration it ran with, and the missing history entries are left blank.
+    """A checkpoint written before adaptive_dt (and the pass counts) existed resumes.
+
+    It runs with the configuration it ran with, and the missing history entries are left blank.
     """
     cfg = Config(lam=1e-2, time=1.0, dt=0.01, seed=1)
     full, old = tmp_path / "full", tmp_path / "old"
@@ -188,7 +190,9 @@ def test_checkpoint_of_earlier_version_resumes(tmp_path):
 
 
 def test_next_dt_rules():
-    """Halved step -> dt/2; passes costlier than half the main solve -> shrink; cheaper than a
+    """The adaptive step: halved, shrunk or grown by the solve's work, with a floor.
+
+    Halved step -> dt/2; passes costlier than half the main solve -> shrink; cheaper than a
     quarter -> grow up to dt_max; floor dt_max / 2^(MAX_HALVINGS + 2).
     """
     def info(main, passes, sub=1):
@@ -264,9 +268,11 @@ def test_failed_steps_are_halved():
 
 
 def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
-    """A re-solve pass may take max(PASS_ITERATION_FLOOR, main-solve iterations) iterations: with
-    a main solve that does nothing, the overlaps of growth are left to the passes, which succeed
-    within the default floor and fail (ContactSolveError, so the step is halved) within 2.
+    """A re-solve pass may take max(PASS_ITERATION_FLOOR, main-solve iterations) iterations.
+
+    With a main solve that does nothing, the overlaps of growth are left to the passes, which
+    succeed within the default floor and fail (ContactSolveError, so the step is halved)
+    within 2.
     """
     state = run(Config(lam=1e-2, time=3.0, dt=0.02)).state
     cfg = Config(lam=1e-2, time=3.0, dt=0.05)

@@ -1,5 +1,7 @@
-"""Two-level contact solver (particles/twolevel.py): its pieces against exact answers, and the
-whole solve against the KKT conditions, BBPGD's stress and the exact straight chain.
+"""Two-level contact solver (particles/twolevel.py) against exact answers.
+
+Its pieces against exact answers, and the whole solve against the KKT conditions, BBPGD's
+stress and the exact straight chain.
 """
 
 import numpy as np
@@ -84,7 +86,7 @@ def test_operators_are_the_hessian(packing, lam):
 
 
 def test_coarse_step_is_galerkin_exact_for_lam0(packing):
-    """lam = 0: E is quadratic, so after the step P^T (gamma q(gamma_new)) = 0 (no clipping)."""
+    """With lam = 0, E is quadratic: after the step P^T (gamma q(gamma_new)) = 0 (no clipping)."""
     x, _, _, length, c = packing
     gam, _ = solve_contacts(c, length, DT, 0.0, tol=1e-4)
     assert np.count_nonzero(gam) > 50
