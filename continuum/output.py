@@ -24,7 +24,7 @@ shows the pattern.
 Reading in Python: ``meshio.read`` on a frame, or PyVista (not a dependency):
 ``pyvista.PVDReader('fields.pvd')`` lists ``time_values`` and ``set_active_time_value(t)``
 picks a frame; ``pyvista.read('fields.pvd')`` returns the FIRST time only (tested in
-tests/test_continuum_output.py). :func:`read_frame_time` reads ``TimeValue`` back.
+tests/continuum/test_output.py). :func:`read_frame_time` reads ``TimeValue`` back.
 
 Every writer refuses non-finite values (``ValueError``): NaN fields are never written.
 """

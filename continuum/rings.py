@@ -23,9 +23,10 @@ area centroid ``sum_T |T| x_T / sum_T |T|``)::
     max radius   max over the contour of |x - x_c| (at a segment end).
 
 Accuracy: the P1 interpolant of a smooth G differs from it by O(h^2), so the contour moves
-by ``O(h^2) / |grad G|`` and rbar, L are O(h^2) accurate (measured in tests/test_rings.py: orders
-about 2 for a manufactured radial field). :func:`ring_table` returns one row per level with a
-crossing; ``continuum.output.write_rings`` writes them to ``rings.csv``.
+by ``O(h^2) / |grad G|`` and rbar, L are O(h^2) accurate (measured in
+tests/continuum/test_rings.py: orders about 2 for a manufactured radial field).
+:func:`ring_table` returns one row per level with a crossing; ``continuum.output.write_rings``
+writes them to ``rings.csv``.
 """
 
 from __future__ import annotations

@@ -1,14 +1,16 @@
 """Velocity u = -grad p at the mesh nodes.
 
-Interior nodes: gradient recovery by area-weighted averaging of the (constant) P1 element
-gradients over the patch of elements around each node::
+Interior nodes: superconvergent patch recovery (Zienkiewicz-Zhu, :func:`spr_weights`) of the
+(constant) P1 element gradients. The plain area-weighted average over the patch of elements
+around each node::
 
-    (grad f)_n = sum_{T containing n} |T| (grad f_h)|_T / sum_{T containing n} |T|,
+    (grad f)_n = sum_{T containing n} |T| (grad f_h)|_T / sum_{T containing n} |T|
 
-a linear operator ``GradientRecovery`` (two sparse N x N matrices) reused for the
-gradient-corrected transfer of material fields at remeshing. Its observed order on the
-exact disc solution is measured in tests/test_velocity.py (about 2 at interior nodes of
-these Delaunay meshes, 1 at nodes next to the boundary).
+is the linear operator ``GradientRecovery`` (two sparse N x N matrices) reused for the
+gradient-corrected transfer of material fields at remeshing. The recovered velocity's observed
+order on the exact disc solution is measured in tests/continuum/test_velocity.py: about 1 in the
+RMS over the interior nodes of these smoothed Delaunay meshes (1.0 at lam = 0, 1.5 at
+lam = 1e-2), its errors 4 to 10 times smaller than the patch average's.
 
 Boundary nodes: since p = 0 on the boundary, grad p is normal there and u = -(dp/dn) n.
 The normal derivative comes from the consistent residual flux: at a boundary node i the FE

@@ -3,8 +3,8 @@
 - :func:`single_cell`: one particle of length 1 at the origin (model.md's initial condition);
 - :func:`from_csv`: the particles of a CSV file with columns x,y,theta,length (``Config.init``);
 - :func:`ring_packing`: a dense, jammed, non-overlapping disc of rods on concentric rings: the
-  synthetic states of cases/bench_contact_solvers.py and of the solver tests, where growth along
-  each ring pushes on the next ring out (a 2D-coupled, pressure-like load path);
+  synthetic states of ``python -m cases.bench.contact_solvers`` and of the solver tests, where
+  growth along each ring pushes on the next ring out (a 2D-coupled, pressure-like load path);
 - :func:`warm_problem`: from a solved packing, the warm-started problem of the next step.
 """
 

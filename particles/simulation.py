@@ -452,14 +452,3 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         sim.output.results(sim.state, sim.history)
     stop.reraise()
     return sim
-
-
-def __getattr__(name: str):
-    if name == "ParticleConfig":  # the name before issue 15, for scripts and running sweeps
-        import warnings
-
-        warnings.warn("particles.simulation.ParticleConfig is now particles.Config",
-                      DeprecationWarning, stacklevel=2)
-        return Config
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-

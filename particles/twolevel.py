@@ -29,7 +29,7 @@ rebuilt exactly (up to a translation per connected component) from the contact g
 breadth-first walk, x_j - x_i = (phi_k + b) n_k + r_i - r_j; hat functions are put on the
 largest connected component only (the rest are left to the smoother).
 
-Measured: see cases/bench_contact_solvers.py.
+Measured: see cases/bench/contact_solvers.py (``python -m cases.bench.contact_solvers``).
 """
 
 from __future__ import annotations

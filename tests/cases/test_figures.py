@@ -1,4 +1,4 @@
-"""The figure cases (cases/fig2.py, fig3.py, fig4.py, crosscheck.py).
+"""The figure cases (cases/figures/fig2.py, fig3.py, fig4.py, crosscheck.py).
 
 1. Reductions and plots on synthetic run folders written to the output contract of
    docs/DESIGN.md, whose answers are known by construction: linear R(t) (slopes exact), particle
