@@ -5,7 +5,8 @@ then ``os.replace``) holds everything the following steps depend on, so a simula
 from it continues bit-identically:
 
 - the arrays of the :class:`~continuum.state.State`: ``points``, ``tris``, ``G``, ``p``,
-  ``u``, ``g``, ``psi`` (Psi's cell averages), ``p_prev`` (when set) and ``amg``, the CSR data
+  ``u``, ``g``, ``psi`` (Psi's cell values), ``psi_phase`` (the phase offsets of Psi's windows
+  with ``psi_transport = "characteristics"``), ``p_prev`` (when set) and ``amg``, the CSR data
   of the matrix the pressure solver's AMG hierarchy was built from (when there is one; the
   loaded solver rebuilds the identical hierarchy, continuum.pressure.amg_hierarchy);
 - ``meta``, one JSON string: ``config`` (the Config fields), ``colony`` (the scalars t, nb,
@@ -16,7 +17,7 @@ from it continues bit-identically:
 
 A checkpoint resumes under a configuration equal to the saved one up to ``EXECUTION_FIELDS``
 (settings that do not change the result). Checkpoints of earlier versions (without ``step``)
-load too.
+load too (as finite volumes when their configuration has no ``psi_transport``).
 
 :class:`StopRequest` defers SIGINT and SIGTERM to the end of the current step, so that
 ``continuum.run`` can write a checkpoint of a whole step before stopping.
@@ -34,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from continuum.sizes import LengthGrid, SizeDistribution
+from continuum.sizes import CharacteristicSizes, LengthGrid, SizeDistribution
 from continuum.state import State
 
 __all__ = ["CHECKPOINT", "EXECUTION_FIELDS", "save", "load", "check_resumable",
@@ -80,6 +81,8 @@ def save(path: Path, config, state: State, amg: np.ndarray | None, history: list
     scalars["timings"] = dict(state.timings)
     arrays = {name: getattr(state, attr) for attr, name in _ARRAYS.items()}
     arrays["psi"] = state.sizes.n
+    if isinstance(state.sizes, CharacteristicSizes):
+        arrays["psi_phase"] = state.sizes.phase
     if state.p_prev is not None:
         arrays["p_prev"] = state.p_prev
     if amg is not None:
@@ -124,9 +127,13 @@ def load(path: Path, config=None) -> tuple:
     scalars = meta["colony"]
     history = meta["history"]
     grid = LengthGrid(meta["config"]["n_length_cells"])
+    if "psi_phase" in arrays:
+        sizes = CharacteristicSizes(grid, arrays["psi"], arrays["psi_phase"])
+    else:
+        sizes = SizeDistribution(grid, arrays["psi"])
     state = State(
         **{attr: np.array(arrays[name]) for attr, name in _ARRAYS.items()},
-        sizes=SizeDistribution(grid, arrays["psi"]),
+        sizes=sizes,
         **{attr: scalars[name] for attr, name in _SCALARS.items()},
         step=scalars.get("step", len(history) - 1),
         timings=dict(scalars["timings"]),

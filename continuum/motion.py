@@ -9,7 +9,8 @@ with the growth phase advanced by the trapezoidal rule along the same paths::
 
     G^{n+1} = G^n + dt/2 (g(x^n) + g(x*)),
 
-and Psi transported in l at the same mean growth rate (continuum.sizes). u and g at x* come
+and Psi transported in l at the same mean growth rate (continuum.sizes: exactly along
+the characteristics, a shift by dt g_avg / ln 2 in log2 l, or by finite volumes). u and g at x* come
 from a pressure solve on the moved mesh (continuum.velocity.darcy_flow), warm-started from the
 linear extrapolation in time p^n + (p^n - p^{n-1}) dt / dt_prev. The step is halved (up to
 five times) while the predictor or the corrector would invert an element or the predictor's

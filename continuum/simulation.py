@@ -50,7 +50,7 @@ from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.radial import R0
 from continuum.remesh import remesh, remesh_reason
-from continuum.sizes import LengthGrid, SizeDistribution
+from continuum.sizes import TRANSPORTS, CharacteristicSizes, LengthGrid, SizeDistribution
 from continuum.state import State, StepRecord
 from continuum.velocity import darcy_flow
 
@@ -70,6 +70,7 @@ _RULES = [  # (field, test, what the value must be), checked by Config.validate
     ("q_min", lambda v: 0 < v < 0.9, "in (0, 0.9)"),
     ("stretch", lambda v: math.isfinite(v) and v > 1.1, "> 1.1"),
     ("n_length_cells", lambda v: isinstance(v, int) and v >= 8, "an integer >= 8"),
+    ("psi_transport", lambda v: v in TRANSPORTS, " or ".join(map(repr, TRANSPORTS))),
     ("output_every", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
     ("max_steps", lambda v: isinstance(v, int) and v > 0, "a positive integer"),
     ("checkpoint_seconds", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
@@ -112,6 +113,10 @@ class Config:
         Cells of the log2-length grid of Psi.
     bump_width : float
         Half-width in s = log2 l of the initial bump standing in for delta(l - 1).
+    psi_transport : str
+        Transport of Psi in l: "characteristics" (exact shift of per-node windows in s = log2 l,
+        continuum.sizes.CharacteristicSizes) or "finite-volume" (flux-limited Lax-Wendroff,
+        continuum.sizes.SizeDistribution).
     output_every : float
         Time between field frames (VTU); 0 writes only the first and last.
     write_fields : bool
@@ -137,6 +142,7 @@ class Config:
     stretch: float = 1.5
     n_length_cells: int = 40
     bump_width: float = 0.08
+    psi_transport: str = "characteristics"
     output_every: float = 1.0
     write_fields: bool = True
     max_steps: int = 200_000
@@ -208,11 +214,16 @@ def initial_state(config: Config) -> State:
     n = len(points)
     state = State(points=points, triangles=tris, n_boundary=len(boundary), p=np.zeros(n),
                   u=np.zeros((n, 2)), g=np.zeros(n), G=np.zeros(n),
-                  sizes=SizeDistribution.bump(LengthGrid(config.n_length_cells), n,
-                                              width=config.bump_width))
+                  sizes=initial_sizes(config, n))
     state.set_mesh(points, tris, len(boundary), h)
     state.timings["meshing"] += _time.perf_counter() - t0
     return state
+
+
+def initial_sizes(config: Config, n: int) -> SizeDistribution | CharacteristicSizes:
+    """Psi0 on n nodes: the bump of ``bump_width`` in the class of ``psi_transport``."""
+    cls = CharacteristicSizes if config.psi_transport == "characteristics" else SizeDistribution
+    return cls.bump(LengthGrid(config.n_length_cells), n, width=config.bump_width)
 
 
 def _target_spacing(config: Config, area: float) -> float:

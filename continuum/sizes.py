@@ -24,7 +24,16 @@ So the total length grows exactly like the local area stretch exp(G) (per curren
 conserved: the packing), while N grows like exp(G) only for the stable profile n ~ 2^-s
 (Psi ~ l^-2), which the shift maps to 2^(sigma - s); for other profiles N oscillates about it.
 
-Numerical scheme. Finite volumes with cell averages on a uniform grid in s and the one-step
+Two transports (``Config.psi_transport``):
+
+- along the characteristics (:class:`CharacteristicSizes`, the default): the characteristics
+  are parallel in s, so each node's grid moves with them: a phase offset per node and values on
+  a fixed-width window of one octave; advancing is an exact shift, a division an exact doubling
+  of the values that cross s = 1; a remesh remaps rows between windows keeping each cell's
+  number and length (class docstring);
+- finite volumes (:class:`SizeDistribution`), below.
+
+Numerical scheme of the finite volumes. Cell averages on a uniform grid in s and the one-step
 flux-limited Lax-Wendroff scheme (Sweby form, LeVeque, FVMHP, section 6.12) with the monotonised
 central (MC) limiter::
 
@@ -57,9 +66,19 @@ from numpy.typing import ArrayLike, NDArray
 
 from continuum.growth import LN2
 
-__all__ = ["LengthGrid", "SizeDistribution", "exact_shift", "lw_mc_step"]
+__all__ = [
+    "LengthGrid",
+    "SizeDistribution",
+    "CharacteristicSizes",
+    "TRANSPORTS",
+    "exact_shift",
+    "lw_mc_step",
+    "remap_pivots",
+    "fractional_part",
+]
 
-
+TRANSPORTS = ("characteristics", "finite-volume")
+"""Transports of Psi (``Config.psi_transport``): CharacteristicSizes, SizeDistribution."""
 
 class LengthGrid:
     """Uniform finite-volume grid in s = log2 l on [0, 1] (l in [1, 2]).
@@ -321,3 +340,211 @@ def exact_shift(f0: Callable[[NDArray], NDArray], shift: float) -> Callable[[NDA
         return 2.0**k * np.asarray(f0(y + k), dtype=float)
 
     return n
+
+
+# ---------------------------------------------------------------------------- characteristics
+
+
+def fractional_part(x: NDArray) -> NDArray:
+    """The fractional part x - floor(x) in [0, 1) (a value rounding up to 1 gives 0)."""
+    f = x - np.floor(x)
+    f[f >= 1.0] = 0.0
+    return f
+
+
+def remap_pivots(theta: float, ds: float) -> tuple[float, float]:
+    """Fractions (a, b) of a cell shifted by theta ds (0 <= theta < 1) given to the cells k, k + 1.
+
+    a = (2^ds - 2^(theta ds)) / (2^ds - 1), b = 1 - a: the number a + b and the length
+    a p_k + b p_(k+1) = p_k 2^(theta ds) of the shifted cell are both kept (p_k the mean of
+    2^s over cell k; the mean over the shifted cell is p_k 2^(theta ds)). theta = 0 gives (1, 0).
+    """
+    q = 2.0**ds
+    a = (q - 2.0 ** (theta * ds)) / (q - 1.0)
+    return a, 1.0 - a
+
+
+@njit(cache=True)
+def _remap_csr(indptr, indices, data, n_old, phase_old, phase_new, out):  # pragma: no cover
+    """out[i] = sum_j W_ij R(phase_old_j -> phase_new_i) n_old[j] (class CharacteristicSizes).
+
+    W in CSR form (indptr, indices, data). For each entry the source row is shifted by
+    r = (phase_old_j - phase_new_i) N cells of the target grid: k0 = floor(r), theta = r - k0;
+    source cell q gives the fraction a of its value to target cell q + k0 and b = 1 - a to
+    q + k0 + 1 (:func:`remap_pivots`); a target index k outside 0..N-1 is the cell k mod N one
+    octave away, whose value is 2^floor(k / N) times as large (twisted periodicity).
+    """
+    n_new, N = out.shape
+    ds = 1.0 / N
+    q2 = 2.0**ds
+    den = q2 - 1.0
+    for i in range(n_new):
+        for p in range(indptr[i], indptr[i + 1]):
+            w = data[p]
+            if w == 0.0:
+                continue
+            j = indices[p]
+            r = (phase_old[j] - phase_new[i]) * N
+            k0 = int(math.floor(r))
+            theta = r - k0
+            a = (q2 - 2.0 ** (theta * ds)) / den
+            b = 1.0 - a
+            for q in range(N):
+                v = w * n_old[j, q]
+                if v == 0.0:
+                    continue
+                _add(out, i, q + k0, a * v, N)
+                if b != 0.0:
+                    _add(out, i, q + k0 + 1, b * v, N)
+
+
+@njit(cache=True, inline="always")
+def _add(out, i, k, v, N):  # pragma: no cover
+    """out[i, k] += v for k in 0..N-1; k < 0 (k >= N) is cell k + N (k - N) at value v/2 (2 v)."""
+    if k < 0:
+        out[i, k + N] += 0.5 * v
+    elif k >= N:
+        out[i, k - N] += 2.0 * v
+    else:
+        out[i, k] += v
+
+
+class CharacteristicSizes:
+    r"""Psi per node carried exactly along its characteristics in s = log2 l (the default).
+
+    In s every length of a material element moves at the same speed a = g / ln 2, so the
+    characteristics are parallel and a grid that moves with them needs no interpolation in s.
+    Node j holds a phase offset ``phase[j]`` = phi in [0, 1) and values ``n[j, i]`` on the
+    window [phi, phi + 1) of the extended line (the twisted-periodic extension
+    n(s + 1) = n(s) / 2 of the distribution on [0, 1), continuum.sizes module docstring)::
+
+        n(s) = n[j, i]   on   [phi + i ds, phi + (i + 1) ds),   i = 0..N-1,   ds = 1 / N.
+
+    Cells with s >= 1 hold lengths 2^s >= 2 in the extension: their particles have divided, and
+    on [0, 1) they are twice as many at s - 1 (the division condition n(0) = 2 n(1)).
+
+    Advance (exact for any dt): phi <- phi + a dt; when phi passes an integer k times (k
+    divisions of every cell, a shift by whole octaves) phi <- phi - k and n <- 2^k n. The
+    values change only by these exact doublings, so the mean length does not depend on dt.
+
+    Moments, exact for piecewise-constant n (the cell integral of 2^s)::
+
+        N = sum_i n_i (ds + |cell_i cap [1, 2)|)        (cells past s = 1 count twice),
+        L = sum_i n_i int_cell_i 2^s ds = 2^phi sum_i n_i (2^((i+1) ds) - 2^(i ds)) / ln 2.
+
+    L is the same in every window (a division keeps the length), so L = exp(G) L(0) exactly
+    along a path; N is piecewise linear in phi (rising while a cell crosses s = 1).
+
+    Remap (:meth:`transfer`): a remesh combines rows with different phases onto a new row with
+    its own phase. Each source cell, shifted onto the target grid by theta ds (0 <= theta < 1)
+    past cell k, is split between cells k and k + 1 so that its number and its total length are
+    both kept (the fixed-pivot split, :func:`remap_pivots`; the split of the overlap remap
+    a = 1 - theta corrected to the curvature of 2^s, positive). Cells moved past the window
+    come back one octave away (value times 2 or 1/2, the twisted periodicity). L is kept to
+    round-off; N too, except for a cell within one cell of s = 1 (one value per cell cannot
+    keep both moments there). The smearing per remap is a variance theta (1 - theta) ds^2 in s
+    (measured in tests/continuum/test_psi_characteristics.py).
+
+    Parameters
+    ----------
+    grid : LengthGrid
+        The fixed-width grid (its ``edges`` and ``length_integrals`` at phi = 0).
+    n : ndarray (n_nodes, n_cells)
+        Non-negative values on the windows.
+    phase : ndarray (n_nodes,), optional
+        Phase offsets in [0, 1) (default 0: the window is [0, 1)).
+    """
+
+    def __init__(self, grid: LengthGrid, n: ArrayLike, phase: ArrayLike | None = None):
+        n = np.array(n, dtype=float)
+        if n.ndim != 2 or n.shape[1] != grid.n_cells:
+            raise ValueError(f"n must have shape (n_nodes, {grid.n_cells}), got {n.shape}")
+        if not np.all(np.isfinite(n)):
+            raise ValueError("n must be finite")
+        phase = np.zeros(n.shape[0]) if phase is None else np.array(phase, dtype=float)
+        if phase.shape != (n.shape[0],) or not np.all((phase >= 0) & (phase < 1)):
+            raise ValueError(f"phase must have shape ({n.shape[0]},) with values in [0, 1)")
+        self.grid = grid
+        self.n = n
+        self.phase = phase
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of rows (material elements, mesh nodes)."""
+        return self.n.shape[0]
+
+    def __repr__(self) -> str:
+        return f"CharacteristicSizes(n_nodes={self.n_nodes}, grid={self.grid!r})"
+
+    @classmethod
+    def from_function(cls, grid: LengthGrid, n_nodes: int, f: Callable[[NDArray], NDArray],
+                      n_quad: int = 8) -> CharacteristicSizes:
+        """Every node holds the cell averages of f(s) on [0, 1) (phase 0)."""
+        return cls(grid, SizeDistribution.from_function(grid, n_nodes, f, n_quad).n)
+
+    @classmethod
+    def bump(cls, grid: LengthGrid, n_nodes: int, width: float = 0.08,
+             number: float = 1.0) -> CharacteristicSizes:
+        """The bump of :meth:`SizeDistribution.bump` (same cell values, phase 0)."""
+        return cls(grid, SizeDistribution.bump(grid, n_nodes, width, number).n)
+
+    def advance(self, g: ArrayLike, dt: float) -> CharacteristicSizes:
+        """Shift every row by a dt = g dt / ln 2 in s, exactly (in place; returns self)."""
+        g = _check_speed(g, self.n_nodes)
+        dt = float(dt)
+        if not math.isfinite(dt) or dt < 0:
+            raise ValueError(f"dt must be finite and >= 0, got {dt}")
+        x = self.phase + g * dt / LN2
+        k = np.floor(x)
+        self.phase = x - k
+        wrapped = self.phase >= 1.0  # x just below an integer rounding up
+        if np.any(wrapped):
+            k[wrapped] += 1.0
+            self.phase[wrapped] = 0.0
+        rows = np.flatnonzero(k > 0)
+        if rows.size:
+            self.n[rows] *= np.exp2(k[rows])[:, None]  # exact: powers of two
+        return self
+
+    def number(self) -> NDArray:
+        """Number of particles per material element (class docstring)."""
+        ds = self.grid.ds
+        over = np.clip(self.phase[:, None] + self.grid.edges[None, 1:] - 1.0, 0.0, ds)
+        return np.einsum("ij,ij->i", self.n, ds + over)
+
+    def total_length(self) -> NDArray:
+        """Total length per material element, L = 2^phi sum_i n_i int_(i ds)^((i+1) ds) 2^s ds."""
+        return np.exp2(self.phase) * (self.n @ self.grid.length_integrals)
+
+    def mean_length(self) -> NDArray:
+        """Mean length lbar = L / N per node."""
+        return self.total_length() / self.number()
+
+    def take(self, index: ArrayLike) -> CharacteristicSizes:
+        """A new distribution holding the rows ``index`` (copy)."""
+        index = np.asarray(index)
+        return CharacteristicSizes(self.grid, self.n[index], self.phase[index])
+
+    def transfer(self, W, phase: ArrayLike) -> CharacteristicSizes:
+        """Rows sum_j W_ij R_ij n_j on new windows of phases ``phase`` (class docstring, remap).
+
+        W an (n_new, n_nodes) matrix (sparse or dense); R_ij maps row j's window onto the window
+        of phase ``phase[i]`` keeping the number and the length of every cell. Moments: the
+        new total lengths are W @ total_length() to round-off.
+        """
+        import scipy.sparse as sp
+
+        if W.ndim != 2 or W.shape[1] != self.n_nodes:
+            raise ValueError(f"W must have shape (n_new, {self.n_nodes}), got {W.shape}")
+        W = sp.csr_matrix(W)
+        phase = np.array(phase, dtype=float)
+        if phase.shape != (W.shape[0],) or not np.all((phase >= 0) & (phase < 1)):
+            raise ValueError(f"phase must have shape ({W.shape[0]},) with values in [0, 1)")
+        out = np.zeros((W.shape[0], self.grid.n_cells))
+        _remap_csr(W.indptr, W.indices, W.data.astype(float), np.ascontiguousarray(self.n),
+                   self.phase, phase, out)
+        return CharacteristicSizes(self.grid, out, phase)
+
+    def copy(self) -> CharacteristicSizes:
+        """A copy with its own values and phases."""
+        return CharacteristicSizes(self.grid, self.n.copy(), self.phase.copy())

@@ -12,8 +12,13 @@ Fields (:attr:`State.fields`), nodal values:
   Psi0 = delta(l - 1) (continuum.growth.mean_length), what the figures show;
 - mean_length_psi, number, total_length: moments of the transported size distribution Psi
   (started from the smooth bump of ``SizeDistribution.bump``; number and total length per
-  current area, i.e. per material element divided by its area stretch exp(G)). The bump smears
-  over many divisions (finite volumes in l), so mean_length_psi is the smoother of the two.
+  current area, i.e. per material element divided by its area stretch exp(G)). Along
+  characteristics (the default ``psi_transport``) the bump is shifted exactly between remeshes,
+  so mean_length_psi follows the closed form 2^frac(G / ln 2 + w) of the bump's centre w to
+  the smearing of the remeshes; with finite volumes it smears over many divisions.
+
+``sizes`` is a continuum.sizes.CharacteristicSizes (values and phase offsets) or a
+continuum.sizes.SizeDistribution (cell averages), as ``Config.psi_transport`` says.
 """
 
 from __future__ import annotations
@@ -26,7 +31,7 @@ import numpy as np
 
 from continuum import mesh
 from continuum.growth import mean_length
-from continuum.sizes import SizeDistribution
+from continuum.sizes import CharacteristicSizes, SizeDistribution
 
 __all__ = ["State", "StepRecord", "REMESH_CODES", "TIMING_STAGES"]
 
@@ -55,7 +60,7 @@ class State:
         Velocity u = -grad p at the nodes.
     G : ndarray (N,)
         Growth phase int g dt of each material element.
-    sizes : SizeDistribution
+    sizes : CharacteristicSizes or SizeDistribution
         Psi per material element (one row per node).
     t : float
         Time.
@@ -83,7 +88,7 @@ class State:
     u: np.ndarray
     g: np.ndarray
     G: np.ndarray
-    sizes: SizeDistribution
+    sizes: CharacteristicSizes | SizeDistribution
     t: float = 0.0
     step: int = 0
     n_remesh: int = 0
