@@ -128,7 +128,9 @@ def load(path: Path, config=None) -> tuple:
     history = meta["history"]
     grid = LengthGrid(meta["config"]["n_length_cells"])
     if "psi_phase" in arrays:
-        sizes = CharacteristicSizes(grid, arrays["psi"], arrays["psi_phase"])
+        remap = "labels" if meta["config"].get("psi_transport") == "characteristics-labels" \
+            else "cells"
+        sizes = CharacteristicSizes(grid, arrays["psi"], arrays["psi_phase"], remap)
     else:
         sizes = SizeDistribution(grid, arrays["psi"])
     state = State(

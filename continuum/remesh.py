@@ -42,6 +42,13 @@ density per current area Psi exp(-G) is transferred and multiplied back by exp(G
   phases, leave negative cells; cutting them raised the total length per area by up to 15 %
   at radius 40 (lam = 1e-2), against 0.5 % for the extrapolated nodes alone and round-off with
   the convex weights (docs/validation.md).
+- Along characteristics, by labels (``psi_transport = "characteristics-labels"``): the rows
+  with their divisions undone, 2^-k n, are interpolated by cell index with the same convex
+  weights and put on the window at the new node's phase G_new / ln 2 (no remap in s; the
+  total length per current area transfers exactly with the weights, the number follows the
+  phase; ``CharacteristicSizes.transfer_labels``). From the model's uniform Psi0 this keeps
+  Psi exact: the cell remap instead mixes the distributions of neighbours at different phases,
+  bimodal across a ring, and the error grows with the remeshes (docs/validation.md).
 """
 
 from __future__ import annotations
@@ -144,6 +151,8 @@ def transfer_sizes(
     Transfers the density per current area Psi exp(-G) (module docstring) with the matrix W;
     rows along characteristics onto windows at the phases frac(G_new / ln 2).
     """
+    if isinstance(sizes, CharacteristicSizes) and sizes.remap == "labels":
+        return sizes.transfer_labels(W, np.asarray(G_old) / LN2, np.asarray(G_new) / LN2)
     Wd = W.multiply(np.exp(-G_old)[None, :]).tocsr()
     if isinstance(sizes, CharacteristicSizes):
         dens = sizes.transfer(Wd, fractional_part(np.asarray(G_new, dtype=float) / LN2))

@@ -115,7 +115,9 @@ class Config:
         Half-width in s = log2 l of the initial bump standing in for delta(l - 1).
     psi_transport : str
         Transport of Psi in l: "characteristics" (exact shift of per-node windows in s = log2 l,
-        continuum.sizes.CharacteristicSizes) or "finite-volume" (flux-limited Lax-Wendroff,
+        continuum.sizes.CharacteristicSizes; a remesh remaps the cells conservatively in s),
+        "characteristics-labels" (the same transport; a remesh interpolates the rows by label,
+        continuum.remesh) or "finite-volume" (flux-limited Lax-Wendroff,
         continuum.sizes.SizeDistribution).
     output_every : float
         Time between field frames (VTU); 0 writes only the first and last.
@@ -222,8 +224,11 @@ def initial_state(config: Config) -> State:
 
 def initial_sizes(config: Config, n: int) -> SizeDistribution | CharacteristicSizes:
     """Psi0 on n nodes: the bump of ``bump_width`` in the class of ``psi_transport``."""
-    cls = CharacteristicSizes if config.psi_transport == "characteristics" else SizeDistribution
-    return cls.bump(LengthGrid(config.n_length_cells), n, width=config.bump_width)
+    grid = LengthGrid(config.n_length_cells)
+    if config.psi_transport == "finite-volume":
+        return SizeDistribution.bump(grid, n, width=config.bump_width)
+    remap = "labels" if config.psi_transport == "characteristics-labels" else "cells"
+    return CharacteristicSizes.bump(grid, n, width=config.bump_width, remap=remap)
 
 
 def _target_spacing(config: Config, area: float) -> float:

@@ -71,14 +71,19 @@ __all__ = [
     "SizeDistribution",
     "CharacteristicSizes",
     "TRANSPORTS",
+    "REMAPS",
     "exact_shift",
     "lw_mc_step",
     "remap_pivots",
     "fractional_part",
 ]
 
-TRANSPORTS = ("characteristics", "finite-volume")
-"""Transports of Psi (``Config.psi_transport``): CharacteristicSizes, SizeDistribution."""
+TRANSPORTS = ("characteristics", "characteristics-labels", "finite-volume")
+"""Transports of Psi (``Config.psi_transport``): CharacteristicSizes remapped by cells or by
+labels at a remesh, SizeDistribution."""
+
+REMAPS = ("cells", "labels")
+"""How a remesh transfers CharacteristicSizes (its ``remap``)."""
 
 class LengthGrid:
     """Uniform finite-volume grid in s = log2 l on [0, 1] (l in [1, 2]).
@@ -443,7 +448,20 @@ class CharacteristicSizes:
     come back one octave away (value times 2 or 1/2, the twisted periodicity). L is kept to
     round-off; N too, except for a cell within one cell of s = 1 (one value per cell cannot
     keep both moments there). The smearing per remap is a variance theta (1 - theta) ds^2 in s
-    (measured in tests/continuum/test_psi_characteristics.py).
+    (measured in tests/continuum/test_psi_characteristics.py). This is ``remap = "cells"``.
+
+    Remap by labels (:meth:`transfer_labels`, ``remap = "labels"``). Along a path the solution
+    is n(s) = 2^k n0(y) at the label y = s - sigma, sigma = G / ln 2 (+ the initial phase),
+    k = floor(sigma): cell i of a window is label y_i = i ds whatever the phase, and
+    n_hat = 2^-k n (the divisions undone) is the initial profile of the material element,
+    constant in time. So a remesh interpolates n_hat (by cell index: no remap in s, no
+    smearing) and the unwrapped phase sigma (from G), and sets n = 2^k_new n_hat_new on the
+    window at frac(sigma_new). Per current area the total length is L exp(-G) = sum_i n_hat_i
+    (2^((i+1) ds) - 2^(i ds)) / ln 2, linear in n_hat: it transfers with the weights of W
+    exactly; the number per current area is a function of n_hat and the phase, so it follows
+    the phase (second order where the phase is smooth, right across a ring where an
+    interpolated number is not). From a spatially uniform Psi0 every n_hat is the same and the
+    transfer is exact.
 
     Parameters
     ----------
@@ -453,9 +471,15 @@ class CharacteristicSizes:
         Non-negative values on the windows.
     phase : ndarray (n_nodes,), optional
         Phase offsets in [0, 1) (default 0: the window is [0, 1)).
+    remap : str
+        How a remesh transfers the rows (continuum.remesh.transfer_sizes): "cells" or "labels".
     """
 
-    def __init__(self, grid: LengthGrid, n: ArrayLike, phase: ArrayLike | None = None):
+    def __init__(self, grid: LengthGrid, n: ArrayLike, phase: ArrayLike | None = None,
+                 remap: str = "cells"):
+        if remap not in REMAPS:
+            raise ValueError(f"remap must be one of {REMAPS}, got {remap!r}")
+        self.remap = remap
         n = np.array(n, dtype=float)
         if n.ndim != 2 or n.shape[1] != grid.n_cells:
             raise ValueError(f"n must have shape (n_nodes, {grid.n_cells}), got {n.shape}")
@@ -478,15 +502,16 @@ class CharacteristicSizes:
 
     @classmethod
     def from_function(cls, grid: LengthGrid, n_nodes: int, f: Callable[[NDArray], NDArray],
-                      n_quad: int = 8) -> CharacteristicSizes:
+                      n_quad: int = 8, remap: str = "cells") -> CharacteristicSizes:
         """Every node holds the cell averages of f(s) on [0, 1) (phase 0)."""
-        return cls(grid, SizeDistribution.from_function(grid, n_nodes, f, n_quad).n)
+        return cls(grid, SizeDistribution.from_function(grid, n_nodes, f, n_quad).n,
+                   remap=remap)
 
     @classmethod
     def bump(cls, grid: LengthGrid, n_nodes: int, width: float = 0.08,
-             number: float = 1.0) -> CharacteristicSizes:
+             number: float = 1.0, remap: str = "cells") -> CharacteristicSizes:
         """The bump of :meth:`SizeDistribution.bump` (same cell values, phase 0)."""
-        return cls(grid, SizeDistribution.bump(grid, n_nodes, width, number).n)
+        return cls(grid, SizeDistribution.bump(grid, n_nodes, width, number).n, remap=remap)
 
     def advance(self, g: ArrayLike, dt: float) -> CharacteristicSizes:
         """Shift every row by a dt = g dt / ln 2 in s, exactly (in place; returns self)."""
@@ -523,7 +548,7 @@ class CharacteristicSizes:
     def take(self, index: ArrayLike) -> CharacteristicSizes:
         """A new distribution holding the rows ``index`` (copy)."""
         index = np.asarray(index)
-        return CharacteristicSizes(self.grid, self.n[index], self.phase[index])
+        return CharacteristicSizes(self.grid, self.n[index], self.phase[index], self.remap)
 
     def transfer(self, W, phase: ArrayLike) -> CharacteristicSizes:
         """Rows sum_j W_ij R_ij n_j on new windows of phases ``phase`` (class docstring, remap).
@@ -543,8 +568,32 @@ class CharacteristicSizes:
         out = np.zeros((W.shape[0], self.grid.n_cells))
         _remap_csr(W.indptr, W.indices, W.data.astype(float), np.ascontiguousarray(self.n),
                    self.phase, phase, out)
-        return CharacteristicSizes(self.grid, out, phase)
+        return CharacteristicSizes(self.grid, out, phase, self.remap)
 
     def copy(self) -> CharacteristicSizes:
         """A copy with its own values and phases."""
-        return CharacteristicSizes(self.grid, self.n.copy(), self.phase.copy())
+        return CharacteristicSizes(self.grid, self.n.copy(), self.phase.copy(), self.remap)
+
+    def transfer_labels(self, W, sigma_old: ArrayLike, sigma_new: ArrayLike
+                        ) -> CharacteristicSizes:
+        """Rows 2^k_i sum_j W_ij 2^-k_j n_j on windows at frac(sigma_new) (remap by labels).
+
+        ``sigma_old`` (n_nodes,) the unwrapped phases of the rows (sigma = phase + an integer
+        k, found as the nearest integer to sigma - phase), ``sigma_new`` (n_new,) those of the
+        new rows, k_i = floor(sigma_new_i). Class docstring; W should be >= 0 (the new values
+        are not cut).
+        """
+        if W.ndim != 2 or W.shape[1] != self.n_nodes:
+            raise ValueError(f"W must have shape (n_new, {self.n_nodes}), got {W.shape}")
+        sigma_old = np.asarray(sigma_old, dtype=float)
+        sigma_new = np.asarray(sigma_new, dtype=float)
+        if sigma_old.shape != (self.n_nodes,) or sigma_new.shape != (W.shape[0],):
+            raise ValueError("sigma_old and sigma_new must have one value per old / new row")
+        k_old = np.round(sigma_old - self.phase)
+        n_hat = np.asarray(W @ (self.n * np.exp2(-k_old)[:, None]))
+        k_new = np.floor(sigma_new)
+        phase = sigma_new - k_new
+        up = phase >= 1.0
+        k_new[up] += 1.0
+        phase[up] = 0.0
+        return CharacteristicSizes(self.grid, n_hat * np.exp2(k_new)[:, None], phase, self.remap)
