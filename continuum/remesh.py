@@ -68,6 +68,7 @@ from continuum.velocity import GradientRecovery
 __all__ = [
     "interpolation_matrix",
     "gradient_corrected_matrix",
+    "convex_weights",
     "remesh_reason",
     "transfer_sizes",
     "remesh",
@@ -83,25 +84,36 @@ def interpolation_matrix(locator: mesh.Locator, new_points: np.ndarray,
     with rows summing to 1.
     """
     tri, bary, _ = locator.locate(new_points)
-    if positive:
-        bary = np.maximum(bary, 0.0)
-        bary /= bary.sum(axis=1, keepdims=True)
     n_new = len(new_points)
     rows = np.repeat(np.arange(n_new), 3)
     cols = locator.tris[tri].ravel()
-    return sp.csr_matrix((bary.ravel(), (rows, cols)), shape=(n_new, len(locator.points)))
+    L = sp.csr_matrix((bary.ravel(), (rows, cols)), shape=(n_new, len(locator.points)))
+    return convex_weights(L) if positive else L
+
+
+def convex_weights(L: sp.csr_matrix) -> sp.csr_matrix:
+    """The linear interpolation matrix L with its entries cut at 0 and its rows renormalised.
+
+    Only rows of nodes outside the old mesh change (their extrapolating barycentric
+    coordinates become a convex combination of the same three nodes).
+    """
+    C = L.tocsr(copy=True)
+    np.maximum(C.data, 0.0, out=C.data)
+    return sp.diags(1.0 / np.asarray(C.sum(axis=1)).ravel()) @ C
 
 
 def gradient_corrected_matrix(
-    locator: mesh.Locator, assembler: P1Assembler, new_points: np.ndarray
+    locator: mesh.Locator, assembler: P1Assembler, new_points: np.ndarray,
+    linear: sp.csr_matrix | None = None,
 ) -> sp.csr_matrix:
     """Gradient-corrected interpolation W = L + (1/2) [(L o dX) Dx + (L o dY) Dy].
 
     L_ij = lambda_j(x_i) the linear interpolation, (dX)_ij, (dY)_ij the components of
     x_i - x_j, and Dx, Dy the gradient recovery operators of the old mesh: (W f)_i is
     sum_j lambda_j(x_i) [f_j + (1/2)(x_i - x_j) . (grad f)_j] (exact for quadratics).
+    ``linear``: L when already computed (:func:`interpolation_matrix`).
     """
-    L = interpolation_matrix(locator, new_points).tocoo()
+    L = (interpolation_matrix(locator, new_points) if linear is None else linear).tocoo()
     rec = GradientRecovery(assembler, locator.points)
     d = new_points[L.row] - locator.points[L.col]
     shape = L.shape
@@ -186,10 +198,9 @@ def remesh(
     state.timings["meshing"] += time.perf_counter() - t0
     t0 = time.perf_counter()
     locator = mesh.Locator(old_points, old_tris)
-    W = gradient_corrected_matrix(locator, assembler, state.points)
-    W_psi = W
-    if isinstance(state.sizes, CharacteristicSizes):
-        W_psi = interpolation_matrix(locator, state.points, positive=True)
+    L = interpolation_matrix(locator, state.points)
+    W = gradient_corrected_matrix(locator, assembler, state.points, linear=L)
+    W_psi = convex_weights(L) if isinstance(state.sizes, CharacteristicSizes) else W
     G_old = state.G
     state.G = W @ G_old
     state.sizes = transfer_sizes(state.sizes, W_psi, G_old, state.G)
