@@ -13,9 +13,10 @@ Fields (:attr:`State.fields`), nodal values:
 - mean_length_psi, number, total_length: moments of the transported size distribution Psi
   (started from the smooth bump of ``SizeDistribution.bump``; number and total length per
   current area, i.e. per material element divided by its area stretch exp(G)). Along
-  characteristics (the default ``psi_transport``) the bump is shifted exactly between remeshes,
-  so mean_length_psi follows the closed form 2^frac(G / ln 2 + w) of the bump's centre w to
-  the smearing of the remeshes; with finite volumes it smears over many divisions.
+  characteristics the bump is shifted exactly between remeshes, and with the default
+  ``psi_transport`` (by labels) also across them, so mean_length_psi follows the closed form
+  2^frac(G / ln 2 + w) of the bump's centre w to round-off; with finite volumes it smears
+  over many divisions.
 
 ``sizes`` is a continuum.sizes.CharacteristicSizes (values and phase offsets) or a
 continuum.sizes.SizeDistribution (cell averages), as ``Config.psi_transport`` says.

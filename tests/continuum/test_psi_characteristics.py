@@ -277,8 +277,11 @@ def test_label_remap_checkpoint_resumes_bit_identically(tmp_path):
 def test_config_selects_the_transport():
     from continuum.sizes import SizeDistribution
 
-    assert Config().psi_transport == "characteristics"
-    assert isinstance(Simulation(Config(lam=1e-2)).state.sizes, CharacteristicSizes)
+    assert Config().psi_transport == "characteristics-labels"
+    default = Simulation(Config(lam=1e-2)).state.sizes
+    assert isinstance(default, CharacteristicSizes) and default.remap == "labels"
+    cells = Simulation(Config(lam=1e-2, psi_transport="characteristics")).state.sizes
+    assert cells.remap == "cells"
     fv = Simulation(Config(lam=1e-2, psi_transport="finite-volume")).state.sizes
     assert isinstance(fv, SizeDistribution)
     labels = Simulation(Config(lam=1e-2, psi_transport="characteristics-labels")).state.sizes
