@@ -422,8 +422,8 @@ class PressureSolver:
                 st.residual = res / max(scale, 1e-300)
                 st.newton_iterations = it
                 self.stats = st
-                # kept for the residual flux and the velocity recovery at this solution
-                self.last = {"residual": r_full, "area": area, "grads": grads}
+                # kept for the residual flux, the velocity recovery and g at this solution
+                self.last = {"residual": r_full, "area": area, "grads": grads, "g": g}
                 return p
             if it == self.max_newton:
                 break

@@ -31,7 +31,6 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from continuum.growth import growth_rate
 from continuum.pressure import P1Assembler, PressureSolver
 
 __all__ = [
@@ -228,8 +227,8 @@ def darcy_flow(
     """Pressure, velocity and growth rate of the colony whose nodes are at ``points``.
 
     Solves -Laplace p = exp(-lam p), p = 0 on the boundary (``solver``, topology set by its
-    ``set_mesh``, warm start ``p0``), then u = -grad p (:func:`nodal_velocity`) and
-    g = exp(-lam p). The solve's diagnostics are in ``solver.stats``.
+    ``set_mesh``, warm start ``p0``), then u = -grad p (:func:`nodal_velocity`); g = exp(-lam p)
+    is the one Newton evaluated at the solution. The solve's diagnostics are in ``solver.stats``.
 
     Returns
     -------
@@ -243,4 +242,4 @@ def darcy_flow(
     p = solver.solve(points, p0, where=where)
     last = solver.last
     u = nodal_velocity(solver.assembler, points, p, last["residual"], (last["area"], last["grads"]))
-    return p, u, growth_rate(p, solver.lam)
+    return p, u, last["g"]
