@@ -15,8 +15,10 @@ import os
 import numpy as np
 
 from .geometry import B, axial_stress, detect_contacts, generalised_forces
+from .growth import grow
 from .output import read_init
 from .state import ParticleState
+from .stepping import warm_start
 
 __all__ = ["single_cell", "from_csv", "ring_packing", "warm_problem"]
 
@@ -133,7 +135,8 @@ def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):  # noqa: PLR09
     One engine update with forces gamma (x += dt F / l, theta += dt 12 T / l^3, (F, T) =
     D gamma; l <- l exp(dt exp(-lam sigma)), sigma = G gamma), the contacts of the new
     configuration with gap <= margin, and their warm start (the forces gamma of the contacts
-    whose identity persists, 0 for new ones), as the engine does (stepping.step).
+    whose identity persists, 0 for new ones: stepping.warm_start), as the engine does
+    (stepping.step).
 
     Returns
     -------
@@ -146,13 +149,6 @@ def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):  # noqa: PLR09
     x2 = x + dt * fx / length
     y2 = y + dt * fy / length
     th2 = theta + dt * 12.0 * tz / length**3
-    l2 = length * np.exp(dt * np.exp(-lam * stress))
+    l2 = grow(length, stress, lam, dt)
     c2 = detect_contacts(x2, y2, th2, l2, margin)
-    k1 = c.keys(ids)
-    k2 = c2.keys(ids)
-    order = np.argsort(k1)
-    pos = np.clip(np.searchsorted(k1[order], k2), 0, len(k1) - 1)
-    hit = k1[order][pos] == k2
-    g0 = np.zeros(len(c2))
-    g0[hit] = gamma[order[pos[hit]]]
-    return (x2, y2, th2, l2), c2, g0
+    return (x2, y2, th2, l2), c2, warm_start(c2.keys(ids), c.keys(ids), gamma)

@@ -58,7 +58,7 @@ class OverlapError(RuntimeError):
     """The re-solve passes could not bring the real overlap within tolerance."""
 
 
-def _warm_start(keys: np.ndarray, prev_keys: np.ndarray, prev_gamma: np.ndarray) -> np.ndarray:
+def warm_start(keys: np.ndarray, prev_keys: np.ndarray, prev_gamma: np.ndarray) -> np.ndarray:
     """Previous forces of the contacts whose identity persists, 0 for new contacts."""
     g0 = np.zeros(keys.shape[0])
     if prev_keys.size == 0 or keys.size == 0:
@@ -145,7 +145,7 @@ def step(state: ParticleState, config: Config, dt: float,
     c = detect(state, margin, timers)
     t0 = _time.perf_counter()
     keys = c.keys(state.ids)
-    gamma0 = _warm_start(keys, *warm)
+    gamma0 = warm_start(keys, *warm)
     t0 = _tick(timers, "update", t0)
     gamma, hist = _solve(solver, spent, c, state.length, dt, config.lam, gamma0, stol,
                          config.max_iterations, True)
