@@ -61,7 +61,7 @@ import scipy.sparse as sp
 from continuum import mesh
 from continuum.growth import LN2
 from continuum.pressure import P1Assembler
-from continuum.sizes import CharacteristicSizes, SizeDistribution, fractional_part
+from continuum.sizes import CharacteristicSizes, SizeDistribution, split_phase
 from continuum.state import State
 from continuum.velocity import GradientRecovery
 
@@ -167,7 +167,7 @@ def transfer_sizes(
         return sizes.transfer_labels(W, np.asarray(G_old) / LN2, np.asarray(G_new) / LN2)
     Wd = W.multiply(np.exp(-G_old)[None, :]).tocsr()
     if isinstance(sizes, CharacteristicSizes):
-        dens = sizes.transfer(Wd, fractional_part(np.asarray(G_new, dtype=float) / LN2))
+        dens = sizes.transfer(Wd, split_phase(np.asarray(G_new, dtype=float) / LN2)[1])
     else:
         dens = sizes.transfer(Wd)
     dens.n *= np.exp(G_new)[:, None]

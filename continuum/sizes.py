@@ -75,7 +75,7 @@ __all__ = [
     "exact_shift",
     "lw_mc_step",
     "remap_pivots",
-    "fractional_part",
+    "split_phase",
 ]
 
 TRANSPORTS = ("characteristics", "characteristics-labels", "finite-volume")
@@ -350,11 +350,17 @@ def exact_shift(f0: Callable[[NDArray], NDArray], shift: float) -> Callable[[NDA
 # ---------------------------------------------------------------------------- characteristics
 
 
-def fractional_part(x: NDArray) -> NDArray:
-    """The fractional part x - floor(x) in [0, 1) (a value rounding up to 1 gives 0)."""
-    f = x - np.floor(x)
-    f[f >= 1.0] = 0.0
-    return f
+def split_phase(x: NDArray) -> tuple[NDArray, NDArray]:
+    """Whole and fractional parts (k, f) of x = k + f, k = floor(x) (float), f in [0, 1).
+
+    An x just below an integer, whose x - floor(x) rounds up to 1, gives f = 0 and k + 1.
+    """
+    k = np.floor(x)
+    f = x - k
+    up = f >= 1.0
+    k[up] += 1.0
+    f[up] = 0.0
+    return k, f
 
 
 def remap_pivots(theta: float, ds: float) -> tuple[float, float]:
@@ -519,13 +525,7 @@ class CharacteristicSizes:
         dt = float(dt)
         if not math.isfinite(dt) or dt < 0:
             raise ValueError(f"dt must be finite and >= 0, got {dt}")
-        x = self.phase + g * dt / LN2
-        k = np.floor(x)
-        self.phase = x - k
-        wrapped = self.phase >= 1.0  # x just below an integer rounding up
-        if np.any(wrapped):
-            k[wrapped] += 1.0
-            self.phase[wrapped] = 0.0
+        k, self.phase = split_phase(self.phase + g * dt / LN2)
         rows = np.flatnonzero(k > 0)
         if rows.size:
             self.n[rows] *= np.exp2(k[rows])[:, None]  # exact: powers of two
@@ -591,9 +591,5 @@ class CharacteristicSizes:
             raise ValueError("sigma_old and sigma_new must have one value per old / new row")
         k_old = np.round(sigma_old - self.phase)
         n_hat = np.asarray(W @ (self.n * np.exp2(-k_old)[:, None]))
-        k_new = np.floor(sigma_new)
-        phase = sigma_new - k_new
-        up = phase >= 1.0
-        k_new[up] += 1.0
-        phase[up] = 0.0
+        k_new, phase = split_phase(sigma_new)
         return CharacteristicSizes(self.grid, n_hat * np.exp2(k_new)[:, None], phase, self.remap)
