@@ -88,7 +88,9 @@ def load_checkpoint(path: Path, config: Config, change_step_policy: bool = False
     ``EXECUTION_FIELDS`` (and ``STEP_POLICY_FIELDS`` with ``change_step_policy``).  A
     checkpoint written before the lineage was tracked has no ``parent`` and ``generation``
     arrays: the particles then present are loaded as initial ones (parent -1, generation 0),
-    and their daughters count generations from them.
+    and their daughters count generations from them.  With ``change_step_policy`` the next
+    step follows ``config``'s policy: ``dt_next`` is ``config.dt``, or with ``adaptive_dt`` the
+    saved ``dt_next`` capped at ``config.dt``.
     """
     with np.load(path) as z:
         meta = json.loads(str(z["meta"]))
@@ -100,6 +102,8 @@ def load_checkpoint(path: Path, config: Config, change_step_policy: bool = False
                               int(meta["next_id"]), **lineage, t=meta["t"], step=meta["step"],
                               rng=rng, warm_keys=z["warm_keys"], warm_gamma=z["warm_gamma"],
                               dt_next=meta.get("dt_next", config.dt))
+    if change_step_policy:
+        state.dt_next = min(state.dt_next, config.dt) if config.adaptive_dt else config.dt
     return state, meta["history"], meta["frames"]
 
 

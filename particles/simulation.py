@@ -200,9 +200,7 @@ class Simulation:
             log.info("resuming from %s at t = %.6g (step %d, %d particles)", checkpoint,
                      self.state.t, self.state.step, self.state.n)
             if change_step_policy:
-                st = self.state
-                st.dt_next = min(st.dt_next, config.dt) if config.adaptive_dt else config.dt
-                write_config(out, config, step=st.step, policy=STEP_POLICY_FIELDS)
+                write_config(out, config, step=self.state.step, policy=STEP_POLICY_FIELDS)
             return
         self.state = check_initial(config, require_stop=False) if state is None else state
         if self.state.rng is None:
@@ -223,13 +221,10 @@ class Simulation:
         path = Path(path)
         if config is None:
             config = checkpoint_config(path)
-        sim = cls.__new__(cls)
         config.validate(require_stop=False)
-        sim.config, sim.output, sim.finished = config, None, True
-        sim.state, sim.history, sim._frames = load_checkpoint(path, config, change_step_policy)
-        if change_step_policy:
-            st = sim.state
-            st.dt_next = min(st.dt_next, config.dt) if config.adaptive_dt else config.dt
+        state, history, frames = load_checkpoint(path, config, change_step_policy)
+        sim = cls(config, state=state)
+        sim.history, sim._frames = history, frames
         return sim
 
     def save(self, path: str | Path | None = None) -> Path:
