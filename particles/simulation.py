@@ -330,8 +330,7 @@ class Simulation:
             raise ValueError("give radius or time (or set one in the Config)")
         with _ProgressBar(self.config.lam, radius, time, progress) as bar:
             while not self.done(radius, time):
-                self.step(until=time)
-                bar.show(self.state)
+                bar.show(self.step(until=time))
                 if self.output is not None:
                     self.output.after_step(self.state)
         return self.state
@@ -346,10 +345,11 @@ class _ProgressBar:
         self.bar = tqdm(total=self.total, disable=not (progress and sys.stderr.isatty()),
                         unit="", desc=f"particles lam={lam:g}", leave=False)
 
-    def show(self, state: ParticleState) -> None:
+    def show(self, record: StepRecord) -> None:
+        """The time or the radius after the step of ``record``."""
         if self.bar.disable:
             return
-        self.bar.n = min(self.total, state.t if self.by_time else state.enclosing_radius())
+        self.bar.n = min(self.total, record.t if self.by_time else record.radius)
         self.bar.refresh()
 
     def __enter__(self) -> _ProgressBar:
@@ -421,9 +421,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     steps = 0
     with StopRequest() as stop, _ProgressBar(config.lam, progress=progress, **goal) as bar:
         while not sim.done(**goal):
-            sim.step(until=config.time)
+            bar.show(sim.step(until=config.time))
             steps += 1
-            bar.show(sim.state)
             if sim.output is not None:
                 sim.output.after_step(sim.state)
                 checkpointer.after_step()
