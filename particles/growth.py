@@ -58,11 +58,6 @@ def grow(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.nd
     return length * np.exp(dt * growth_rate(stress, lam))
 
 
-def growth_increment(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.ndarray:
-    """l(t + dt) - l(t) = l (exp(dt exp(-lam sigma)) - 1), computed without cancellation."""
-    return length * np.expm1(dt * growth_rate(stress, lam))
-
-
 def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
     """The division rule: every particle with l_n >= 2 becomes two, in place.
 
