@@ -36,12 +36,12 @@ density per current area Psi exp(-G) is transferred and multiplied back by exp(G
   frac(G_new / ln 2) (where Psi0 = delta(l - 1) would sit) and every old row is mapped onto it
   keeping the number and the length of each cell (``CharacteristicSizes.transfer``). The
   weights are the linear ones with the extrapolation cut to a convex combination
-  (``interpolation_matrix(positive=True)``: W >= 0, rows summing to 1), so nothing is cut and
-  the number and total length per current area transfer exactly with these weights. Why not the
-  gradient-corrected W: its negative weights, applied to narrow distributions at neighbouring
-  phases, leave negative cells; cutting them raised the total length per area by up to 15 %
-  at radius 40 (lam = 1e-2), against 0.5 % for the extrapolated nodes alone and round-off with
-  the convex weights (docs/validation.md).
+  (:func:`convex_weights` of ``interpolation_matrix``: W >= 0, rows summing to 1), so nothing is
+  cut and the number and total length per current area transfer exactly with these weights. Why
+  not the gradient-corrected W: its negative weights, applied to narrow distributions at
+  neighbouring phases, leave negative cells; cutting them raised the total length per area by
+  up to 15 % at radius 40 (lam = 1e-2), against 0.5 % for the extrapolated nodes alone and
+  round-off with the convex weights (docs/validation.md).
 - Along characteristics, by labels (``psi_transport = "characteristics-labels"``): the rows
   with their divisions undone, 2^-k n, are interpolated by cell index with the same convex
   weights and put on the window at the new node's phase G_new / ln 2 (no remap in s; the
@@ -75,20 +75,16 @@ __all__ = [
 ]
 
 
-def interpolation_matrix(locator: mesh.Locator, new_points: np.ndarray,
-                         positive: bool = False) -> sp.csr_matrix:
+def interpolation_matrix(locator: mesh.Locator, new_points: np.ndarray) -> sp.csr_matrix:
     """Linear interpolation W_ij = lambda_j(x_i) onto new nodes (extrapolating outside).
 
-    ``positive``: the barycentric coordinates of a node outside the old mesh are cut at 0 and
-    renormalised to sum 1 (a convex combination of the nearest triangle's nodes), so that W >= 0
-    with rows summing to 1.
+    :func:`convex_weights` makes it W >= 0 with rows summing to 1.
     """
     tri, bary, _ = locator.locate(new_points)
     n_new = len(new_points)
     rows = np.repeat(np.arange(n_new), 3)
     cols = locator.tris[tri].ravel()
-    L = sp.csr_matrix((bary.ravel(), (rows, cols)), shape=(n_new, len(locator.points)))
-    return convex_weights(L) if positive else L
+    return sp.csr_matrix((bary.ravel(), (rows, cols)), shape=(n_new, len(locator.points)))
 
 
 def convex_weights(L: sp.csr_matrix) -> sp.csr_matrix:
