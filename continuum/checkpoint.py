@@ -98,12 +98,6 @@ def save(path: Path, config, state: State, amg: np.ndarray | None, history: list
     log.debug("checkpoint at t = %.6g written to %s", state.t, path)
 
 
-def read_config(path: Path) -> dict:
-    """The configuration fields saved in the checkpoint at ``path``."""
-    with np.load(path) as z:
-        return json.loads(str(z["meta"]))["config"]
-
-
 def load(path: Path, config=None) -> tuple:
     """Read a checkpoint written by :func:`save`.
 
