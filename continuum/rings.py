@@ -39,6 +39,7 @@ from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
 from continuum.growth import LN2
+from continuum.mesh import triangle_areas
 
 __all__ = ["LN2", "COLUMNS", "area_centroid", "contour_segments", "ring_levels", "ring_table",
            "ring_wavelength"]
@@ -78,8 +79,7 @@ def area_centroid(points: ArrayLike, triangles: ArrayLike) -> np.ndarray:
     points = np.asarray(points, dtype=float)[:, :2]
     tris = np.asarray(triangles, dtype=np.int64)
     a, b, c = (points[tris[:, i]] for i in range(3))
-    area = np.abs(0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
-                         - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])))
+    area = np.abs(triangle_areas(points, tris))
     if area.sum() <= 0:
         raise ValueError("mesh has zero area")
     return (area[:, None] * (a + b + c) / 3.0).sum(0) / area.sum()
