@@ -55,13 +55,17 @@ def continuum_wavelength_series(folder: str | os.PathLike, edge_width: float = 0
         pts, tri, data = read_continuum_frame(path)
         ts.append(t)
         Rs.append(mesh_radius(pts, tri))
-        if "G" in data:
-            ws.append(contour_wavelength(_rings.ring_table(pts, tri, data["G"])))
-            continue
-        prof = field_profile(pts, tri, {"mean_length": data["mean_length"]},
-                             edge_width=edge_width)
-        ws.append(profile_wavelength(prof, noisy=False, **kwargs))
+        ws.append(_frame_wavelength(pts, tri, data, edge_width, **kwargs))
     return {"t": np.array(ts), "radius": np.array(Rs), "wavelength": np.array(ws)}
+
+
+def _frame_wavelength(pts: np.ndarray, tri: np.ndarray, data: dict, edge_width: float,
+                      **kwargs) -> float:
+    """Ring wavelength of one frame: its contours of G, else the peaks of its lbar profile."""
+    if "G" in data:
+        return contour_wavelength(_rings.ring_table(pts, tri, data["G"]))
+    prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=edge_width)
+    return profile_wavelength(prof, noisy=False, **kwargs)
 
 
 def final_continuum_profile(folder: str | os.PathLike, edge_width: float = 0.05
@@ -71,8 +75,7 @@ def final_continuum_profile(folder: str | os.PathLike, edge_width: float = 0.05
     Columns mean_length, pressure and, when the frame has it, G with
     mean_length_phase = 2^frac(<G> / ln 2).
     """
-    t, path = continuum_frames(folder)[-1]
-    pts, tri, data = read_continuum_frame(path)
+    pts, tri, data = read_continuum_frame(continuum_frames(folder)[-1][1])
     values = {"mean_length": data["mean_length"], "pressure": data["p"]}
     if "G" in data:
         values["G"] = data["G"]
@@ -114,8 +117,5 @@ def continuum_wavelength(folder: str | os.PathLike, edge_width: float = 0.05, **
     if (folder / "rings.csv").is_file():
         return contour_wavelength(continuum_rings(folder))
     pts, tri, data = read_continuum_frame(continuum_frames(folder)[-1][1])
-    if "G" in data:
-        return contour_wavelength(_rings.ring_table(pts, tri, data["G"]))
-    prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=edge_width)
-    return profile_wavelength(prof, noisy=False, **kwargs)
+    return _frame_wavelength(pts, tri, data, edge_width, **kwargs)
 
