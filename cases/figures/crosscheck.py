@@ -148,7 +148,7 @@ def _continuum_row(fc: Path, lam: float) -> dict[str, float]:
         "max_pressure_continuum": float(hc["max_pressure"][-1]),
         "p0_exact": radial.max_pressure(R_f, lam),
         "wavelength_continuum": A.continuum_wavelength(fc),
-        "wavelength_exact": exact_wavelength(lam, R_f) if lam > 0 else math.nan,
+        "wavelength_exact": exact_wavelength(lam, R_f),
     }
 
 
