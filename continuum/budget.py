@@ -69,8 +69,7 @@ def largest_nodes(config) -> tuple[float, str]:
     """
     polygon = config.initial_boundary()
     area = abs(mesh.polygon_area(polygon))
-    closed = list(polygon) + [polygon[0]]
-    perimeter = sum(math.dist(a, b) for a, b in zip(closed[:-1], closed[1:], strict=True))
+    perimeter = float(mesh.boundary_spacing(polygon).sum())
     n_initial = estimate_nodes(area, perimeter, config)
     if config.radius is None:
         return n_initial, "initial"
