@@ -37,8 +37,6 @@ import threading
 import tomllib
 from pathlib import Path
 
-import numpy as np
-
 from cases.analysis import field_profile, particle_profile, write_csv
 from cases.rundir import (
     RunFolderError,
@@ -156,6 +154,7 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
 
 def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True):
     """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG."""
+    from cases.figures.draw import continuum_picture
     from continuum.output import write_rings
     from continuum.simulation import run
 
@@ -168,7 +167,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
                                 edge_width=CONTINUUM_EDGE_WIDTH)
         write_csv(partial / "profile.csv", profile)
         write_rings(partial, state.points, state.triangles, state.fields["G"])
-        _draw_continuum(state, partial / "mean_length", config.lam)
+        continuum_picture(state, partial / "mean_length", config.lam)
         _remove_checkpoints(partial)
         return state
 
@@ -180,6 +179,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
 def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
                   change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
+    from cases.figures.draw import particles_picture
     from particles import run
     from particles.config import STEP_POLICY_FIELDS
     from particles.simulation import check_initial
@@ -191,7 +191,7 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
                                    edge_width=PARTICLE_EDGE_WIDTH,
                                    radius=colony.enclosing_radius())
         write_csv(partial / "profile.csv", profile)
-        _draw_particles(colony, partial / "colony", config.lam)
+        particles_picture(colony, partial / "colony", config.lam)
         _remove_checkpoints(partial)  # the run is complete: nothing to resume
         return colony
 
@@ -214,61 +214,6 @@ def check_continuum_fits(config) -> None:
     from continuum.budget import check_memory
 
     check_memory(config)
-
-
-def mean_length_image(points, triangles, G, pixels: int = 900):
-    """Pixel image of lbar = 2^frac(G / ln 2) on the mesh's bounding box (NaN outside).
-
-    The growth phase G is smooth, lbar is a sawtooth: interpolating G linearly at each pixel
-    and applying the sawtooth there keeps the rings sharp, where shading the nodal lbar would
-    smear every jump over a triangle. Returns (image, extent) for ``imshow``.
-    """
-    from matplotlib.tri import LinearTriInterpolator, Triangulation
-
-    lo, hi = points.min(axis=0), points.max(axis=0)
-    x = np.linspace(lo[0], hi[0], pixels)
-    y = np.linspace(lo[1], hi[1], pixels)
-    X, Y = np.meshgrid(x, y)
-    tri = Triangulation(points[:, 0], points[:, 1], triangles)
-    g = LinearTriInterpolator(tri, G)(X, Y)
-    from continuum.growth import mean_length
-
-    return mean_length(np.ma.filled(g.astype(float), np.nan)), (lo[0], hi[0], lo[1], hi[1])
-
-
-def _draw_continuum(state, stem: Path, lam: float) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from cases.figures.draw import DEFAULT_CMAP, LENGTH_LIMITS, colorbar, save_figure
-
-    fig, ax = plt.subplots(figsize=(6.6, 6))
-    image, extent = mean_length_image(state.points, state.triangles, state.fields["G"])
-    mappable = ax.imshow(image, origin="lower", extent=extent, cmap=DEFAULT_CMAP,
-                         vmin=LENGTH_LIMITS[0], vmax=LENGTH_LIMITS[1], interpolation="nearest")
-    ax.set_aspect("equal")
-    colorbar(fig, mappable, ax, label=r"mean length $\bar\ell$")
-    ax.set_title(f"continuum, lam = {lam:g}, t = {state.t:.3g}")
-    save_figure(fig, stem, formats=("png",))
-    plt.close(fig)
-
-
-def _draw_particles(colony, stem: Path, lam: float) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from cases.figures.draw import colorbar, draw_particles, save_figure
-
-    fig, ax = plt.subplots(figsize=(6.6, 6))
-    mappable = draw_particles(colony.x, colony.y, colony.theta, colony.length, ax=ax)
-    colorbar(fig, mappable, ax)
-    ax.set_title(f"particles, lam = {lam:g}, N = {len(colony.x)}, t = {colony.t:.3g}")
-    save_figure(fig, stem, formats=("png",))
-    plt.close(fig)
 
 
 # --------------------------------------------------------------------------- parser

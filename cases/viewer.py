@@ -9,7 +9,7 @@ read a run folder of either engine (docs/DESIGN.md, output contract):
 Particles are sphero-cylinders coloured by their length l, the continuum is its mean length
 lbar = 2^frac(G / ln 2) with the domain boundary; both on the colour scale [1, 2] of the paper's
 Fig 2 (cases.figures.draw.LENGTH_LIMITS).  The final pictures are those
-``colony continuum|particles`` draws (the functions of cases.cli, reused); R(t) comes from
+``colony continuum|particles`` draws (cases.figures.draw, reused); R(t) comes from
 history.csv.  Movie frames share one colour scale and the axis limits of the largest (last)
 frame; the MP4 is written by imageio-ffmpeg (H.264, yuv420p, playable everywhere).
 
@@ -33,7 +33,14 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from cases.analysis import continuum_frames, read_continuum_frame, read_csv  # noqa: E402
-from cases.figures.draw import DEFAULT_CMAP, LENGTH_LIMITS, draw_particles  # noqa: E402
+from cases.figures.draw import (  # noqa: E402
+    DEFAULT_CMAP,
+    LENGTH_LIMITS,
+    continuum_picture,
+    draw_mean_length,
+    draw_particles,
+    particles_picture,
+)
 
 __all__ = ["run_kind", "plot_run", "movie_run", "boundary_edges", "ovito_pipeline",
            "render_ovito"]
@@ -92,8 +99,6 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
     else the trajectory's last frame); both: ``radius.png``, R(t) from history.csv, and
     ``profile.png``, the radial mean-length profile from profile.csv when present.
     """
-    from cases.cli import _draw_continuum, _draw_particles
-
     d = Path(run_dir)
     kind = run_kind(d)
     lam = _lam(d)
@@ -106,11 +111,11 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
         if "G" not in data:
             raise ValueError(f"{d}: {vtu.name} has no point data G")
         state = SimpleNamespace(points=points, triangles=triangles, fields=data, t=t)
-        _draw_continuum(state, o / "mean_length", lam)
+        continuum_picture(state, o / "mean_length", lam)
         paths = [o / "mean_length.png"]
     else:
         colony = _final_particles(d, hist)
-        _draw_particles(colony, o / "colony", lam)
+        particles_picture(colony, o / "colony", lam)
         paths = [o / "colony.png"]
     paths.append(_plot_radius(hist, kind, lam, o / "radius.png"))
     if (d / "profile.csv").is_file():
@@ -197,8 +202,6 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     from matplotlib.collections import LineCollection
     from tqdm import tqdm
 
-    from cases.cli import mean_length_image
-
     d = Path(run_dir)
     kind = run_kind(d)
     lam = _lam(d)
@@ -248,10 +251,7 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
                 points, triangles, data = read_continuum_frame(item)
                 size = float(np.max(points.max(axis=0) - points.min(axis=0)))
                 px = max(32, int(pixels * size / float(np.max(hi - lo))))
-                image, extent = mean_length_image(points, triangles, data["G"], pixels=px)
-                ax.imshow(image, origin="lower", extent=extent, cmap=DEFAULT_CMAP,
-                          vmin=LENGTH_LIMITS[0], vmax=LENGTH_LIMITS[1],
-                          interpolation="nearest")
+                draw_mean_length(points, triangles, data["G"], ax, pixels=px)
                 edges = points[boundary_edges(triangles)]
                 ax.add_collection(LineCollection(edges, colors="k", linewidths=0.8))
                 ax.set_title(f"continuum, lam = {lam:g}, t = {t:.3g}")

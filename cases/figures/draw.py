@@ -26,7 +26,9 @@ from matplotlib.collections import PolyCollection  # noqa: E402
 from matplotlib.figure import Figure  # noqa: E402
 
 __all__ = ["LENGTH_LIMITS", "DEFAULT_CMAP", "spherocylinder_polygons", "draw_particles",
-           "draw_field", "save_figure", "colorbar", "note_missing_engines", "plain_log_ticks"]
+           "draw_field", "mean_length_image", "draw_mean_length", "continuum_picture",
+           "particles_picture", "save_figure", "colorbar", "note_missing_engines",
+           "plain_log_ticks"]
 
 LENGTH_LIMITS = (1.0, 2.0)
 DEFAULT_CMAP = "viridis"
@@ -145,6 +147,52 @@ def draw_field(
                         cmap=cmap, vmin=clim[0], vmax=clim[1], rasterized=rasterized)
     ax.set_aspect("equal")
     return coll
+
+
+def mean_length_image(points, triangles, G, pixels: int = 900):
+    """Pixel image of lbar = 2^frac(G / ln 2) on the mesh's bounding box (NaN outside).
+
+    The growth phase G is smooth, lbar is a sawtooth: interpolating G linearly at each pixel
+    and applying the sawtooth there keeps the rings sharp, where shading the nodal lbar would
+    smear every jump over a triangle. Returns (image, extent) for ``imshow``.
+    """
+    from matplotlib.tri import LinearTriInterpolator, Triangulation
+
+    lo, hi = points.min(axis=0), points.max(axis=0)
+    x = np.linspace(lo[0], hi[0], pixels)
+    y = np.linspace(lo[1], hi[1], pixels)
+    X, Y = np.meshgrid(x, y)
+    tri = Triangulation(points[:, 0], points[:, 1], triangles)
+    g = LinearTriInterpolator(tri, G)(X, Y)
+    from continuum.growth import mean_length
+
+    return mean_length(np.ma.filled(g.astype(float), np.nan)), (lo[0], hi[0], lo[1], hi[1])
+
+
+def draw_mean_length(points, triangles, G, ax: Axes, pixels: int = 900):
+    """Draw :func:`mean_length_image` on ``ax`` on the colour scale LENGTH_LIMITS; its image."""
+    image, extent = mean_length_image(points, triangles, G, pixels=pixels)
+    return ax.imshow(image, origin="lower", extent=extent, cmap=DEFAULT_CMAP,
+                     vmin=LENGTH_LIMITS[0], vmax=LENGTH_LIMITS[1], interpolation="nearest")
+
+
+def continuum_picture(state, stem: Path, lam: float) -> None:
+    """``stem.png``: lbar of a continuum state (points, triangles, fields["G"], t), colour bar."""
+    fig, ax = plt.subplots(figsize=(6.6, 6))
+    mappable = draw_mean_length(state.points, state.triangles, state.fields["G"], ax)
+    ax.set_aspect("equal")
+    colorbar(fig, mappable, ax, label=r"mean length $\bar\ell$")
+    ax.set_title(f"continuum, lam = {lam:g}, t = {state.t:.3g}")
+    save_figure(fig, stem, formats=("png",))
+
+
+def particles_picture(colony, stem: Path, lam: float) -> None:
+    """``stem.png``: a particle colony (x, y, theta, length, t) coloured by length, colour bar."""
+    fig, ax = plt.subplots(figsize=(6.6, 6))
+    mappable = draw_particles(colony.x, colony.y, colony.theta, colony.length, ax=ax)
+    colorbar(fig, mappable, ax)
+    ax.set_title(f"particles, lam = {lam:g}, N = {len(colony.x)}, t = {colony.t:.3g}")
+    save_figure(fig, stem, formats=("png",))
 
 
 def colorbar(fig: Figure, mappable, ax, label: str = r"length $\ell$"):

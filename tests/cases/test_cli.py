@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from cases import cli
+from cases.figures import draw
 
 
 @dataclasses.dataclass
@@ -133,7 +134,7 @@ def test_mean_length_image_applies_the_sawtooth_per_pixel():
     # G = 3 x on the unit square: lbar = 2^frac(3x / ln 2) exactly at every pixel centre
     pts = np.array([[0, 0], [1, 0], [1, 1], [0, 1]], float)
     tri = np.array([[0, 1, 2], [0, 2, 3]])
-    image, extent = cli.mean_length_image(pts, tri, 3.0 * pts[:, 0], pixels=50)
+    image, extent = draw.mean_length_image(pts, tri, 3.0 * pts[:, 0], pixels=50)
     x = np.linspace(0, 1, 50)
     q = 3.0 * x / np.log(2.0)
     np.testing.assert_allclose(image, np.broadcast_to(2.0 ** (q - np.floor(q)), (50, 50)),
