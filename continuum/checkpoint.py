@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from continuum.sizes import CharacteristicSizes, LengthGrid, SizeDistribution
+from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid, SizeDistribution
 from continuum.state import State
 
 __all__ = ["CHECKPOINT", "EXECUTION_FIELDS", "save", "load", "check_resumable",
@@ -122,8 +122,7 @@ def load(path: Path, config=None) -> tuple:
     history = meta["history"]
     grid = LengthGrid(meta["config"]["n_length_cells"])
     if "psi_phase" in arrays:
-        remap = "labels" if meta["config"].get("psi_transport") == "characteristics-labels" \
-            else "cells"
+        remap = TRANSPORT_REMAP.get(meta["config"].get("psi_transport"), "cells")
         sizes = CharacteristicSizes(grid, arrays["psi"], arrays["psi_phase"], remap)
     else:
         sizes = SizeDistribution(grid, arrays["psi"])

@@ -50,7 +50,13 @@ from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.radial import R0
 from continuum.remesh import remesh, remesh_reason
-from continuum.sizes import TRANSPORTS, CharacteristicSizes, LengthGrid, SizeDistribution
+from continuum.sizes import (
+    TRANSPORT_REMAP,
+    TRANSPORTS,
+    CharacteristicSizes,
+    LengthGrid,
+    SizeDistribution,
+)
 from continuum.state import State, StepRecord
 from continuum.velocity import darcy_flow
 
@@ -228,8 +234,8 @@ def initial_sizes(config: Config, n: int) -> SizeDistribution | CharacteristicSi
     grid = LengthGrid(config.n_length_cells)
     if config.psi_transport == "finite-volume":
         return SizeDistribution.bump(grid, n, width=config.bump_width)
-    remap = "labels" if config.psi_transport == "characteristics-labels" else "cells"
-    return CharacteristicSizes.bump(grid, n, width=config.bump_width, remap=remap)
+    return CharacteristicSizes.bump(grid, n, width=config.bump_width,
+                                    remap=TRANSPORT_REMAP[config.psi_transport])
 
 
 def _target_spacing(config: Config, area: float) -> float:

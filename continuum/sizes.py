@@ -72,6 +72,7 @@ __all__ = [
     "CharacteristicSizes",
     "TRANSPORTS",
     "REMAPS",
+    "TRANSPORT_REMAP",
     "exact_shift",
     "lw_mc_step",
     "remap_pivots",
@@ -84,6 +85,9 @@ labels at a remesh, SizeDistribution."""
 
 REMAPS = ("cells", "labels")
 """How a remesh transfers CharacteristicSizes (its ``remap``)."""
+
+TRANSPORT_REMAP = {"characteristics": "cells", "characteristics-labels": "labels"}
+"""The ``remap`` of CharacteristicSizes for each transport along characteristics."""
 
 class LengthGrid:
     """Uniform finite-volume grid in s = log2 l on [0, 1] (l in [1, 2]).
