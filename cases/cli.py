@@ -40,7 +40,6 @@ from pathlib import Path
 from cases.analysis import field_profile, particle_profile, write_csv
 from cases.rundir import (
     RunFolderError,
-    check_target,
     describe,
     is_no_space,
     no_space_message,
@@ -145,10 +144,7 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
     partial = prepare_stage(out, overwrite, engine, config, resumable, step_policy)
     with record(partial, engine, config):
         result = body(partial)
-    target = partial.with_name(partial.name.removesuffix(".partial"))
-    if target.exists():  # still only what colony wrote, right before it is replaced
-        check_target(target, overwrite=True)
-    publish(partial, target)
+    publish(partial)
     return result
 
 

@@ -222,11 +222,16 @@ def _stage_identity(folder: Path) -> tuple[str | None, dict]:
     return ("particles" if "solver" in config else "continuum"), config
 
 
-def publish(partial: Path, out: Path) -> None:
-    """Move the finished stage to ``out``; a replaced ``out`` is removed only afterwards.
+def publish(partial: Path) -> Path:
+    """Move the finished stage ``DIR.partial`` to ``DIR``, which it returns.
 
-    ``run.json`` gets the list of published entries (what a later ``--overwrite`` may remove).
+    A ``DIR`` there is checked again (it may have changed during the run: :func:`check_target`
+    with overwrite) and removed only afterwards. ``run.json`` gets the list of published entries
+    (what a later ``--overwrite`` may remove).
     """
+    out = partial.with_name(partial.name.removesuffix(".partial"))
+    if out.exists():  # still only what colony wrote, right before it is replaced
+        check_target(out, overwrite=True)
     record = read_record(partial) or {}
     record["files"] = sorted(p.name for p in partial.iterdir() if p.name != RECORD)
     write_record(partial, record)
@@ -239,6 +244,7 @@ def publish(partial: Path, out: Path) -> None:
     partial.rename(out)
     if old is not None:
         _clear(old)
+    return out
 
 
 def check_free_space(folder: Path, need: int = MIN_FREE_BYTES) -> None:
