@@ -33,7 +33,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from continuum.mesh import boundary_spacing, polygon_area, triangle_areas
+from continuum.mesh import boundary_spacing, colony_radius, triangle_areas
 from continuum.pressure import PressureDivergence
 from continuum.state import State
 from continuum.velocity import boundary_normals
@@ -61,8 +61,7 @@ def radius_rate(boundary: np.ndarray, u_boundary: np.ndarray) -> float:
     """
     n, L = boundary_normals(boundary)
     dA = float(np.sum(np.sum(u_boundary * n, axis=1) * L))
-    R = math.sqrt(polygon_area(boundary) / math.pi)
-    return dA / (2 * math.pi * R)
+    return dA / (2 * math.pi * colony_radius(boundary))
 
 
 def heun_step(state: State, flow: Flow, dt: float, lam: float) -> float:

@@ -120,8 +120,8 @@ class State:
 
     @property
     def radius(self) -> float:
-        """Colony radius sqrt(A / pi)."""
-        return math.sqrt(self.area / math.pi)
+        """Colony radius sqrt(A / pi) (continuum.mesh.colony_radius)."""
+        return mesh.colony_radius(self.boundary)
 
     def where(self) -> str:
         """Time and area, for error messages."""
