@@ -26,11 +26,11 @@ conserved: the packing), while N grows like exp(G) only for the stable profile n
 
 Two transports (``Config.psi_transport``):
 
-- along the characteristics (:class:`CharacteristicSizes`, the default, remeshed by labels): the characteristics
-  are parallel in s, so each node's grid moves with them: a phase offset per node and values on
-  a fixed-width window of one octave; advancing is an exact shift, a division an exact doubling
-  of the values that cross s = 1; a remesh remaps rows between windows keeping each cell's
-  number and length (class docstring);
+- along the characteristics (:class:`CharacteristicSizes`, the default, remeshed by labels):
+  the characteristics are parallel in s, so each node's grid moves with them: a phase offset per
+  node and values on a fixed-width window of one octave; advancing is an exact shift, a division
+  an exact doubling of the values that cross s = 1; a remesh remaps rows between windows keeping
+  each cell's number and length (class docstring);
 - finite volumes (:class:`SizeDistribution`), below.
 
 Numerical scheme of the finite volumes. Cell averages on a uniform grid in s and the one-step
