@@ -39,10 +39,12 @@ from pathlib import Path
 
 from cases.analysis import field_profile, particle_profile, write_csv
 from cases.rundir import (
+    RECORD,
     RunFolderError,
     describe,
     is_no_space,
     no_space_message,
+    partial_of,
     prepare_stage,
     publish,
     record,
@@ -374,7 +376,7 @@ def _stage_of(args) -> Path | None:
     if args.command not in ("continuum", "particles") or not out:
         return None
     path = Path(os.path.abspath(out))
-    return path.with_name(path.name + ".partial") if path.name else None
+    return partial_of(path) if path.name else None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -395,7 +397,7 @@ def _report(args) -> int:
     partial = _stage_of(args)
 
     def kept() -> str:
-        if partial is None or not (partial / "checkpoint.npz").exists():
+        if partial is None or not any((partial / name).exists() for name in CHECKPOINTS):
             return ""
         return f"; the last checkpoint is kept in {partial}, give the same command to resume"
 
@@ -413,7 +415,7 @@ def _report(args) -> int:
         message = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
         if partial is not None and is_no_space(err, partial if partial.is_dir() else None):
             message = no_space_message(partial.parent)
-        if (partial is not None and partial.is_dir() and (partial / "run.json").exists()
+        if (partial is not None and partial.is_dir() and (partial / RECORD).exists()
                 and not isinstance(err, RunFolderError)):
             message += f" (output so far kept in {partial})"
         print(f"colony: error: {message}", file=sys.stderr)
