@@ -153,6 +153,7 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
 def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True):
     """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG."""
     from cases.figures.draw import continuum_picture
+    from continuum.budget import check_memory
     from continuum.output import write_rings
     from continuum.simulation import run
 
@@ -169,7 +170,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
         _remove_checkpoints(partial)
         return state
 
-    check_continuum_fits(config)
+    check_memory(config)  # before the stage is touched (the engine checks again on a fresh start)
     return _staged_run("continuum", config, Path(out), overwrite, body,
                        resumable=CHECKPOINTS)
 
@@ -205,13 +206,6 @@ CHECKPOINTS = ("checkpoint.npz",)
 def _remove_checkpoints(partial: Path) -> None:
     for checkpoint in partial.glob("checkpoint*"):
         checkpoint.unlink()
-
-
-def check_continuum_fits(config) -> None:
-    """Refuse a continuum run whose mesh cannot fit in memory (continuum.budget)."""
-    from continuum.budget import check_memory
-
-    check_memory(config)
 
 
 # --------------------------------------------------------------------------- parser
