@@ -82,11 +82,11 @@ def foreign_entries(folder: Path) -> list[str]:
     folder = Path(folder)
     names = sorted(p.name for p in folder.iterdir())
     record = read_record(folder)
-    listed = set(record.get("files", ())) | {RECORD} if record and "files" in record else None
+    listed = set(record["files"]) | {RECORD} if record and "files" in record else None
     if listed is not None:  # plus what ``colony plot|movie`` add later
         return [n for n in names if n not in listed and not _written_by_us(n)]
     if record is None and "config.json" not in names:
-        return names or []
+        return names
     foreign = [n for n in names if not _written_by_us(n)]
     fields = folder / "fields"
     if fields.is_dir():
@@ -166,9 +166,10 @@ def prepare_stage(out: Path, overwrite: bool, engine: str, config, resumable=(),
 
     A stage left by a stopped run is reused when it holds a checkpoint of the same engine and
     configuration (``resumable``: names of checkpoint files; ``step_policy``: fields that may
-    differ, the engine checks them); a stage without a checkpoint is cleared; a stage of another
-    engine or configuration is refused unless ``overwrite``, which clears it. Nothing is
-    removed that this tool did not write.
+    differ, the engine checks them); a stage of another engine is refused, and one of another
+    configuration when it holds a checkpoint, unless ``overwrite``, which clears it; any other
+    stage of this engine without a checkpoint is cleared. Nothing is removed that this tool did
+    not write.
     """
     out = check_target(out, overwrite)
     partial = partial_of(out)
