@@ -119,3 +119,18 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
         work.sum(), rel=1e-6)
     with pytest.raises(SystemExit):
         bench_timestep.main(["--history", str(tmp_path / "none")])
+
+
+def test_bench_psi_transport_labels_exact(capsys):
+    """Labels transport exact at every node, finite volumes smeared (docs/validation.md's table).
+
+    At a radius before the first remesh; the remeshes are tested in
+    tests/continuum/test_psi_characteristics.py.
+    """
+    from cases.bench.psi_transport import main
+
+    rows = main(["--radius", "8", "--transports", "characteristics-labels", "finite-volume"])
+    labels, fv = rows
+    assert labels["max_all"] < 1e-10 and labels["total_length_spread"] < 1e-10
+    assert fv["median_away"] > 1e3 * labels["max_all"]
+    assert "| transport |" in capsys.readouterr().out
