@@ -56,7 +56,12 @@ CONTINUUM_EDGE_WIDTH = 0.05
 PARTICLE_EDGE_WIDTH = 0.5
 
 #: ``colony case NAME``: the module of each case (``compute``, ``plot``; docs/DESIGN.md).
-CASES = {name: f"cases.figures.{name}" for name in ("fig2", "fig3", "fig4", "crosscheck")}
+CASES = {
+    "fig2": "cases.figures.fig2",
+    "fig3": "cases.figures.fig3",
+    "fig4": "cases.figures.fig4",
+    "crosscheck": "cases.figures.crosscheck",
+}
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
 
