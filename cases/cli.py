@@ -5,7 +5,7 @@
     colony continuum --lam LAM (--radius R | --time T) [--shape circle|ellipse:A,B|polygon:FILE.csv]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
-                     [--adaptive-dt] [--division-noise EPS] [--solver bbpgd|apgd|twolevel]
+                     [--step-control overlap|fixed|cost] [--division-noise EPS] [--solver bbpgd|apgd|twolevel]
                      [--threads N] [--change-step-policy]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
@@ -19,7 +19,7 @@ flags; the run writes it back as ``config.json`` next to its results.
 Output folders are never left half-written: a run writes into ``DIR.partial/`` and renames it to
 ``DIR`` only when everything (engine output, ``profile.csv``, the PNG) is written. A stopped
 particle run keeps its checkpoint in ``DIR.partial/`` and resumes from it when the same command
-is given again (``--change-step-policy``: also with another ``--dt`` or ``--adaptive-dt``). Bad
+is given again (``--change-step-policy``: also with another ``--dt`` or ``--step-control``). Bad
 input ends with a one-line message on stderr and exit status 2.
 """
 
@@ -253,15 +253,18 @@ def parser() -> argparse.ArgumentParser:
     _common(p, "runs/particles")
     p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length")
     p.add_argument("--seed", type=int, help="random seed (division noise)")
-    p.add_argument("--dt", type=float, help="time step (with --adaptive-dt the largest)")
-    p.add_argument("--adaptive-dt", action="store_const", const=True, default=None,
-                   help="adapt the step to the cost of the re-solve passes")
+    p.add_argument("--dt", type=float,
+                   help="time step (the largest, unless --step-control fixed; default 0.01)")
+    p.add_argument("--step-control", choices=("overlap", "fixed", "cost"),
+                   help="overlap (default): shorten the step where its linearised move leaves "
+                   "overlaps above b/10; "
+                   "fixed: every step --dt; cost: follow the cost of the re-solve passes")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
     p.add_argument("--threads", type=int,
                    help="threads of the contact solver (default 1; same result for any number)")
     p.add_argument("--change-step-policy", action="store_true",
-                   help="resume a checkpoint written with another --dt or --adaptive-dt")
+                   help="resume a checkpoint written with another --dt or --step-control")
 
     i = sub.add_parser("info", help="print a run folder's provenance (run.json)")
     i.add_argument("dir", help="run folder (or its stopped DIR.partial)")
@@ -321,7 +324,7 @@ def _dispatch(args) -> int:
 
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
-                 "dt": _finite("dt", args.dt), "adaptive_dt": args.adaptive_dt,
+                 "dt": _finite("dt", args.dt), "step_control": args.step_control,
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads}
         config = build_config(particles.Config, args.config, args.set, flags)

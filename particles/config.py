@@ -15,7 +15,7 @@ from pathlib import Path
 import numba
 
 from .geometry import B
-from .stepping import SOLVERS
+from .stepping import SOLVERS, STEP_CONTROLS
 
 __all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS"]
 
@@ -33,14 +33,16 @@ class Config:
         measures.enclosing_radius) reaches ``radius`` or when t reaches ``time`` (exactly one
         for ``run``; both may be None for a ``Simulation``, which ``advance`` stops).
     dt : float
-        Time step (the last step of a ``time`` run is shortened to land on it); with
-        ``adaptive_dt`` the first and largest step.
+        Time step (the last step of a ``time`` run is shortened to land on it); with an
+        adaptive ``step_control`` the first and largest step.
         Default 0.01, measured: lam = 1e-2 to radius 40 (about 6600 particles) took 58 s,
         53 s and 44 s of wall time at dt = 0.005, 0.01, 0.02 with 0.39, 0.56 and 0.98 re-solve
         passes per step, reaching radius 40 at t = 10.52, 10.48, 10.52.
-    adaptive_dt : bool
-        Adapt the step to the cost of the re-solve passes (stepping.next_dt); default False
-        (fixed dt).
+    step_control : str
+        "overlap" (default): steps as long as ``dt`` while the overlap a step's linearised
+        move leaves is below stepping.MAIN_OVERLAP, shorter where the colony's motion demands
+        it; "fixed": every step ``dt``; "cost": adapt to the cost of the re-solve passes
+        (stepping.next_dt).
     tol : float
         Largest admitted real overlap b - d after each step (default b/500).
     seed : int
@@ -88,7 +90,7 @@ class Config:
     contact_margin: float = 0.1
     max_passes: int = 20
     max_iterations: int = 200_000
-    adaptive_dt: bool = False
+    step_control: str = "overlap"
     threads: int = 1
 
     def validate(self, require_stop: bool = True) -> None:
@@ -151,8 +153,8 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"max_passes must be an integer >= 0, got {v}"),
     ("max_iterations", lambda v: _count(v, 1),
      lambda v: f"max_iterations must be a positive integer, got {v}"),
-    ("adaptive_dt", lambda v: isinstance(v, bool),
-     lambda v: f"adaptive_dt must be true or false, got {v!r}"),
+    ("step_control", lambda v: v in STEP_CONTROLS,
+     lambda v: f"step_control must be one of {', '.join(STEP_CONTROLS)}, got {v!r}"),
     ("threads", lambda v: isinstance(v, int) and 1 <= v <= numba.config.NUMBA_NUM_THREADS,
      lambda v: f"threads must be an integer in [1, {numba.config.NUMBA_NUM_THREADS}], got {v}"),
     ("init", lambda v: v is None or Path(v).is_file(),
@@ -160,13 +162,25 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
 ]
 
 
-LEGACY_CONFIG = {"adaptive_dt": False}
+LEGACY_CONFIG = {"step_control": "fixed"}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
+
+RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}
+"""Fields of older configurations: old name -> (new name, old value -> new value)."""
+
+
+def upgrade(saved: dict) -> dict:
+    """An older run's configuration fields in today's names (RENAMED) and defaults (LEGACY)."""
+    out = dict(LEGACY_CONFIG)
+    for k, v in saved.items():
+        name, values = RENAMED.get(k, (k, None))
+        out[name] = v if values is None else values[v]
+    return out
 
 EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
 """Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
 
-STEP_POLICY_FIELDS = ("dt", "adaptive_dt")
+STEP_POLICY_FIELDS = ("dt", "step_control")
 """Configuration fields that change only the step lengths after the checkpoint (the result
 within the time-stepping error): a checkpoint resumes with other values only when asked
 (``run(..., change_step_policy=True)``); the history's dt column records every step as it ran

@@ -75,6 +75,12 @@ class StepRecord:
         Particles that divided.
     substeps : int
         1, or the number of half steps the step was redone as.
+    max_rotation, max_displacement : float
+        Largest turn |delta theta| and displacement |delta x| of a particle in the step (in a
+        sub-step when the step was halved).
+    main_overlap : float
+        Largest real overlap after the main solve's move, before the re-solve passes: the error
+        of the step's linearised contacts.
     """
 
     step: int
@@ -95,6 +101,9 @@ class StepRecord:
     total_length: float
     divisions: int
     substeps: int
+    max_rotation: float
+    max_displacement: float
+    main_overlap: float
 
     def row(self) -> dict:
         """The history row (a dict of the fields in their order, as checkpoints store it)."""
@@ -253,8 +262,8 @@ class Simulation:
     def step(self, until: float | None = None) -> StepRecord:
         """Advance the state by one step, divisions included; return its record.
 
-        The step has length ``state.dt_next`` (``Config.dt``, or adapted with
-        ``Config.adaptive_dt``: stepping.next_dt), shortened to land on ``until`` when that is
+        The step has length ``state.dt_next`` (``Config.dt``, or adapted by
+        ``Config.step_control``: stepping.next_dt), shortened to land on ``until`` when that is
         nearer.
 
         Parameters
@@ -279,7 +288,7 @@ class Simulation:
         if until is not None and until - st.t < dt * (1 + 1e-9):
             dt = until - st.t
         info, st.warm = robust_step(st, config, dt, st.warm)
-        st.dt_next = next_dt(dt, info, config.dt) if config.adaptive_dt else config.dt
+        st.dt_next = next_dt(dt, info, config.dt, config.step_control)
         divisions = divide(st, st.rng, config.division_noise)
         st.t += dt
         st.step += 1
@@ -292,7 +301,8 @@ class Simulation:
             failed_iterations=int(info["failed_iterations"]), passes=int(info["passes"]),
             n_contacts=int(info["n_contacts"]), residual=info["residual"],
             total_length=float(st.length.sum()), divisions=int(divisions),
-            substeps=int(info["substeps"]))
+            substeps=int(info["substeps"]), max_rotation=info["max_rotation"],
+            max_displacement=info["max_displacement"], main_overlap=info["main_overlap"])
         self.history.append(record.row())
         if record.substeps > 1:
             log.debug("step %d at t = %.6g taken as %d sub-steps", st.step, st.t, record.substeps)

@@ -68,14 +68,14 @@ def test_bench_timestep_small(tmp_path, capsys):
 
     out = tmp_path / "b.csv"
     rows = bench_timestep.main(["--radius", "4", "--lams", "1e-2", "--policies", "fixed:0.02",
-                                "adaptive:0.08", "--uncapped", "--out", str(out)])
+                                "cost:0.08", "--uncapped", "--out", str(out)])
     assert [(r["policy"], r["uncapped"]) for r in rows] == [
-        ("fixed:0.02", False), ("fixed:0.02", True), ("adaptive:0.08", False)]
+        ("fixed:0.02", False), ("fixed:0.02", True), ("cost:0.08", False)]
     for r in rows:
         assert r["main_iterations"] > 0 and r["steps"] > 10 and r["n_particles"] > 4
     assert rows[0]["t_at_radius"] == pytest.approx(rows[2]["t_at_radius"], rel=0.05)
     assert len(np.genfromtxt(out, delimiter=",", names=True, dtype=None)) == 3
-    assert "| 0.01 | adaptive:0.08 |" in capsys.readouterr().out
+    assert "| 0.01 | cost:0.08 |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench_timestep.main(["--policies", "fixed:abc"])
 
