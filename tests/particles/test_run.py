@@ -165,8 +165,10 @@ def test_step_policy_changes_on_resume_only_when_asked(tmp_path):
 
 @pytest.mark.parametrize("old_step_field", [None, False])
 def test_checkpoint_of_earlier_version_resumes(tmp_path, old_step_field):
-    """A checkpoint of an earlier version resumes: written before step_control, with its
-    predecessor adaptive_dt = False or before that existed too (and the pass counts).
+    """A checkpoint of an earlier version resumes.
+
+    Written before step_control, with its predecessor adaptive_dt = False or before that existed
+    too (and the pass counts).
 
     It runs with the configuration it ran with (a fixed step), and the missing history entries
     are left blank.
@@ -212,9 +214,10 @@ def test_next_dt_rules():
 
 
 def test_next_dt_overlap():
-    """The "overlap" step: dt sqrt(MAIN_OVERLAP / e) for the overlap e the last move left (its
-    error is second order in dt); at most DT_RISE times longer, at most dt_max, at most half
-    after a halved step, never below the floor.
+    """The "overlap" step: dt sqrt(MAIN_OVERLAP / e) for the overlap e the last move left.
+
+    (The overlap is second order in dt.)  At most DT_RISE times longer, at most dt_max, at most
+    half after a halved step, never below the floor.
     """
     def info(e, sub=1):
         return {"main_overlap": e, "substeps": sub}
@@ -230,9 +233,10 @@ def test_next_dt_overlap():
 
 
 def test_overlap_step_keeps_the_linearisation_error():
-    """With the "overlap" control the overlap a step's move leaves stays near MAIN_OVERLAP
-    where a fixed step of the same length leaves several times more (lam = 0, dt = 0.1, to 400
-    particles: medians 0.036 and 0.29), and the step follows it (shorter than dt once the colony
+    """The "overlap" control keeps the overlap a step's move leaves near MAIN_OVERLAP.
+
+    A fixed step of the same length leaves several times more (lam = 0, dt = 0.1, to 400
+    particles: medians 0.036 and 0.29); the step follows it (shorter than dt once the colony
     jams, never longer).
     """
     def grow(control):
