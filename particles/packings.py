@@ -34,6 +34,9 @@ FILL_ORIENTATIONS = ("tangent", "rows")
 FILL_LENGTHS = ("stable", "uniform", "birth")
 #: Advance along a guide of :func:`fill_outline` after a rejected place.
 FILL_STEP = 0.02
+#: Rows at this many angles (multiples of pi / HOLE_ANGLES) fill the holes the "tangent"
+#: layers leave (:func:`fill_outline`).
+HOLE_ANGLES = 6
 #: Largest inward move of a rod of a "tangent" layer, in units of b (:func:`fill_outline`).
 LAYER_SHIFT = 0.5
 
@@ -298,8 +301,11 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
     guides = []
     if orientation == "tangent":
         shifts = int(math.ceil(LAYER_SHIFT * B / (0.5 * FILL_STEP)))
-        guides += [(g, c, shifts) for g, c in _layer_guides(edges, B / 2 + gap, B + gap)]
-    guides += [(g, c, 0) for g, c in _row_guides(edges, angle, B / 2 + gap, B + gap)]
+        layers = _layer_guides(edges, B / 2 + gap, B + gap, lmax - B)
+        guides += [(g, c, shifts) for g, c in layers]
+    angles = [angle] if orientation == "rows" else angle + np.pi * np.arange(HOLE_ANGLES) / HOLE_ANGLES
+    for a in angles:
+        guides += [(g, c, 0) for g, c in _row_guides(edges, a, B / 2 + gap, B + gap)]
     pts = np.vstack([g for g, _, _ in guides]) if guides else np.zeros((0, 2))
     starts = np.cumsum([0] + [len(g) for g, _, _ in guides]).astype(np.int64)
     closed = np.array([c for _, c, _ in guides], dtype=np.bool_)
@@ -345,34 +351,88 @@ def _subdivide(poly: np.ndarray, max_edge: float) -> np.ndarray:
     return poly[i] + t[:, None] * (nxt[i] - poly[i])
 
 
-def _layer_guides(poly: np.ndarray, first: float, spacing: float) -> list:
-    """Inward offsets of the outline at first + k spacing, k = 0, 1, ...: (points, closed).
+def _layer_guides(poly: np.ndarray, first: float, spacing: float, chord: float) -> list:
+    """Layers parallel to the outline, from the outside in: a list of (points, closed).
 
-    Each vertex moves by the offset along the inward bisector normal; vertices nearer to the
-    outline than the offset (less 1 %) or outside it are dropped, the runs of the others are
-    the guides (closed when none is dropped).
+    Layer 0 is the outline moved inwards by ``first``; layer k + 1 is layer k moved inwards by
+    spacing + chord^2 |kappa| / 8 at each vertex, kappa the layer's curvature averaged over a
+    chord (the sagitta of a chord of that length, by which the rods of layer k bulge off it).
+    Vertices are moved along the inward bisector normal; a moved vertex is dropped when it
+    lies outside the outline, nearer to the outline than the layer's least depth (less 1 %),
+    or nearer to the layer it came from than its move (less 1 %): that removes the
+    swallow-tails where a convex part folds over itself. The runs of kept vertices are the
+    next layer's guides (closed when a closed layer keeps every vertex).
     """
-    e = np.roll(poly, -1, axis=0) - poly
-    n_edge = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
-    normal = n_edge + np.roll(n_edge, 1, axis=0)  # outward, at the vertices
-    normal /= np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
     guides = []
-    d = first
-    while True:
-        pts = poly - d * normal
-        keep = (_distance_to_polygon(pts, poly) >= 0.99 * d) & _inside(pts, poly)
-        if not keep.any():
-            return guides
-        if keep.all():
-            guides.append((pts, True))
-        else:
-            # runs of kept vertices, cyclically: start after a dropped one
-            shift = int(np.argmin(keep))
-            k, p = np.roll(keep, -shift), np.roll(pts, -shift, axis=0)
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], k.astype(int), [0]])))
-            guides += [(p[a:b], False) for a, b in zip(edges[::2], edges[1::2], strict=True)
-                       if b - a >= 2]
-        d += spacing
+    layer = [(poly, True)]
+    depth = 0.0
+    step = np.full(len(poly), first)  # the first move: no chord bulges off the outline itself
+    while layer:
+        depth += first if not guides else spacing
+        pieces, parent = [], np.vstack([p for p, _ in layer])
+        for k, (pts, closed) in enumerate(layer):
+            move = step if k == 0 and not guides else spacing + chord**2 * np.abs(
+                _curvature(pts, closed, chord)) / 8
+            new = pts - move[:, None] * _normals(pts, closed)
+            keep = (_inside(new, poly) & (_distance_to_polygon(new, poly) >= 0.99 * depth)
+                    & (_distance_to_points(new, parent) >= 0.99 * move))
+            pieces += _runs(new, keep, closed)
+        guides += pieces
+        layer = pieces
+    return guides
+
+
+def _normals(pts: np.ndarray, closed: bool) -> np.ndarray:
+    """Unit outward normals (right of the direction of travel) at the vertices of a polyline."""
+    e = np.roll(pts, -1, axis=0) - pts if closed else np.diff(pts, axis=0)
+    n_edge = np.column_stack([e[:, 1], -e[:, 0]]) / np.linalg.norm(e, axis=1)[:, None]
+    if closed:
+        normal = n_edge + np.roll(n_edge, 1, axis=0)
+    else:
+        normal = np.vstack([n_edge[:1], n_edge[1:] + n_edge[:-1], n_edge[-1:]])
+    return normal / np.maximum(np.linalg.norm(normal, axis=1), 1e-300)[:, None]
+
+
+def _curvature(pts: np.ndarray, closed: bool, width: float) -> np.ndarray:
+    """Curvature at the vertices of a polyline, the turning per length over +-width/2.
+
+    (Theta(s + w/2) - Theta(s - w/2)) / w, Theta the cumulative turning angle at arc length s
+    (a closed polyline is continued periodically, an open one is clipped at its ends).
+    """
+    e = np.roll(pts, -1, axis=0) - pts if closed else np.diff(pts, axis=0)
+    ang = np.arctan2(e[:, 1], e[:, 0])
+    turn = np.angle(np.exp(1j * (np.roll(ang, -1) - ang)))  # at the end of each edge
+    length = np.linalg.norm(e, axis=1)
+    if closed:
+        total = length.sum()
+        s = np.concatenate([[0.0], np.cumsum(length)])[:-1]  # arc position of each vertex
+        s_end = np.cumsum(length)  # where each turn happens (vertex k + 1)
+        reps = np.arange(-1, 2)
+        sx = (s_end[None, :] + total * reps[:, None]).ravel()
+        theta = np.cumsum(np.tile(turn, 3))
+        lo = np.interp(s - width / 2, sx, theta)
+        hi = np.interp(s + width / 2, sx, theta)
+        return (hi - lo) / width
+    if len(pts) < 3:
+        return np.zeros(len(pts))
+    s = np.concatenate([[0.0], np.cumsum(length)])
+    theta = np.concatenate([[0.0], np.cumsum(turn[:-1])])  # turning reached at vertex k
+    theta = np.append(theta, theta[-1])  # the last vertex does not turn
+    a = np.clip(s - width / 2, 0, s[-1])
+    b = np.clip(s + width / 2, 0, s[-1])
+    span = np.maximum(b - a, 1e-300)
+    return (np.interp(b, s, theta) - np.interp(a, s, theta)) / span
+
+
+def _runs(pts: np.ndarray, keep: np.ndarray, closed: bool) -> list:
+    """The runs of kept vertices as polylines (points, closed), runs of one vertex dropped."""
+    if keep.all():
+        return [(pts, closed)] if len(pts) >= 2 else []
+    if closed:  # start after a dropped vertex, so that no run wraps around
+        shift = int(np.argmin(keep))
+        keep, pts = np.roll(keep, -shift), np.roll(pts, -shift, axis=0)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], keep.astype(int), [0]])))
+    return [(pts[a:b], False) for a, b in zip(edges[::2], edges[1::2], strict=True) if b - a >= 2]
 
 
 def _row_guides(poly: np.ndarray, angle: float, first: float, spacing: float) -> list:
@@ -427,6 +487,18 @@ def _distance_to_polygon(pts, poly):
             f = (e + 1) % k
             d = _point_edge(pts[p, 0], pts[p, 1], poly[e, 0], poly[e, 1], poly[f, 0], poly[f, 1])
             best = min(best, d)
+        out[p] = best
+    return out
+
+
+@njit(cache=True)
+def _distance_to_points(pts, polyline):
+    """Distance from each point to the nearest vertex of ``polyline`` (brute force)."""
+    out = np.empty(pts.shape[0])
+    for p in range(pts.shape[0]):
+        best = 1e300
+        for q in range(polyline.shape[0]):
+            best = min(best, math.hypot(pts[p, 0] - polyline[q, 0], pts[p, 1] - polyline[q, 1]))
         out[p] = best
     return out
 
