@@ -303,7 +303,9 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
         shifts = int(math.ceil(LAYER_SHIFT * B / (0.5 * FILL_STEP)))
         layers = _layer_guides(edges, B / 2 + gap, B + gap, lmax - B)
         guides += [(g, c, shifts) for g, c in layers]
-    angles = [angle] if orientation == "rows" else angle + np.pi * np.arange(HOLE_ANGLES) / HOLE_ANGLES
+    angles = [angle]
+    if orientation == "tangent":
+        angles = angle + np.pi * np.arange(HOLE_ANGLES) / HOLE_ANGLES
     for a in angles:
         guides += [(g, c, 0) for g, c in _row_guides(edges, a, B / 2 + gap, B + gap)]
     pts = np.vstack([g for g, _, _ in guides]) if guides else np.zeros((0, 2))
