@@ -92,8 +92,9 @@ def _numbers(spec: str, kind: str, args: str, counts: tuple[int, ...]) -> list[f
     except ValueError:
         raise ValueError(f"shape {spec!r}: expected numbers in {KINDS[kind]}") from None
     if len(values) not in counts:
+        plural = "s" if max(counts) > 1 else ""
         raise ValueError(f"shape {spec!r}: {kind} takes {' or '.join(map(str, counts))} "
-                         f"numbers ({KINDS[kind]}), got {len(values)}")
+                         f"number{plural} ({KINDS[kind]}), got {len(values)}")
     if not all(math.isfinite(v) for v in values):
         raise ValueError(f"shape {spec!r}: the numbers must be finite")
     return values
@@ -230,21 +231,20 @@ def rectangle(w: float, h: float, rnd: float = 0.0, spacing: float | None = None
     ds = perimeter / N_VERTICES if spacing is None else spacing
     cx, cy = w / 2 - rnd, h / 2 - rnd
     pieces = []
-    # counter-clockwise from the lower-right corner: (corner centre, side direction) per side
-    for (ox, oy), start in (((cx, -cy), -0.5 * math.pi), ((cx, cy), 0.0),
-                            ((-cx, cy), 0.5 * math.pi), ((-cx, -cy), math.pi)):
-        # the straight side from the end of the previous arc to this corner's arc
-        a0 = start
-        p0 = np.array([ox + rnd * math.cos(a0), oy + rnd * math.sin(a0)])
-        tangent = np.array([-math.sin(a0), math.cos(a0)])
-        side = 2 * (cy if abs(math.cos(a0)) > 0.5 else cx)
+    # counter-clockwise, side by side: the side ending at a corner, then the corner's arc;
+    # (corner centre, outward radial direction where the arc starts, direction of the side)
+    for (ox, oy), (rx, ry), (tx, ty) in (((cx, -cy), (0, -1), (1, 0)),
+                                         ((cx, cy), (1, 0), (0, 1)),
+                                         ((-cx, cy), (0, 1), (-1, 0)),
+                                         ((-cx, -cy), (-1, 0), (0, -1))):
+        side = 2 * (cx if tx else cy)
         if side > 0:
             m = max(1, math.ceil(side / ds))
-            t = side * np.arange(m) / m
-            pieces.append(p0 - tangent * side + t[:, None] * tangent)
+            t = side * (np.arange(m) / m - 1)  # from the previous corner to this one
+            pieces.append(np.column_stack([ox + rnd * rx + t * tx, oy + rnd * ry + t * ty]))
         if rnd > 0:
             m = max(2, math.ceil(0.5 * math.pi * rnd / ds))
-            phi = a0 + 0.5 * math.pi * np.arange(m) / m
+            phi = math.atan2(ry, rx) + 0.5 * math.pi * np.arange(m) / m
             pieces.append(np.column_stack([ox + rnd * np.cos(phi), oy + rnd * np.sin(phi)]))
     return check_polygon(np.vstack(pieces), check_simple=False)
 
