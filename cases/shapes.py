@@ -56,3 +56,44 @@ def initial_state(config) -> ParticleState | None:
         return None
     return initial_particles(config.shape, config.seed, config.fill_orientation,
                              config.fill_lengths)
+
+
+#: Shapes of the packing table (docs/tutorial.md, "Shapes").
+TABLE_SHAPES = ("circle:8", "circle:20", "ellipse:8,4", "rectangle:12,3,0.5", "star:3,0.3,8",
+                "star:5,0.2,8")
+
+
+def packing_table(specs=TABLE_SHAPES, seed: int = 0) -> list[dict]:
+    """N, the length packing b sum l / A and the area fraction of the fill of each shape.
+
+    For both orientations of particles.packings.fill_outline, with the seconds it took (the
+    first call includes Numba's compilation when its cache is cold).
+    """
+    import time
+
+    from continuum.mesh import polygon_area
+    from particles.packings import FILL_ORIENTATIONS, packing_fractions
+
+    rows = []
+    for spec in specs:
+        area = polygon_area(shapes.outline(spec))
+        for orientation in FILL_ORIENTATIONS:
+            start = time.perf_counter()
+            state = initial_particles(spec, seed, orientation)
+            seconds = time.perf_counter() - start
+            phi_l, phi_a = packing_fractions(state.length, area)
+            rows.append({"shape": spec, "orientation": orientation, "area": round(area, 2),
+                         "N": state.n, "length packing": round(phi_l, 3),
+                         "area fraction": round(phi_a, 3),
+                         "mean length": round(float(state.length.mean()), 3),
+                         "seconds": round(seconds, 2)})
+    return rows
+
+
+if __name__ == "__main__":  # python -m cases.shapes: the table of docs/tutorial.md
+    table = packing_table()
+    keys = list(table[0])
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---|" * len(keys))
+    for row in table:
+        print("| " + " | ".join(str(row[k]) for k in keys) + " |")
