@@ -109,3 +109,10 @@ def test_resume_checks_the_shape(colony, tmp_path):
     one_line_error(status, err, "differs in shape")
     with pytest.raises(ValueError, match="differs in shape"):  # and the engine's own check
         particles.Simulation(particles.Config(lam=1e-2, time=1.0, shape="line:4"), stage)
+
+
+def test_sweep_runs_a_particle_shape(tmp_path):
+    from cases.sweep import run_engine
+
+    run_engine({"engine": "particles", "lam": 1e-2, "time": 0.02, "shape": "line:3"}, tmp_path)
+    assert json.loads((tmp_path / "config.json").read_text())["shape"] == "line:3"
