@@ -174,7 +174,8 @@ class Simulation:
         trajectory's first frame; :meth:`advance` then writes a frame every
         ``config.output_every`` steps and :meth:`save` defaults to ``out/checkpoint.npz``.
     state : ParticleState, optional
-        Initial state (default: ``config.init`` or one cell, checked by :func:`check_initial`).
+        Initial state (default: ``config.init`` or one cell, checked by :func:`check_initial`;
+        required for a ``config.shape``, e.g. from cases.shapes.initial_particles).
         Its ``rng`` is seeded with ``config.seed`` when None.
     change_step_policy : bool
         See ``out``; config.json then records the change (output.write_config).
