@@ -32,6 +32,8 @@ __all__ = ["FILL_LENGTHS", "FILL_ORIENTATIONS", "fill_outline", "from_csv", "lin
 FILL_ORIENTATIONS = ("tangent", "rows")
 #: Length distributions of :func:`sample_lengths` (the first is the default).
 FILL_LENGTHS = ("stable", "uniform", "birth")
+#: Lengths waiting for a place in :func:`fill_outline` (the oldest that fits is placed).
+FILL_WINDOW = 8
 #: Advance along a guide of :func:`fill_outline` after a rejected place.
 FILL_STEP = 0.02
 #: Rows at this many angles (multiples of pi / HOLE_ANGLES) fill the holes the "tangent"
@@ -241,9 +243,10 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
     """Rods filling the polygon ``outline`` at the model's packing, none overlapping (t = 0).
 
     Lengths: the sequence l_1, l_2, ... of :func:`sample_lengths` (``lengths``, seeded by
-    ``seed``), placed in its order: a length waits until a place is found for it, so the rods
-    placed are the first N of an independent sample of the distribution (no length is
-    skipped for being too long).
+    ``seed``). The FILL_WINDOW = 8 oldest lengths not yet placed wait for a place; at each
+    position they are tried oldest first, and the first that fits is placed. No length is
+    skipped: the rods are the first M draws but for at most 8 left waiting when the outline
+    is full (those are biased long, a bias of at most 8 / N in the distribution function).
 
     Placement, greedy along guide curves: a rod's segment (length l - b) is laid along a
     guide from arc position s; it is kept when its segment lies inside the outline at
@@ -312,14 +315,15 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
     starts = np.cumsum([0] + [len(g) for g, _, _ in guides]).astype(np.int64)
     closed = np.array([c for _, c, _ in guides], dtype=np.bool_)
     n_shift = np.array([k for _, _, k in guides], dtype=np.int64)
-    seg, count = _place(pts, starts, closed, n_shift, draws - B, edges, B, gap, lmax, FILL_STEP)
+    seg, placed, count = _place(pts, starts, closed, n_shift, draws - B, edges, B, gap, lmax,
+                                FILL_STEP, FILL_WINDOW)
     if count == 0:
         raise ValueError(f"the outline (area {area:.3g}) is too small to hold a rod of "
                          f"length {draws[0]:.3g}")
     a, b = seg[:count, :2], seg[:count, 2:]
     centre, d = 0.5 * (a + b), b - a
     return ParticleState.from_arrays(centre[:, 0], centre[:, 1], np.arctan2(d[:, 1], d[:, 0]),
-                                     draws[:count])
+                                     placed[:count])
 
 
 def _signed_area(xy: np.ndarray) -> float:
@@ -572,16 +576,48 @@ def _clear(p, ci, cj, nx, ny, poly, ehead, enext, seg, rhead, rnext, wall, apart
 
 
 @njit(cache=True)
-def _place(guide_pts, starts, closed, n_shift, seglen, poly, b, gap, lmax, step):  # noqa: PLR0913
-    """Greedy placement of the segments seglen[0], seglen[1], ... along the guides (in order).
+def _fit(ax, ay, ex, ey, L, n_shift, shift, grid, poly, ehead, enext, seg, rhead,  # noqa: PLR0913
+         rnext, wall, apart):
+    """The segment of length L from a towards e, moved left by j shift, j = 0..n_shift.
+
+    Returns (1 or 0 for found or not, px, py, bx, by, cell i, cell j) of the first position
+    that keeps the clearances (:func:`_clear`) with its midpoint inside the outline.
+    """
+    x0, y0, cs, nx, ny = grid[0], grid[1], grid[2], int(grid[3]), int(grid[4])
+    out = np.zeros(7)
+    dist = math.hypot(ex - ax, ey - ay)
+    if dist <= 1e-9:
+        return out
+    tx, ty = (ex - ax) / dist, (ey - ay) / dist
+    for j in range(n_shift + 1):
+        px, py = ax - j * shift * ty, ay + j * shift * tx
+        bx, by = px + L * tx, py + L * ty
+        mx, my = 0.5 * (px + bx), 0.5 * (py + by)
+        ci = min(nx - 1, max(0, int((mx - x0) / cs)))
+        cj = min(ny - 1, max(0, int((my - y0) / cs)))
+        if _clear(np.array([px, py, bx, by]), ci, cj, nx, ny, poly, ehead, enext, seg, rhead,
+                  rnext, wall, apart) and _inside_one(mx, my, poly):
+            out[0], out[1], out[2], out[3], out[4], out[5], out[6] = 1.0, px, py, bx, by, ci, cj
+            return out
+    return out
+
+
+@njit(cache=True)
+def _place(guide_pts, starts, closed, n_shift, seglen, poly, b, gap, lmax, step,  # noqa: PLR0913
+           window):
+    """Greedy placement of the segments seglen[0], seglen[1], ... along the guides.
+
+    At each arc position the ``window`` oldest unplaced segments are tried in their order, and
+    the first that fits is placed (the next one drawn joins the window).
 
     At each arc position the chord is tried as it lies, then moved to its left (into the
     outline, for a counter-clockwise guide) by FILL_STEP / 2 at a time, up to n_shift[g] times:
     a layer's chords bulge inwards by their sagitta l^2 / (8 rho), and the next layer makes way.
 
-    Returns (segments (N, 4) as ax, ay, bx, by, count). Cell lists of size lmax + gap hold the
-    outline's edges (subdivided, <= 0.25 long) and the placed segments, so the 3 x 3 cells
-    about a candidate's midpoint hold every edge and segment within the clearances.
+    Returns (segments (N, 4) as ax, ay, bx, by, their tip-to-tip lengths, count N). Cell
+    lists of size lmax + gap hold the outline's edges (subdivided, <= 0.25 long) and the
+    placed segments, so the 3 x 3 cells about a candidate's midpoint hold every edge and
+    segment within the clearances.
     """
     n_max = seglen.shape[0]
     seg = np.zeros((n_max, 4))
@@ -600,10 +636,15 @@ def _place(guide_pts, starts, closed, n_shift, seglen, poly, b, gap, lmax, step)
         ehead[c] = e
     rhead = -np.ones(nx * ny, dtype=np.int64)
     rnext = -np.ones(n_max, dtype=np.int64)
+    grid = np.array([x0, y0, cs, nx, ny])
     shift = 0.5 * step
     wall = 0.5 * b + 0.5 * gap
     apart = b + 0.5 * gap
     count = 0
+    placed = np.zeros(n_max)
+    n_window = min(window, n_max)
+    queue = np.arange(n_window)  # the draws waiting for a place, oldest first
+    drawn = n_window
     for g in range(starts.shape[0] - 1):
         a, z = starts[g], starts[g + 1]
         if closed[g]:  # the loop once more, so that rods may cross the start
@@ -618,34 +659,45 @@ def _place(guide_pts, starts, closed, n_shift, seglen, poly, b, gap, lmax, step)
         total = cum[m - 1]
         end = 0.5 * total if closed[g] else total
         s = 0.0
-        while count < n_max and s < end:
-            L = seglen[count]
-            if s + L > total:
+        while n_window > 0 and s < end:
+            shortest = seglen[queue[:n_window]].min()
+            if s + shortest > total:
                 break
-            ax, ay = _at(pts, cum, 0, m, s)
-            ex, ey = _at(pts, cum, 0, m, s + L)
-            dist = math.hypot(ex - ax, ey - ay)
             ok = False
-            if dist > 1e-9:
-                tx, ty = (ex - ax) / dist, (ey - ay) / dist
-                for j in range(n_shift[g] + 1):  # shifted to the left (inwards) if need be
-                    px, py = ax - j * shift * ty, ay + j * shift * tx
-                    bx, by = px + L * tx, py + L * ty
-                    mx, my = 0.5 * (px + bx), 0.5 * (py + by)
-                    ci = min(nx - 1, max(0, int((mx - x0) / cs)))
-                    cj = min(ny - 1, max(0, int((my - y0) / cs)))
-                    ok = _clear(np.array([px, py, bx, by]), ci, cj, nx, ny, poly, ehead, enext,
-                                seg, rhead, rnext, wall, apart) and _inside_one(mx, my, poly)
-                    if ok:
-                        ax, ay = px, py
-                        break
-            if ok:
-                seg[count, 0], seg[count, 1], seg[count, 2], seg[count, 3] = ax, ay, bx, by
-                c = ci + nx * cj
-                rnext[count] = rhead[c]
-                rhead[c] = count
-                count += 1
-                s += L + b + gap
-            else:
+            if n_shift[g] == 0:  # every candidate starts at the same point: is it free?
+                ax, ay = _at(pts, cum, 0, m, s)
+                ci = min(nx - 1, max(0, int((ax - x0) / cs)))
+                cj = min(ny - 1, max(0, int((ay - y0) / cs)))
+                if not _clear(np.array([ax, ay, ax, ay]), ci, cj, nx, ny, poly, ehead, enext,
+                              seg, rhead, rnext, wall, apart):
+                    s += step
+                    continue
+            for w in range(n_window):
+                L = seglen[queue[w]]
+                if s + L > total:
+                    continue
+                ax, ay = _at(pts, cum, 0, m, s)
+                ex, ey = _at(pts, cum, 0, m, s + L)
+                p = _fit(ax, ay, ex, ey, L, n_shift[g], shift, grid, poly, ehead, enext, seg,
+                         rhead, rnext, wall, apart)
+                ok = p[0] == 1.0
+                px, py, bx, by, ci, cj = p[1], p[2], p[3], p[4], int(p[5]), int(p[6])
+                if ok:
+                    seg[count, 0], seg[count, 1], seg[count, 2], seg[count, 3] = px, py, bx, by
+                    placed[count] = L + b
+                    c = ci + nx * cj
+                    rnext[count] = rhead[c]
+                    rhead[c] = count
+                    count += 1
+                    queue[w:n_window - 1] = queue[w + 1:n_window].copy()
+                    if drawn < n_max:
+                        queue[n_window - 1] = drawn
+                        drawn += 1
+                    else:
+                        n_window -= 1
+                    s += L + b + gap
+                    break
+            if not ok:
                 s += step
-    return seg, count
+    return seg, placed, count
+
