@@ -254,14 +254,15 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
     >= gap/2 between the capsules); then s moves on by l + gap (the next tip gap apart), else
     by FILL_STEP = 0.02. Guides:
 
-    - ``"tangent"`` (default): layers parallel to the outline, the inward offsets of the outline
-      at distances b/2 + gap + k (b + gap), k = 0, 1, ... (vertices moved along the inward
-      normal, those nearer to the outline than the offset dropped, which removes the
-      swallow-tails of the convex parts); a rod that does not fit where its layer puts it may
-      move inwards by up to LAYER_SHIFT b (0.01 at a time), which makes way for the inward bulge
-      (sagitta l^2 / (8 rho)) of the chords of the layer outside. The rods follow the outline's
-      tangent as the cells at a colony's edge do, and the fill keeps the outline's symmetry.
-      Then rows (below) fill what the curved layers left near the centre;
+    - ``"tangent"`` (default): layers parallel to the outline, the first at depth b/2 + gap,
+      each next one b + gap inside the previous one plus the sagitta of a mean rod on the
+      layer's curvature (vertices moved along the inward normal; those nearer to the outline or
+      to the previous layer than intended are dropped, which removes the swallow-tails of the
+      convex parts; ``_layer_guides``). A rod that does not fit where its layer puts it may
+      move inwards by up to LAYER_SHIFT b (0.01 at a time), making way for the chords of the
+      layer outside that bulge more. The rods follow the outline's tangent as the cells at a
+      colony's edge do, and the fill keeps the outline's symmetry. Then rows at HOLE_ANGLES = 6
+      angles (multiples of 30 degrees from ``angle``) fill what the layers left;
     - ``"rows"``: straight parallel rows at ``angle`` (radians from the x axis), b + gap apart.
 
     Parameters
@@ -304,7 +305,7 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
     guides = []
     if orientation == "tangent":
         shifts = int(math.ceil(LAYER_SHIFT * B / (0.5 * FILL_STEP)))
-        layers = _layer_guides(edges, B / 2 + gap, B + gap, lmax - B)
+        layers = _layer_guides(edges, B / 2 + gap, B + gap, float(np.mean(draws)) - B)
         guides += [(g, c, shifts) for g, c in layers]
     angles = [angle]
     if orientation == "tangent":
@@ -362,7 +363,10 @@ def _layer_guides(poly: np.ndarray, first: float, spacing: float, chord: float) 
 
     Layer 0 is the outline moved inwards by ``first``; layer k + 1 is layer k moved inwards by
     spacing + chord^2 |kappa| / 8 at each vertex, kappa the layer's curvature averaged over a
-    chord (the sagitta of a chord of that length, by which the rods of layer k bulge off it).
+    chord (the sagitta of a chord of that length, by which the rods of layer k bulge off it;
+    ``fill_outline`` takes the mean segment length l - b of its lengths: measured, the longest
+    one, 1.5, packs a star:5,0.2,8 at 0.775 instead of 0.844, and the rods that bulge further
+    are moved inwards one by one).
     Vertices are moved along the inward bisector normal; a moved vertex is dropped when it
     lies outside the outline, nearer to the outline than the layer's least depth (less 1 %),
     or nearer to the layer it came from than its move (less 1 %): that removes the
@@ -405,6 +409,8 @@ def _curvature(pts: np.ndarray, closed: bool, width: float) -> np.ndarray:
     (Theta(s + w/2) - Theta(s - w/2)) / w, Theta the cumulative turning angle at arc length s
     (a closed polyline is continued periodically, an open one is clipped at its ends).
     """
+    if not width > 0:
+        return np.zeros(len(pts))
     e = np.roll(pts, -1, axis=0) - pts if closed else np.diff(pts, axis=0)
     ang = np.arctan2(e[:, 1], e[:, 0])
     turn = np.angle(np.exp(1j * (np.roll(ang, -1) - ang)))  # at the end of each edge

@@ -71,12 +71,12 @@ def test_fill_has_no_overlap_and_stays_inside(star_fill):
 
 
 def test_fill_packing_fractions(star_fill):
-    """Length packing b sum l / A against the area: measured 0.775 (tangent), 0.911 (rows)."""
+    """Length packing b sum l / A against the area: measured 0.851 (tangent), 0.911 (rows)."""
     outline, state = star_fill
     phi_l, phi_a = packings.packing_fractions(state.length, area(outline))
-    assert 0.72 < phi_l < 1 and phi_a < phi_l
+    assert 0.8 < phi_l < 1 and phi_a < phi_l
     rows = packings.fill_outline(outline, seed=3, orientation="rows")
-    assert 0.88 < packings.packing_fractions(rows.length, area(outline))[0] < 1
+    assert 0.9 < packings.packing_fractions(rows.length, area(outline))[0] < 1
     np.testing.assert_allclose(np.sin(rows.theta), 0, atol=1e-12)  # parallel to x
 
 
