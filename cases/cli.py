@@ -2,15 +2,19 @@
 
 ::
 
-    colony continuum --lam LAM (--radius R | --time T) [--shape circle|ellipse:A,B|polygon:FILE.csv]
+    colony continuum --lam LAM (--radius R | --time T) [--shape SHAPE]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
-    colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
+    colony particles --lam LAM (--radius R | --time T) [--init FILE.csv | --shape SHAPE]
+                     [--fill-orientation tangent|rows] [--seed S] [--dt DT]
                      [--step-control overlap|fixed|cost] [--division-noise EPS]
                      [--solver bbpgd|apgd|twolevel] [--threads N] [--change-step-policy]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
     colony case NAME --from-data [--data-set medium|paper] [--out DIR]
+
+SHAPE (continuum.shapes): circle[:R], ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R],
+polygon:FILE.csv, and for particles line:N; the particles fill the outline (cases.shapes).
 
 Every run is configured by one dataclass (``continuum.Config`` / ``particles.Config``), built from
 the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
@@ -184,13 +188,16 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
                   change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
     from cases.figures.draw import particles_picture
+    from cases.shapes import initial_state
     from particles import run
     from particles.config import STEP_POLICY_FIELDS
     from particles.simulation import check_initial
 
+    start = initial_state(config)  # the particles of config.shape (None: init or one cell)
+
     def body(partial):
         colony = run(config, out=partial, progress=progress,
-                     change_step_policy=change_step_policy).state
+                     change_step_policy=change_step_policy, state=start).state
         profile = particle_profile(colony.x, colony.y, colony.theta, colony.length, colony.stress,
                                    edge_width=PARTICLE_EDGE_WIDTH,
                                    radius=colony.enclosing_radius())
@@ -199,7 +206,7 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
         _remove_checkpoints(partial)  # the run is complete: nothing to resume
         return colony
 
-    check_initial(config)
+    check_initial(config, state=start)
     return _staged_run("particles", config, Path(out), overwrite, body, resumable=CHECKPOINTS,
                        step_policy=STEP_POLICY_FIELDS if change_step_policy else ())
 
@@ -243,7 +250,8 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("continuum", help="2D moving-boundary continuum colony")
     _common(c, "runs/continuum")
     c.add_argument("--shape", default=None,
-                   help="initial shape: circle (default), ellipse:A,B or polygon:FILE.csv")
+                   help="initial shape: circle (default, radius R0), circle:R, ellipse:A,B, "
+                   "rectangle:W,H[,ROUND], star:K,EPS[,R] or polygon:FILE.csv")
     c.add_argument("--h-max", type=float,
                    help="largest boundary mesh spacing (default 0.55; sets the resolution)")
     c.add_argument("--n-nodes", type=int, help="node count while the colony is small")
@@ -252,6 +260,10 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
     _common(p, "runs/particles")
     p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length")
+    p.add_argument("--shape", help="initial shape filled with rods: circle:R, ellipse:A,B, "
+                   "rectangle:W,H[,ROUND], star:K,EPS[,R], polygon:FILE.csv or line:N")
+    p.add_argument("--fill-orientation", help="rods of --shape: tangent (layers along the "
+                   "outline, default) or rows (parallel to x)")
     p.add_argument("--seed", type=int, help="random seed (division noise)")
     p.add_argument("--dt", type=float,
                    help="time step (the largest, unless --step-control fixed; default 0.01)")
@@ -324,6 +336,7 @@ def _dispatch(args) -> int:
 
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
+                 "shape": args.shape, "fill_orientation": args.fill_orientation,
                  "dt": _finite("dt", args.dt), "step_control": args.step_control,
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads}

@@ -15,6 +15,7 @@ from pathlib import Path
 import numba
 
 from .geometry import B
+from .packings import FILL_LENGTHS, FILL_ORIENTATIONS
 from .stepping import SOLVERS, STEP_CONTROLS
 
 __all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS"]
@@ -50,7 +51,23 @@ class Config:
     division_noise : float
         Amplitude eps (radians): daughters' angles are theta + eps * U(-1, 1).
     init : str or None
-        CSV file with columns x,y,theta,length; None: one particle of length 1 at the origin.
+        CSV file with columns x,y,theta,length; None: one particle of length 1 at the origin
+        (or the state of ``shape``).
+    shape : str or None
+        Initial shape (continuum.shapes: ``circle:R``, ``ellipse:A,B``, ``rectangle:W,H[,ROUND]``,
+        ``star:K,EPS[,R]``, ``polygon:FILE.csv``, ``line:N``), filled with rods by
+        packings.fill_outline (``line:N``: packings.line), the lengths seeded by ``seed``.
+        ``particles`` does not import ``continuum``, so the engine does not parse it: the
+        state is built by ``cases.shapes.initial_particles`` (``colony particles --shape``) and
+        given as ``Simulation(config, state=...)`` / ``run(config, state=...)``; the field
+        records it (config.json, run.json: ``colony info``) and a resume checks it. Not with
+        ``init``.
+    fill_orientation : str
+        Orientation of the rods of ``shape``: "tangent" (layers along the outline, default) or
+        "rows" (parallel to x) (packings.fill_outline).
+    fill_lengths : str
+        Lengths of the rods of ``shape``: "stable" (density ~ l^-2 on [1, 2], default),
+        "uniform" on [1, 2] or "birth" (all 1) (packings.sample_lengths).
     solver : str
         Contact solver name, a key of SOLVERS.
     output_every : int
@@ -82,6 +99,9 @@ class Config:
     seed: int = 0
     division_noise: float = 0.02
     init: str | None = None
+    shape: str | None = None
+    fill_orientation: str = "tangent"
+    fill_lengths: str = "stable"
     solver: str = "bbpgd"
     output_every: int = 10
     checkpoint_seconds: float = 300.0
@@ -105,6 +125,8 @@ class Config:
             raise ValueError("give exactly one of radius and time")
         if require_stop and self.radius is None and self.time is None:
             raise ValueError("give exactly one of radius and time")
+        if self.init is not None and self.shape is not None:
+            raise ValueError("give at most one initial state: init (a CSV file) or shape")
         for name, ok, message in _RULES:
             v = getattr(self, name)
             if not ok(v):
@@ -159,10 +181,17 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"threads must be an integer in [1, {numba.config.NUMBA_NUM_THREADS}], got {v}"),
     ("init", lambda v: v is None or Path(v).is_file(),
      lambda v: f"init file not found: {v}"),
+    ("shape", lambda v: v is None or (isinstance(v, str) and v.strip() != ""),
+     lambda v: f"shape must be a shape specification such as star:5,0.2,8, got {v!r}"),
+    ("fill_orientation", lambda v: v in FILL_ORIENTATIONS,
+     lambda v: f"fill_orientation must be one of {', '.join(FILL_ORIENTATIONS)}, got {v!r}"),
+    ("fill_lengths", lambda v: v in FILL_LENGTHS,
+     lambda v: f"fill_lengths must be one of {', '.join(FILL_LENGTHS)}, got {v!r}"),
 ]
 
 
-LEGACY_CONFIG = {"step_control": "fixed"}
+LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",
+                 "fill_lengths": "stable"}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
 
 RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}
