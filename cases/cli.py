@@ -37,7 +37,7 @@ import threading
 import tomllib
 from pathlib import Path
 
-from cases.analysis import field_profile, particle_profile, write_csv
+from cases.analysis import continuum_profile, particle_profile, write_csv
 from cases.rundir import (
     RECORD,
     RunFolderError,
@@ -164,12 +164,8 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
 
     def body(partial):
         state = run(config, out=partial, progress=progress).state
-        profile = field_profile(state.points, state.triangles,
-                                {"mean_length": state.fields["mean_length"],
-                                 "mean_length_psi": state.fields["mean_length_psi"],
-                                 "pressure": state.fields["p"], "G": state.fields["G"]},
-                                edge_width=CONTINUUM_EDGE_WIDTH)
-        write_csv(partial / "profile.csv", profile)
+        write_csv(partial / "profile.csv", continuum_profile(
+            state.points, state.triangles, state.fields, edge_width=CONTINUUM_EDGE_WIDTH))
         write_rings(partial, state.points, state.triangles, state.fields["G"])
         continuum_picture(state, partial / "mean_length", config.lam)
         _remove_checkpoints(partial)
