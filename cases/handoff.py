@@ -24,13 +24,14 @@ Nadaraya-Watson estimate) on the continuum's grid in s = log2 l::
     p(x, i) = sum_p K(x - x_p) w_pi / sum_p K(x - x_p),
 
 w_pi the share of particle p in cell i: the particle is split between the two cells whose mean
-lengths bracket its length l_p so that both its number and its length are kept (a length
-below the first cell's mean, 1.0087 for 40 cells, or above the last one's goes wholly to that
-cell). So the mean length of Psi0 at x is the kernel-weighted mean of the particle lengths,
-exactly (to 0.0087 for particles shorter than 1.0087). The number per unit area is the
-packing of the model, one rod width of cell length per unit area: rho(x) = 1 / (b lbar(x)),
-so Psi0 = n(x, s_i) = rho(x) p(x, i) / ds (the flow does not depend on this normalisation;
-the fields number and total_length do).
+lengths bracket its length l_p so that both its number and its length are kept. So the mean
+length of Psi0 at x is the kernel-weighted mean of the particle lengths, exactly, except for
+particles shorter than the first cell's mean length (1.0087 for 40 cells) or longer than the
+last one's (1.9828), which go wholly to that cell: their lengths move by at most 0.0087 and
+0.0172 (one value per cell cannot hold a length outside the cells' means). The number per
+unit area is the packing of the model, one rod width of cell length per unit area:
+rho(x) = 1 / (b lbar(x)), so Psi0 = n(x, s_i) = rho(x) p(x, i) / ds (the flow does not
+depend on this normalisation; the fields number and total_length do).
 
 Growth phase: G0 = 0 (continuum.initial): the transported Psi carries the sizes from here on
 (``psi_transport`` along characteristics shifts each element's distribution exactly), G only

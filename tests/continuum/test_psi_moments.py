@@ -78,8 +78,9 @@ def test_run_mean_and_spread_follow_the_bump():
 
     Measured where the bump's cells lie below s = 1 (217 of 1561 nodes): max |lbar_psi -
     2^(phi + w)| 4.9e-4, |lbar_psi / 2^phi - 1| <= 0.0573 = 2^w - 1, and spread / (lbar ln 2
-    sigma_s) = 1.0509 at every node (40 cells of 1/40 widen the smooth bump's sigma_s = 0.0318); where it straddles s = 1 the element holds cells near 2 and near 1, spread up
-    to 0.47.
+    sigma_s) = 1.0509 at every node (40 cells of 1/40 widen the smooth bump's sigma_s =
+    0.0318); where it straddles s = 1 the element holds cells near 2 and near 1, spread up to
+    0.47.
     """
     s = Simulation(small_config(radius=6.0)).advance()
     assert s.n_remesh == 6
