@@ -1,6 +1,7 @@
 """A particle colony handed to the continuum: its outline, its size distribution, its start.
 
-``colony continuum --from-particles RUN_DIR`` (and :func:`continuum_start` from Python) starts
+``colony continuum --from-particles RUN_DIR`` (from Python :func:`simulation_from_particles`,
+or :func:`continuum_start` and ``continuum.run(config, out, initial=state)``) starts
 the continuum from the final state of a particle run, the last frame of its trajectory.gsd
 (particles.read_trajectory), so that both models grow the same colony: the particle run
 continued (e.g. ``colony particles --init`` of that frame) and the continuum from here.
@@ -72,6 +73,7 @@ __all__ = [
     "final_particles",
     "particle_lam",
     "continuum_start",
+    "simulation_from_particles",
     "write_handoff",
     "region_moments",
     "outline_moments",
@@ -361,6 +363,22 @@ def continuum_start(run_dir: str | os.PathLike, config, alpha: float = ALPHA,
         "G0": 0.0,
     }
     return state, {**record, "outline": outline}
+
+
+def simulation_from_particles(run_dir: str | os.PathLike, config, alpha: float = ALPHA,
+                              bandwidth: float = BANDWIDTH):
+    """(continuum.Simulation, record) started from a particle run's final state (no output).
+
+    The Python form of ``colony continuum --from-particles``: :func:`continuum_start`, then
+    ``continuum.Simulation(config, initial=state)``::
+
+        sim, record = simulation_from_particles("runs/particles", continuum.Config(lam=0.01))
+        sim.advance(radius=20.0)
+    """
+    from continuum import Simulation
+
+    state, record = continuum_start(run_dir, config, alpha, bandwidth)
+    return Simulation(config, initial=state), record
 
 
 def write_handoff(folder: Path, record: dict) -> None:

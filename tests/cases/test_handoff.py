@@ -174,3 +174,12 @@ def test_bad_from_particles_is_one_line_before_work(args, match, particle_run, c
     assert status == 2
     assert err.count("\n") == 1 and match in err
     assert not (tmp_path / "c").exists() and not (tmp_path / "c.partial").exists()
+
+
+def test_simulation_from_particles(particle_run):
+    """The API: the same start as the command; it steps."""
+    sim, record = handoff.simulation_from_particles(particle_run, Config(lam=0.01, n_nodes=200))
+    assert sim.state.area == pytest.approx(record["outline_area"], rel=0.01)
+    assert np.all(sim.state.G == 0)
+    sim.step()
+    assert sim.state.t > 0 and sim.state.G.max() > 0
