@@ -14,23 +14,12 @@ import numpy as np
 import pytest
 
 from cases import handoff
+from cases.bench.handoff import rod_lattice
 from continuum import Config
 from continuum.initial import state_from
 from continuum.mesh import check_polygon, polygon_area
 from continuum.sizes import LengthGrid
 from particles import B, ring_packing
-
-
-def rod_rows(n_cols: int, n_rows: int, length) -> tuple[np.ndarray, ...]:
-    """Horizontal rods on a lattice, columns 1.5 apart, rows b apart.
-
-    The outline is n_cols 1.5 x n_rows b (rods of length 1.5 touch end to end).
-    """
-    i, j = np.meshgrid(np.arange(n_cols), np.arange(n_rows))
-    x, y = (1.5 * i + 0.75).ravel(), (B * j + 0.5 * B).ravel()
-    lengths = np.broadcast_to(np.asarray(length(x) if callable(length) else length, float),
-                              x.shape)
-    return x, y, np.zeros(x.size), lengths.copy()
 
 
 def test_outline_of_a_disc_packing():
@@ -50,7 +39,7 @@ def test_outline_of_a_disc_packing():
 
 def test_outline_of_a_rectangle_of_rods():
     """12 x 6 of rods 1.5 long: the rounded rod ends lose (1 - pi/4) b^2 / 2 per row end."""
-    x, y, th, ln = rod_rows(8, 12, 1.5)
+    x, y, th, ln = rod_lattice(8, 12, 1.5)
     area, aspect = handoff.polygon_moments(handoff.particle_outline(x, y, th, ln))
     exact = 12 * 6 - 2 * 12 * (1 - math.pi / 4) * B**2 / 2  # 71.68 (the alpha shape's
     assert area == pytest.approx(exact, rel=0.01)           # chords cut less: 71.87)
@@ -92,7 +81,7 @@ def test_psi0_mean_is_the_local_mean_to_the_kernel_accuracy():
 
     The spread of the lengths at a node is that of l under the kernel, 0.02 h = 0.04.
     """
-    x, y, th, ln = rod_rows(20, 60, lambda x: 1.2 + 0.02 * x)
+    x, y, th, ln = rod_lattice(20, 60, lambda x: 1.2 + 0.02 * x)
     config = Config(lam=0.01, n_nodes=400)
     psi0 = handoff.size_distribution(x, y, ln, LengthGrid(config.n_length_cells))
     state = state_from(config, handoff.particle_outline(x, y, th, ln), psi0)
