@@ -166,7 +166,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
     shows the transported mean length).
     """
     from cases.figures.draw import continuum_picture
-    from cases.handoff import write_handoff
+    from cases.handoff import check_resume, write_handoff
     from continuum.budget import check_memory
     from continuum.output import write_rings
     from continuum.simulation import run
@@ -185,6 +185,8 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
         return state
 
     check_memory(config)  # before the stage is touched (the engine checks again on a fresh start)
+    if not overwrite:  # a stopped run resumes from its own start only
+        check_resume(partial_of(Path(os.path.abspath(out))), None if start is None else start[1])
     return _staged_run("continuum", config, Path(out), overwrite, body,
                        resumable=CHECKPOINTS)
 

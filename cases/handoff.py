@@ -74,6 +74,7 @@ __all__ = [
     "particle_lam",
     "continuum_start",
     "simulation_from_particles",
+    "check_resume",
     "write_handoff",
     "region_moments",
     "outline_moments",
@@ -379,6 +380,33 @@ def simulation_from_particles(run_dir: str | os.PathLike, config, alpha: float =
 
     state, record = continuum_start(run_dir, config, alpha, bandwidth)
     return Simulation(config, initial=state), record
+
+
+#: What identifies a hand-off's start: a stopped run resumes only from the same.
+START_KEYS = ("particle_run", "step", "alpha", "bandwidth")
+
+
+def check_resume(stage: Path, record: dict | None) -> None:
+    """Refuse to resume a stopped continuum run in ``stage`` from another start.
+
+    A checkpoint in ``stage`` continues the run it came from: a hand-off from the same
+    particle state and parameters (``START_KEYS`` of its handoff.json), or a run without
+    hand-off when ``record`` is None. Raises ValueError (one line) otherwise.
+    """
+    stage = Path(stage)
+    if not (stage / "checkpoint.npz").is_file():
+        return
+    saved = None
+    if (stage / HANDOFF).is_file():
+        saved = json.loads((stage / HANDOFF).read_text())
+    same = (saved is None and record is None) or (
+        saved is not None and record is not None
+        and all(saved.get(k) == record.get(k) for k in START_KEYS))
+    if not same:
+        what = "a run without --from-particles" if saved is None else \
+            f"a hand-off from {saved.get('particle_run')} (step {saved.get('step')})"
+        raise ValueError(f"{stage} holds a stopped continuum run of {what}; give its command "
+                         "to resume it, or --overwrite to start afresh (removes it)")
 
 
 def write_handoff(folder: Path, record: dict) -> None:

@@ -172,3 +172,19 @@ def test_simulation_from_particles(particle_run):
     assert np.all(sim.state.G == 0)
     sim.step()
     assert sim.state.t > 0 and sim.state.G.max() > 0
+
+
+def test_a_stopped_run_resumes_from_its_own_start_only(particle_run, colony, tmp_path):
+    stage = tmp_path / "c.partial"
+    stage.mkdir()
+    (stage / "checkpoint.npz").write_bytes(b"")
+    args = ["continuum", "--lam", "0.01", "--radius", "3", "--out", str(tmp_path / "c")]
+    status, err = colony(*args, "--from-particles", str(particle_run))
+    assert status == 2 and "stopped continuum run of a run without --from-particles" in err
+    (stage / handoff.HANDOFF).write_text(json.dumps(
+        {"particle_run": "/elsewhere", "step": 3, "alpha": 1.0, "bandwidth": 2.0}))
+    status, err = colony(*args, "--from-particles", str(particle_run))
+    assert status == 2 and "a hand-off from /elsewhere (step 3)" in err
+    status, err = colony(*args)
+    assert status == 2 and "hand-off from /elsewhere" in err
+    assert err.count("\n") == 1
