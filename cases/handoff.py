@@ -53,6 +53,7 @@ import os
 from pathlib import Path
 
 import numpy as np
+import scipy.sparse as sp
 from scipy.spatial import Delaunay, cKDTree
 
 from continuum.mesh import PolygonError, check_polygon, polygon_area, triangle_areas
@@ -255,23 +256,25 @@ def size_distribution(x, y, length, grid: LengthGrid, bandwidth: float = BANDWID
         raise ValueError(f"bandwidth must be a positive number, got {bandwidth!r}")
     centres = np.column_stack([np.asarray(x, float), np.asarray(y, float)])
     k, w = length_shares(length, grid)
+    n_particles = len(centres)
+    shares = sp.csr_matrix((np.concatenate([w, 1.0 - w]),
+                            (np.tile(np.arange(n_particles), 2), np.concatenate([k, k + 1]))),
+                           shape=(n_particles, grid.n_cells))
     tree = cKDTree(centres)
 
     def psi0(xy: np.ndarray) -> np.ndarray:
         xy = np.asarray(xy, dtype=float)
-        hist = np.zeros((len(xy), grid.n_cells))
-        total = np.zeros(len(xy))
-        for j, near in enumerate(tree.query_ball_point(xy, 4.0 * bandwidth)):
-            near = np.asarray(near, dtype=int)
-            d2 = np.sum((centres[near] - xy[j]) ** 2, axis=1)
-            kern = np.exp(-0.5 * d2 / bandwidth**2)
-            np.add.at(hist[j], k[near], kern * w[near])
-            np.add.at(hist[j], k[near] + 1, kern * (1.0 - w[near]))
-            total[j] = kern.sum()
-        if np.any(total <= 0):
+        near = tree.query_ball_point(xy, 4.0 * bandwidth, return_sorted=True)
+        counts = np.fromiter(map(len, near), dtype=np.int64, count=len(near))
+        if np.any(counts == 0):
             raise ValueError(f"a node has no particle within {4 * bandwidth:g} "
                              "(4 bandwidths): the outline and the particles do not match")
-        p = hist / total[:, None]
+        cols = np.concatenate(near).astype(np.int64)
+        rows = np.repeat(np.arange(len(xy)), counts)
+        d2 = np.sum((xy[rows] - centres[cols]) ** 2, axis=1)
+        kernel = sp.csr_matrix((np.exp(-0.5 * d2 / bandwidth**2), (rows, cols)),
+                               shape=(len(xy), n_particles))
+        p = np.asarray((kernel @ shares).todense()) / np.asarray(kernel.sum(axis=1))
         lbar = p @ (grid.length_integrals / grid.ds)
         return p / (B * lbar[:, None] * grid.ds)
 
