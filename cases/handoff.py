@@ -17,10 +17,10 @@ polygon (continuum.mesh.check_polygon); its vertices lie on rod outlines, so the
 of the colony with its inner gaps filled.
 
 Size distribution (:func:`size_distribution`). At a point x, the lengths of the nearby
-particles, weighted by a Gaussian kernel of their centres,
-K(x - x_p) = exp(-|x - x_p|^2 / (2 h^2)) (bandwidth h, default ``BANDWIDTH`` = 2: four rod
-widths, about 1.3 mean cell lengths; cut at 4 h), give the normalised histogram (the
-Nadaraya-Watson estimate) on the continuum's grid in s = log2 l::
+particles, weighted by a Gaussian kernel of their centres' distance d to x,
+K(x - x_p) = exp(-d^2 / (2 h^2)) (bandwidth h, default ``BANDWIDTH`` = 2: four rod widths,
+about 1.3 mean cell lengths; cut at 4 h), give the normalised histogram (the Nadaraya-Watson
+estimate) on the continuum's grid in s = log2 l::
 
     p(x, i) = sum_p K(x - x_p) w_pi / sum_p K(x - x_p),
 
@@ -127,7 +127,7 @@ def rod_outline_points(x, y, theta, length, spacing: float = B / 4) -> np.ndarra
 
 
 def _circumradii(pts: np.ndarray, tri: np.ndarray) -> np.ndarray:
-    """Circumradius abc / (4 |T|) of each triangle (inf for a degenerate one)."""
+    """Circumradius abc / (4 ``|T|``) of each triangle (inf for a degenerate one)."""
     a, b, c = pts[tri[:, 0]], pts[tri[:, 1]], pts[tri[:, 2]]
     la, lb, lc = (np.linalg.norm(p - q, axis=1) for p, q in ((b, c), (c, a), (a, b)))
     area = 0.5 * np.abs((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
@@ -429,7 +429,7 @@ def region_moments(corners: np.ndarray, area: np.ndarray) -> tuple[float, float]
 
     Aspect ratio sqrt(mu_1 / mu_2), mu_1 >= mu_2 the eigenvalues of the second moment of area
     about the centroid c, int (x - c)(x - c)^T dA, exact per triangle:
-    |T| / 12 (sum_i d_i d_i^T + (sum_i d_i)(sum_i d_i)^T), d_i its corners about c. 1 for a
+    ``|T|`` / 12 (sum_i d_i d_i^T + (sum_i d_i)(sum_i d_i)^T), d_i its corners about c. 1 for a
     disc, A / B for an ellipse of semi-axes A >= B, W / H for a W x H rectangle. Signed areas
     (a polygon's fan of triangles about one vertex) give the polygon's moments.
     """
