@@ -288,7 +288,7 @@ def parser() -> argparse.ArgumentParser:
                    help="time step (the largest, unless --step-control fixed; default 0.01)")
     p.add_argument("--step-control", choices=("overlap", "fixed", "cost"),
                    help="overlap (default): shorten the step where its linearised move leaves "
-                   "overlaps above b/10; "
+                   "overlaps above 0.3 b; "
                    "fixed: every step --dt; cost: follow the cost of the re-solve passes")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
