@@ -64,18 +64,18 @@ def _check_mode(K: int) -> int:
 
 
 def mode_rate_lam0(K: int) -> float:
-    """Closed form at lam = 0: sigma = -K/2 (relative amplitude eps of r = R(1 + eps cos K theta))."""
+    """Closed form at lam = 0: sigma = -K/2 (relative amplitude of r = R(1 + eps cos K theta))."""
     return -0.5 * _check_mode(K)
 
 
 def small_lam_rate(K: int, lam: float, R: float) -> float:
-    """First order in lam: sigma = -K/2 + lam R^2 [1/8 + K/16 - 1/(4 (K + 1))] (module docstring)."""
+    """First order in lam: sigma = -K/2 + lam R^2 [1/8 + K/16 - 1/(4 (K + 1))] (module doc)."""
     K = _check_mode(K)
     return -0.5 * K + lam * R * R * (0.125 + K / 16.0 - 0.25 / (K + 1.0))
 
 
 def _rhs(K: int, lam: float, R: float):
-    """y'' = -(2K + 1) y'/r - g'(p0) y with g'(p0) = -lam / D(r)^2 (continuum.radial)."""
+    """Right-hand side of y'' = -(2K + 1) y'/r - g'(p0) y, g'(p0) = -lam / D(r)^2."""
 
     def f(r: float, z: NDArray) -> NDArray:
         dg = -lam * float(radial.growth_rate(min(r, R), R, lam))

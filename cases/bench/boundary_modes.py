@@ -106,6 +106,7 @@ def experiment(K: int, flux: str, recovery: str, remesh: bool, courant: float, n
 
 
 def main(argv: list[str] | None = None) -> None:
+    """Run the experiments of ``--modes`` and print the table (markdown)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--modes", type=int, nargs="+", default=[6, 8])
     args = ap.parse_args(argv)

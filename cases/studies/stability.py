@@ -60,14 +60,17 @@ EPS = 0.01
 
 
 def star_polygon(K: int, eps: float, R: float, n: int = 2048) -> np.ndarray:
-    """n vertices of r = R (1 + eps cos K theta) at theta_j = 2 pi j / n, counter-clockwise."""
+    """The n vertices of r = R (1 + eps cos K theta) at theta_j = 2 pi j / n (counter-clockwise)."""
     th = 2.0 * np.pi * np.arange(n) / n
     r = R * (1.0 + eps * np.cos(K * th))
     return np.column_stack([r * np.cos(th), r * np.sin(th)])
 
 
 def area_centroid(xy: np.ndarray) -> np.ndarray:
-    """Centroid of the polygon's area: (1 / 6A) sum_k (x_k + x_{k+1}) (x_k y_{k+1} - x_{k+1} y_k)."""
+    """Area centroid of a polygon.
+
+    c = (1 / 6A) sum_k (x_k + x_{k+1}) (x_k y_{k+1} - x_{k+1} y_k), and likewise in y.
+    """
     x, y = xy[:, 0], xy[:, 1]
     xn, yn = np.roll(x, -1), np.roll(y, -1)
     cross = x * yn - xn * y
@@ -99,7 +102,7 @@ def _slope(t: np.ndarray, y: np.ndarray) -> float:
     return float(np.polyfit(t, y, 1)[0])
 
 
-def measure_rate(K: int, lam: float, n_nodes: int, t_end: float, samples: int,
+def measure_rate(K: int, lam: float, n_nodes: int, t_end: float, samples: int,  # noqa: PLR0913
                  folder: Path, R: float = RADIUS, eps: float = EPS, remesh: bool = False,
                  **config) -> dict:
     """Grow the perturbed disc and fit its mode-K rate; a row of rates.csv (without theory).
@@ -141,8 +144,11 @@ def measure_rate(K: int, lam: float, n_nodes: int, t_end: float, samples: int,
 
 
 def theory_rate(K: int, lam: float, t_end: float, samples: int, R: float = RADIUS) -> float:
-    """The slope of the theoretical ln eps(t) (continuum.stability.amplitude_ratio) fitted at the
-    sample times of :func:`measure_rate` (lam = 0: -K/2)."""
+    """The theoretical rate: the slope of ln eps(t) fitted at the sample times of measure_rate.
+
+    ln eps(t) / eps(0) from continuum.stability.amplitude_ratio along the disc's R(t)
+    (lam = 0: -K/2).
+    """
     times = np.linspace(0.0, t_end, samples)
     return _slope(times, stability.amplitude_ratio(K, lam, R, times))
 
@@ -214,8 +220,11 @@ def markdown_table(data: str | Path) -> str:
 
 
 def plot(data: str | Path, out: str | Path) -> list[Path]:
-    """results.md and the figure: (A) rates vs K, measured (finest mesh) and theory, per lam;
-    (B) |relative error| vs h/R per K and lam, with an h^2 guide."""
+    """Write results.md and the figure (stability.png, .pdf) from the CSVs in ``data``.
+
+    (A) rates vs K, measured (finest mesh) and theory, per lam; (B) |relative error| vs h/R
+    per K and lam, with an h^2 guide.
+    """
     import matplotlib.pyplot as plt
 
     from cases.figures.draw import save_figure

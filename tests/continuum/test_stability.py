@@ -16,7 +16,7 @@ from continuum.stability import amplitude_ratio, mode_rate, small_lam_rate
 
 
 def bvp_rate(K: int, lam: float, R: float) -> float:
-    """sigma = 1 - 2 u0/R - p1'(R)/R with p1 from solve_bvp on [1e-4 R, R] (p1' = K p1/r there)."""
+    """Rate 1 - 2 u0/R - p1'(R)/R with p1 from solve_bvp on [1e-4 R, R] (p1' = K p1/r there)."""
     u0 = float(radial.radius_rate(R, lam))
 
     def f(r, z):
@@ -61,7 +61,7 @@ def test_small_lam_slope():
 
 
 def test_k2_is_the_ellipse():
-    """lam = 0, K = 2: the exact ellipse's eps = (a - b)/(a + b) decays at rate -1 = -K/2."""
+    """At lam = 0, K = 2, the exact ellipse's eps = (a - b)/(a + b) decays at rate -1 = -K/2."""
     e0 = 1e-4
     t = np.linspace(0.0, 1.0, 11)
     sol = solve_ivp(lambda _, z: [z[0] * z[1] ** 2 / (z[0] ** 2 + z[1] ** 2),
@@ -83,7 +83,7 @@ def test_mode_amplitude_of_a_star():
 
 
 def test_measured_rate_converges(tmp_path):
-    """lam = 0, K = 6 from eps = 1 % on a disc of radius 3, t in [0, 0.3], 300 / 600 / 1200 nodes.
+    """At lam = 0, K = 6, eps = 1 %, disc of radius 3, t in [0, 0.3], 300 / 600 / 1200 nodes.
 
     Measured errors -3.2 / -0.72 / -0.26 %, observed order 3.6 (> 2 asserted) and |error| below
     0.5 % at the finest mesh (the three-point filter of r used before gave -6.0 / -2.3 / -1.1 %).
