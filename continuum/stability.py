@@ -34,7 +34,7 @@ R^2/8) give sigma = -K/2 + lam R^2 [1/8 + K/16 - 1/(4 (K + 1))] + O(lam^2) (test
 Numerics (:func:`shape_function`). The regular solution y is integrated by DOP853 from a
 three-term series at r = r_s = 1e-3 R to R, at a relative tolerance ``rtol``; the convergence
 check repeats the integration at rtol / 100 and raises if the two y'(R)/y(R) differ by more than
-10 rtol (1 + |y'/y|). tests/continuum/test_stability.py compares it with an independent
+10 rtol (1 + abs(y'/y)). tests/continuum/test_stability.py compares it with an independent
 collocation solve of the p1 problem (scipy.integrate.solve_bvp) and with the closed forms.
 """
 
@@ -90,7 +90,7 @@ def shape_function(K: int, lam: float, R: float, rtol: float = 1e-10) -> float:
     y'' + (2K + 1) y'/r + g'(p0(r)) y = 0, y(0) = 1, y'(0) = 0, g'(p0) = -lam exp(-lam p0)
     (module docstring). Started at r_s = 1e-3 R from the series y = 1 + a r^2,
     a = lam g(0) / (4 (K + 1)), integrated by DOP853 at ``rtol``; checked against a second
-    integration at rtol / 100 (ValueError if they differ by more than 10 rtol (1 + |y'/y|)).
+    integration at rtol / 100 (ValueError if they differ by more than 10 rtol (1 + abs(y'/y))).
 
     Returns
     -------
