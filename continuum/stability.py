@@ -75,11 +75,15 @@ def small_lam_rate(K: int, lam: float, R: float) -> float:
 
 
 def _rhs(K: int, lam: float, R: float):
-    """Right-hand side of y'' = -(2K + 1) y'/r - g'(p0) y, g'(p0) = -lam / D(r)^2."""
+    """Right-hand side of y'' = -(2K + 1) y'/r - g'(p0) y, g'(p0) = -lam / D(r)^2.
+
+    D(r) = 1 + lam c (R^2 - r^2), c = c(R) (continuum.radial: g(p0(r)) = 1 / D^2).
+    """
+    lc = lam * float(radial.c_of_R(R, lam))
 
     def f(r: float, z: NDArray) -> NDArray:
-        dg = -lam * float(radial.growth_rate(min(r, R), R, lam))
-        return np.array([z[1], -(2 * K + 1) * z[1] / r - dg * z[0]])
+        D = 1.0 + lc * (R * R - r * r)
+        return np.array([z[1], -(2 * K + 1) * z[1] / r + lam * z[0] / (D * D)])
 
     return f
 
