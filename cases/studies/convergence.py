@@ -106,9 +106,9 @@ class Family:
 
     ``cases``: the lam of the disc colonies (float) and/or "ellipse"; ``x``: how a value maps to
     the abscissa of the log-log plot (``"value"``, ``"inverse"`` 1/value, ``"minus_one"``
-    value - 1, ``"h"`` the run's initial boundary spacing h0,
-    proportional to h at every later time when the mesh is not capped); ``reference``: "exact" (the references
-    of the module docstring) or "finest" (the run at ``values[-1]``, not fitted);
+    value - 1, ``"h"`` the run's initial boundary spacing h0, proportional to h at every later
+    time when the mesh is not capped); ``reference``: "exact" (the references of the module
+    docstring) or "finest" (the run at ``values[-1]``, not fitted);
     ``quantities``: those measured.
     """
 
@@ -172,8 +172,11 @@ def scale_config(scale: str) -> dict[str, Any]:
 
 
 def families(scale: str) -> list[Family]:
-    """The studies of ``scale``: continuum (mesh, time_step, length_cells x 3 transports,
-    bump_width, q_min, stretch) and particles (dt, solver_tol, tol)."""
+    """The studies of ``scale``.
+
+    Continuum: mesh, time_step, length_cells (x 3 transports), bump_width, q_min, stretch;
+    particles: dt, solver_tol, tol.
+    """
     cfg = scale_config(scale)
     cases = (*cfg["lams"], "ellipse")
     remesh = dict(cfg["remesh_mesh"])
@@ -312,8 +315,9 @@ def continuum_errors(folder: str | Path, mask_width: float | None = None) -> dic
     Reads its config.json, history.csv, boundary.csv, last VTU frame and rings (rings.csv or the
     contours of the last frame's G). ``mask_width``: the bump width of the node mask of the
     mean-length errors (default the run's). Quantities without a reference are nan; also
-    returns the run's initial boundary spacing ``h0``, final ``t``, ``radius``, ``max_pressure``, ``n_remesh``,
-    the outermost ring's mean radius ``outer_ring`` and the semi-axes ``a``, ``b``.
+    returns the run's initial boundary spacing ``h0``, its final ``t``, ``radius_final``,
+    ``max_pressure_final``, ``n_remesh``, the outermost ring's mean radius ``outer_ring`` and
+    the semi-axes ``a``, ``b``.
     """
     folder = Path(folder)
     config = json.loads((folder / "config.json").read_text())
