@@ -46,7 +46,9 @@ RMS over the seeds k > 0 of the same difference between seed k and seed 0 at the
 of a difference that a change of seed alone makes.
 
 Outputs (``out/data``): ``orders.csv`` (study, engine, parameter, quantity, case, reference,
-observed_order, expected_order, smallest and largest error, seed_spread, resolved), one CSV per
+observed_order, expected_order, smallest and largest error, seed_spread, resolved: whether the
+smallest difference exceeds the seed spread, note: "unchanged" where the setting changed no
+error by more than 1e-9 relative, e.g. a threshold never reached), one CSV per
 curve ``continuum_STUDY_CASE.csv`` / ``particles_STUDY.csv`` (parameter, x, one column per
 quantity) and ``particles_seeds.csv``; ``plot`` draws convergence_continuum.png and
 convergence_particles.png from them.
@@ -69,7 +71,7 @@ from continuum import radial
 from continuum.growth import LN2, mean_length
 
 __all__ = ["SCALES", "Family", "families", "compute", "reduce", "plot", "continuum_errors",
-           "particle_quantities", "ellipse_axes", "ellipse_reference", "fit_order",
+           "particle_quantities", "ellipse_axes", "ellipse_reference", "fit_order", "order_tables",
            "ORDER_COLUMNS"]
 
 #: Cells of the fine length grid of the exact shift of the initial bump (``mean_length_transport``).
@@ -97,7 +99,7 @@ CONTINUUM_QUANTITIES = ("radius", "max_pressure", "G", "ring_radii", "semi_axes"
 PARTICLE_QUANTITIES = ("t_final", "radius_t", "stress_profile", "length_profile", "outer_ring")
 ORDER_COLUMNS = ("study", "engine", "parameter", "quantity", "case", "reference",
                  "observed_order", "expected_order", "smallest_error", "largest_error",
-                 "seed_spread", "resolved")
+                 "seed_spread", "resolved", "note")
 
 
 @dataclass(frozen=True)
@@ -457,14 +459,16 @@ def _order_rows(fam: Family, case: str, x: np.ndarray, errors: dict[str, np.ndar
             continue
         s = math.nan if spread is None else spread.get(qn, math.nan)
         fin = e[np.isfinite(e)]
+        same = bool(np.ptp(fin) <= 1e-9 * fin.max())
         rows.append({
             "study": fam.study, "engine": fam.engine, "parameter": fam.parameter,
             "quantity": qn, "case": case, "reference": fam.reference,
-            "observed_order": fit_order(x[fit], e),
+            "observed_order": 0.0 if same else fit_order(x[fit], e),
             "expected_order": EXPECTED.get((fam.study, qn), math.nan),
             "smallest_error": float(fin.min()), "largest_error": float(fin.max()),
             "seed_spread": s,
-            "resolved": "" if spread is None else ("yes" if fin.min() > s else "no")})
+            "resolved": "" if spread is None else ("yes" if fin.min() > s else "no"),
+            "note": "unchanged" if same else ""})
     return rows
 
 
@@ -594,6 +598,37 @@ def _orders(data: Path) -> list[dict[str, str]]:
         return list(csv.DictReader(fh))
 
 
+def order_tables(data: str | Path) -> str:
+    """Markdown tables of orders.csv: continuum (observed vs expected) and particles.
+
+    Continuum: one row per study, quantity and case with the fitted and the expected order and
+    the error range; particles: the differences from the finest setting beside the seed spread.
+    """
+    rows = _orders(Path(data))
+
+    def num(v: str) -> str:
+        return "" if v == "" else f"{float(v):.3g}"
+
+    def order(r: dict) -> str:
+        return "unchanged" if r["note"] == "unchanged" else num(r["observed_order"]) or "-"
+
+    cont = [[r["study"], r["quantity"], r["case"], r["reference"], order(r),
+             r["expected_order"] or "-", f"{num(r['largest_error'])} .. {num(r['smallest_error'])}"]
+            for r in rows if r["engine"] == "continuum"]
+    part = [[r["parameter"], r["quantity"], order(r),
+             r["expected_order"] or "-",
+             f"{num(r['largest_error'])} .. {num(r['smallest_error'])}", num(r["seed_spread"]),
+             r["resolved"]] for r in rows if r["engine"] == "particles"]
+    out = A.markdown_rows(("study", "quantity", "case", "against", "observed order",
+                           "expected order", "error (coarsest .. finest)"), cont)
+    if part:
+        out += "\n\n" + A.markdown_rows(
+            ("parameter", "quantity", "observed order", "expected order",
+             "difference from the finest (largest .. smallest)", "seed spread",
+             "above the seed spread"), part)
+    return out + "\n"
+
+
 def _slope_label(orders: list[dict], study: str, case: str, quantity: str) -> str:
     for r in orders:
         if (r["study"], r["case"], r["quantity"]) == (study, case, quantity):
@@ -610,7 +645,10 @@ CONTINUUM_PANELS = (("mesh", "boundary spacing h"), ("time_step", "courant (dt a
 
 
 def plot(data: str | Path, out: str | Path) -> list[Path]:
-    """Draw convergence_continuum and convergence_particles (PNG, PDF) from the CSVs in ``data``."""
+    """Draw convergence_continuum and convergence_particles (PNG, PDF) from the CSVs in ``data``.
+
+    Also writes ``orders.md``, the tables of :func:`order_tables`.
+    """
     import matplotlib.pyplot as plt
 
     from cases.figures.draw import save_figure
@@ -627,8 +665,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             fam = stem[: -len(case) - 1].replace("length_cells_", "length_cells:")
             tag = case if study != "length_cells" else fam.split(":")[1]
             for q in CONTINUUM_QUANTITIES:
-                if q in tab and np.any(np.isfinite(tab[q]) & (tab[q] > 0)):
-                    ax.loglog(tab["x"], tab[q], "o-", ms=3,
+                pos = np.isfinite(tab[q]) & (tab[q] > 0) if q in tab else [False]
+                if np.any(pos):
+                    ax.loglog(tab["x"][pos], tab[q][pos], "o-", ms=3,
                               label=f"{q} {tag}{_slope_label(orders, fam, case, q)}")
         ax.set(xlabel=xlabel, ylabel="error", title=study)
         ax.legend(fontsize=5.5)
@@ -651,7 +690,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         fig.suptitle("particles: differences from the finest setting, in units of the seed spread")
         fig.tight_layout()
         paths += save_figure(fig, out / "convergence_particles")
-    return paths
+    (out / "orders.md").write_text(order_tables(data))
+    return [*paths, out / "orders.md"]
 
 
 if __name__ == "__main__":  # same options as `colony case convergence ...`
