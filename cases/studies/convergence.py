@@ -321,7 +321,8 @@ def continuum_errors(folder: str | Path, mask_width: float | None = None) -> dic
     contours of the last frame's G). ``mask_width``: the bump width of the node mask of the
     mean-length errors (default the run's). Quantities without a reference are nan; also
     returns the run's initial boundary spacing ``h0``, its final ``t``, ``radius_final``,
-    ``max_pressure_final``, ``n_remesh``, the outermost ring's mean radius ``outer_ring`` and
+    ``max_pressure_final``, ``n_remesh``, the worst triangle quality of the run
+    ``min_quality``, ``lam``, the outermost ring's mean radius ``outer_ring`` and
     the semi-axes ``a``, ``b``.
     """
     folder = Path(folder)
@@ -332,7 +333,8 @@ def continuum_errors(folder: str | Path, mask_width: float | None = None) -> dic
     out = dict.fromkeys(CONTINUUM_QUANTITIES, math.nan)
     out |= {"h0": float(hist["h"][0]), "t": t, "radius_final": float(hist["radius"][-1]),
             "max_pressure_final": float(hist["max_pressure"][-1]),
-            "n_remesh": float(hist["n_remesh"][-1]), "outer_ring": math.nan,
+            "n_remesh": float(hist["n_remesh"][-1]),
+            "min_quality": float(np.min(hist["min_quality"])), "lam": lam, "outer_ring": math.nan,
             "a": math.nan, "b": math.nan}
     G, width = data["G"], config["bump_width"]
     away = _away_from_jumps(G, width if mask_width is None else mask_width)
@@ -378,7 +380,7 @@ def _continuum_differences(runs: list[dict], folders: list[Path]) -> list[dict]:
         row = dict.fromkeys(CONTINUUM_QUANTITIES, math.nan)
         row["radius"] = abs(run["radius_final"] / ref["radius_final"] - 1)
         row["max_pressure"] = abs(run["max_pressure_final"] / ref["max_pressure_final"] - 1)
-        if G.shape == G_ref.shape:
+        if G.shape == G_ref.shape and run["lam"] != 0:  # lam = 0: G = t exactly
             row["G"] = float(np.max(np.abs(G - G_ref)))
         row["ring_radii"] = abs(run["outer_ring"] - ref["outer_ring"])
         if math.isfinite(run["a"]):
@@ -521,6 +523,7 @@ def _reduce_continuum(cfg: dict, fam: Family, folders: dict[str, Path], data: Pa
         cols = {fam.parameter: np.asarray(fam.values, float), "x": x}
         cols |= {q: np.array([e[q] for e in errors]) for q in fam.quantities}
         cols["n_remesh"] = np.array([r["n_remesh"] for r in runs])
+        cols["min_quality"] = np.array([r["min_quality"] for r in runs])
         name = _case_name(case)
         A.write_csv(data / f"continuum_{fam.study.replace(':', '_')}_{name}.csv", cols)
         rows += _order_rows(fam, name, x, cols)
