@@ -251,7 +251,9 @@ def particle_params(cfg: dict[str, Any], parameter: str | None = None, value=Non
 def _all_params(scale: str, engines: tuple[str, ...]) -> dict[str, dict]:
     """{run name: sweep parameters} of every run of ``scale`` for ``engines`` (no duplicates)."""
     cfg = scale_config(scale)
-    params = []
+    params = []  # the seed runs first: without them no particle difference can be judged
+    if "particles" in engines:
+        params += [particle_params(cfg, seed=s) for s in range(cfg["seeds"])]
     for fam in families(scale):
         if fam.engine not in engines:
             continue
@@ -260,8 +262,6 @@ def _all_params(scale: str, engines: tuple[str, ...]) -> dict[str, dict]:
                 params += [continuum_params(cfg, fam, case, value) for case in fam.cases]
             else:
                 params.append(particle_params(cfg, fam.parameter, value))
-    if "particles" in engines:
-        params += [particle_params(cfg, seed=s) for s in range(cfg["seeds"])]
     return {run_name(p): p for p in params}
 
 
