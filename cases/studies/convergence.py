@@ -539,10 +539,12 @@ def _reduce_continuum(cfg: dict, fam: Family, folders: dict[str, Path], data: Pa
 def _particle_seeds(cfg: dict, folders: dict[str, Path], data: Path) -> dict[str, float] | None:
     """The seed spread of every particle quantity (module docstring); writes particles_seeds.csv.
 
-    None when the seed runs are missing (particles not computed).
+    None with fewer than two seed runs (particles not computed); the seeds whose runs are
+    missing (``--engines finished``) are left out.
     """
     names = [run_name(particle_params(cfg, seed=s)) for s in range(cfg["seeds"])]
-    if not all(n in folders for n in names):
+    names = [n for n in names if n in folders]
+    if len(names) < 2:
         return None
     qs = [particle_quantities(folders[n]) for n in names]
     diffs = [particle_difference(q, qs[0]) for q in qs[1:]]
@@ -564,12 +566,15 @@ def _rms(values) -> float:
 
 def _reduce_particles(cfg: dict, fam: Family, folders: dict[str, Path], data: Path,
                       spread: dict[str, float]) -> list[dict]:
-    names = [run_name(particle_params(cfg, fam.parameter, v)) for v in fam.values]
-    if not all(n in folders for n in names):
+    """One particle sequence against its finest run present (at least two runs)."""
+    values = [v for v in fam.values
+              if run_name(particle_params(cfg, fam.parameter, v)) in folders]
+    if len(values) < 2:
         return []
-    qs = [particle_quantities(folders[n]) for n in names]
+    qs = [particle_quantities(folders[run_name(particle_params(cfg, fam.parameter, v))])
+          for v in values]
     diffs = [particle_difference(q, qs[-1]) for q in qs]
-    x = np.asarray(fam.values, float)
+    x = np.asarray(values, float)
     cols = {fam.parameter: x, "x": x, "t_final": np.array([q["t_final"] for q in qs]),
             "outer_ring_radius": np.array([q["outer_ring"] for q in qs])}
     cols |= {f"diff_{k}": np.array([d[k] for d in diffs]) for k in PARTICLE_QUANTITIES}
