@@ -9,7 +9,8 @@
 2. The smoke scale end to end (``compute`` through the Dask sweep, ``plot``): orders.csv's
    columns and rows, the CSVs behind the curves, the figures.
 3. The exact references of the study: the ellipse's axes from its area moments, the lam = 0
-   ellipse ODE against its small-eccentricity limit.
+   ellipse ODE against a circle and the area growth exp(t).
+4. The committed medium data (cases/data/convergence) redraws.
 """
 
 from __future__ import annotations
@@ -101,3 +102,16 @@ def test_ellipse_references():
     # the area pi a b grows as exp(t) (div u = 1)
     a, b = C.ellipse_reference(2.0, 1.0, 1.5)
     assert a * b == pytest.approx(2.0 * math.exp(1.5), rel=1e-10)
+
+
+def test_plot_from_committed_data(tmp_path):
+    """`colony case convergence --from-data` redraws from cases/data/convergence alone."""
+    from pathlib import Path
+
+    import cases
+
+    data = Path(cases.__file__).parent / "data" / "convergence"
+    assert (data / "README.md").is_file()
+    paths = C.plot(data, tmp_path)
+    assert all(p.stat().st_size > 1000 for p in paths)
+    assert "| mesh | radius | lam=0.01 |" in (tmp_path / "orders.md").read_text()
