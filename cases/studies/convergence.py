@@ -9,7 +9,7 @@ which its area is pi radius^2. Errors against the converged references:
 
 - ``radius``: max over the history rows of ``|R(t) / R_ref(t) - 1|``, R_ref = radial.radius;
 - ``max_pressure``: ``|max p / p_ref(0) - 1|`` at t_end, p_ref(0) = radial.max_pressure(R_ref);
-- ``G``: max over the nodes of ``|G - G_ref(r)|``, G_ref = radial.growth_phase at r = |x|
+- ``G``: max over the nodes of ``|G - G_ref(r)|``, G_ref = radial.growth_phase at r = ``|x|``
   (capped at R_ref); zero at lam = 0 (G = t exactly), so not fitted there; ``G_rms``: the
   root mean square over the nodes of the same difference (the max is set by a few nodes near
   the edge);
