@@ -471,7 +471,7 @@ def _order_rows(fam: Family, case: str, x: np.ndarray, errors: dict[str, np.ndar
             continue
         s = math.nan if spread is None else spread.get(qn, math.nan)
         fin = e[np.isfinite(e)]
-        same = bool(np.ptp(fin) <= 1e-9 * fin.max())
+        same = fin.size > 1 and bool(np.ptp(fin) <= 1e-9 * fin.max())
         rows.append({
             "study": fam.study, "engine": fam.engine, "parameter": fam.parameter,
             "quantity": qn, "case": case, "reference": fam.reference,
