@@ -638,7 +638,7 @@ def order_tables(data: str | Path) -> str:
              f"{num(r['largest_error'])} .. {num(r['smallest_error'])}", num(r["seed_spread"]),
              r["resolved"]] for r in rows if r["engine"] == "particles"]
     out = A.markdown_rows(("study", "quantity", "case", "against", "observed order",
-                           "expected order", "error (coarsest .. finest)"), cont)
+                           "expected order", "error (largest .. smallest)"), cont)
     if part:
         out += "\n\n" + A.markdown_rows(
             ("parameter", "quantity", "observed order", "expected order",
