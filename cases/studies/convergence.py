@@ -131,8 +131,8 @@ class Family:
 #: Run sizes of the study (see :func:`families`).
 SCALES: dict[str, dict[str, Any]] = {
     "smoke": {
-        "radius": 5.0, "lams": (0.0, 1e-2), "ellipse": (2.0, 1.0),
-        "n_nodes": (150, 300, 600), "courant": (0.6, 0.3, 0.15), "time_nodes": 300,
+        "radius": 5.0, "lams": (1e-2,), "ellipse": (2.0, 1.0),
+        "n_nodes": (150, 300, 600), "courant": (0.6, 0.3, 0.15), "time_nodes": 150,
         "length_cells": (32, 64), "bump_width": (0.16, 0.08), "q_min": (0.3, 0.7),
         "stretch": (1.5, 1.25), "remesh_mesh": {"n_nodes": 100, "h_max": 0.5},
         "particle_lam": 1e-2, "particle_radius": 6.0, "dt": (0.02, 0.01),
@@ -318,12 +318,14 @@ def _away_from_jumps(G: np.ndarray, width: float) -> np.ndarray:
     return np.minimum(phase, 1.0 - phase) > 2 * width
 
 
-def continuum_errors(folder: str | Path, mask_width: float | None = None) -> dict[str, float]:
+def continuum_errors(folder: str | Path, mask_width: float | None = None,
+                     psi: bool = True) -> dict[str, float]:
     """Errors of one continuum run folder against the references (module docstring).
 
     Reads its config.json, history.csv, boundary.csv, last VTU frame and rings (rings.csv or the
     contours of the last frame's G). ``mask_width``: the bump width of the node mask of the
-    mean-length errors (default the run's). Quantities without a reference are nan; also
+    mean-length errors (default the run's); ``psi=False`` skips the mean-length errors (nan).
+    Quantities without a reference are nan; also
     returns the run's initial boundary spacing ``h0``, its final ``t``, ``radius_final``,
     ``max_pressure_final``, ``n_remesh``, the worst triangle quality of the run
     ``min_quality``, ``lam``, the outermost ring's mean radius ``outer_ring`` and
@@ -342,7 +344,7 @@ def continuum_errors(folder: str | Path, mask_width: float | None = None) -> dic
             "a": math.nan, "b": math.nan}
     G, width = data["G"], config["bump_width"]
     away = _away_from_jumps(G, width if mask_width is None else mask_width)
-    if away.any():
+    if psi and away.any():
         lpsi = data["mean_length_psi"][away]
         out["mean_length"] = float(np.median(np.abs(lpsi - mean_length(G[away]))))
         out["mean_length_transport"] = float(np.median(np.abs(
@@ -523,7 +525,8 @@ def _reduce_continuum(cfg: dict, fam: Family, folders: dict[str, Path], data: Pa
         names = [run_name(continuum_params(cfg, fam, case, v)) for v in fam.values]
         if not all(n in folders for n in names):
             continue
-        runs = [continuum_errors(folders[n], mask_width=mask) for n in names]
+        psi = any(q.startswith("mean_length") for q in fam.quantities)
+        runs = [continuum_errors(folders[n], mask_width=mask, psi=psi) for n in names]
         errors = runs if fam.reference == "exact" else _continuum_differences(
             runs, [folders[n] for n in names])
         x = np.array([_x(fam, v, r) for v, r in zip(fam.values, runs, strict=True)])
