@@ -68,6 +68,7 @@ CASES = {
     "fig4": "cases.figures.fig4",
     "crosscheck": "cases.figures.crosscheck",
     "stability": "cases.studies.stability",
+    "convergence": "cases.studies.convergence",
 }
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
