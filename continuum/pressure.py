@@ -32,12 +32,14 @@ import numpy as np
 import pyamg
 import scipy.sparse as sp
 
+from continuum.fem import LagrangeSpace, check_element
 from continuum.growth import growth_rate
 
 __all__ = [
     "PressureDivergence",
     "P1Assembler",
     "PressureSolver",
+    "HAND_P1",
     "NewtonStats",
     "pcg",
     "vcycle",
@@ -242,6 +244,34 @@ class P1Assembler:
         d[self.bnd_diag] = 1.0
         return d
 
+    @property
+    def boundary_dofs(self) -> np.ndarray:
+        """The Dirichlet nodes 0..n_boundary-1."""
+        return np.arange(self.nb)
+
+    def extend(self, p_nodes: np.ndarray) -> np.ndarray:
+        """Nodal values as they are (the interface of continuum.fem.LagrangeSpace)."""
+        return np.array(p_nodes, dtype=float)
+
+    def assemble(self, points: np.ndarray) -> HandOperators:
+        """K, the load and the lumped mass at these node positions, hand-written (P1)."""
+        area, grads = self.geometry(points)
+        return HandOperators(self, area, self.stiffness_data(area, grads), self.lumped_mass(area))
+
+
+@dataclass
+class HandOperators:
+    """The hand-written P1 operators of one node position (``P1Assembler.assemble``)."""
+
+    assembler: P1Assembler
+    area: np.ndarray
+    K_data: np.ndarray
+    m: np.ndarray
+
+    def load(self, g: np.ndarray) -> np.ndarray:
+        """Consistent load b = M g, element by element."""
+        return self.assembler.load(self.area, g)
+
 
 @dataclass
 class NewtonStats:
@@ -257,6 +287,10 @@ class NewtonStats:
     history: list = field(default_factory=list)
 
 
+HAND_P1 = "P1-hand"
+"""The hand-written P1 assembly (``P1Assembler``), kept as the benchmark's reference."""
+
+
 class PressureSolver:
     """Newton solver for -Laplace p = exp(-lam p), p = 0 on the boundary, on a moving mesh.
 
@@ -264,6 +298,10 @@ class PressureSolver:
     ----------
     lam : float
         Stress sensitivity lambda (finite; negative values allowed but may have no solution).
+    element : str
+        "P1" or "P2": the Lagrange space assembled by scikit-fem (continuum.fem.LagrangeSpace);
+        ``HAND_P1``: the hand-written P1 assembly (``P1Assembler``; the same discrete problem
+        as "P1", to round-off).
     rtol : float
         Newton stops when ``||F(p)||_2 <= rtol ||b(g(p))||_2``.
     max_newton : int
@@ -274,11 +312,19 @@ class PressureSolver:
         just enough for the next residual to meet ``rtol``.
     reuse_factor : int
         Rebuild the AMG hierarchy when CG needs more than this many iterations.
+
+    Attributes
+    ----------
+    assembler : P1Assembler
+        The P1 topology of the mesh's vertices (geometry, velocity recovery, remesh transfer).
+    space : LagrangeSpace or P1Assembler
+        The degrees of freedom of the pressure and their assembly.
     """
 
     def __init__(
         self,
         lam: float,
+        element: str = "P1",
         rtol: float = 1e-8,
         max_newton: int = 30,
         krylov_rtol: float = 1e-10,
@@ -286,12 +332,16 @@ class PressureSolver:
     ):
         if not np.isfinite(lam):
             raise ValueError(f"lam must be finite, got {lam}")
+        if element != HAND_P1:
+            check_element(element)
         self.lam = float(lam)
+        self.element = element
         self.rtol = rtol
         self.max_newton = max_newton
         self.krylov_rtol = krylov_rtol
         self.reuse_factor = reuse_factor
         self.assembler: P1Assembler | None = None
+        self.space = None
         self._amg = None
         self._amg_source: np.ndarray | None = None
         self.stats = NewtonStats()
@@ -300,10 +350,14 @@ class PressureSolver:
     def set_mesh(self, tris: np.ndarray, n_nodes: int, n_boundary: int) -> None:
         """Change topology: new pattern and scatter map, and forget the AMG hierarchy."""
         self.assembler = P1Assembler(tris, n_nodes, n_boundary)
+        if self.element == HAND_P1:
+            self.space = self.assembler
+        else:
+            self.space = LagrangeSpace(self.element, tris, n_nodes, n_boundary)
         self._amg = None
 
     def amg_state(self) -> np.ndarray | None:
-        """CSR data (on the assembler's pattern) of the matrix the AMG hierarchy was built from.
+        """CSR data (on the space's pattern) of the matrix the AMG hierarchy was built from.
 
         None when there is no hierarchy. Together with the topology this is all the state the
         solver carries from one solve to the next (the hierarchy is reused while CG converges
@@ -318,9 +372,9 @@ class PressureSolver:
             self._amg = None
             return
         data = np.array(data, dtype=float)
-        if self.assembler is None or data.shape != (self.assembler.nnz,):
+        if self.space is None or data.shape != (self.space.nnz,):
             raise ValueError("restore_amg: the matrix does not fit the current mesh topology")
-        self._amg = amg_hierarchy(self.assembler.matrix(data))
+        self._amg = amg_hierarchy(self.space.matrix(data))
         self._amg_source = data
 
     def _setup(self, A: sp.csr_matrix, st: NewtonStats) -> None:
@@ -358,29 +412,35 @@ class PressureSolver:
         )
 
     def residual(self, points: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """FE residual r = K p - b(g(p)) at every node (no boundary condition) and the load b.
+        """FE residual r = K p - b(g(p)) at every degree of freedom (no boundary condition), b.
 
-        At a boundary node r_i = int_boundary (dp/dn) phi_i ds is the consistent flux.
+        ``p`` holds the degrees of freedom (the nodal values for P1). At a boundary node
+        r_i = int_boundary (dp/dn) phi_i ds is the consistent flux.
         """
-        A = self.assembler
-        area, grads = A.geometry(points)
-        Kd = A.stiffness_data(area, grads)
-        b = A.load(area, growth_rate(p, self.lam))
-        return A.matrix(Kd) @ p - b, b
+        ops = self.space.assemble(points)
+        b = ops.load(growth_rate(p, self.lam))
+        return self.space.matrix(ops.K_data) @ p - b, b
 
     def solve(
         self, points: np.ndarray, p0: np.ndarray | None = None, where: str = ""
     ) -> np.ndarray:
-        """Solve for the nodal pressure on the mesh with these node positions.
+        """Solve for the pressure on the mesh with these node positions; its nodal values.
 
         Parameters
         ----------
         points : array (N, 2)
             Node coordinates (topology set by ``set_mesh``).
-        p0 : array (N,), optional
-            Initial guess (warm start); boundary values are set to 0.
+        p0 : array (N,) or (n,), optional
+            Initial guess (warm start) at the nodes (P2: edge values their means) or at every
+            degree of freedom; boundary values are set to 0.
         where : str
             Context for error messages (e.g. "t=3.2, area=40.1").
+
+        Returns
+        -------
+        ndarray (N,)
+            The pressure at the mesh nodes. All degrees of freedom, the residual, the operators
+            and g are kept in ``last`` (keys "p", "residual", "area", "grads", "g", "ops").
 
         Raises
         ------
@@ -390,31 +450,32 @@ class PressureSolver:
         """
         import time
 
-        A = self.assembler
-        if A is None:
+        S = self.space
+        if S is None:
             raise ValueError("PressureSolver.solve called before set_mesh")
         st = NewtonStats()
         t0 = time.perf_counter()
-        area, grads = A.geometry(points)
+        area, grads = self.assembler.geometry(points)
         if np.any(area <= 0):
             raise PressureDivergence(f"inverted mesh element ({where})")
-        Kd = A.stiffness_data(area, grads)
-        K = A.matrix(Kd)
-        m = A.lumped_mass(area)
+        ops = S.assemble(points)
+        K = S.matrix(ops.K_data)
         st.time_assembly += time.perf_counter() - t0
-        p = np.zeros(A.n) if p0 is None else np.array(p0, dtype=float)
-        p[: A.nb] = 0.0
+        bnd = S.boundary_dofs
+        p = np.zeros(S.n) if p0 is None else S.extend(p0)
+        p[bnd] = 0.0
         lam = self.lam
-        interior = slice(A.nb, None)
         cause = "lam < 0 beyond the critical size (no solution)" if lam < 0 else "no convergence"
         for it in range(self.max_newton + 1):
             g = growth_rate(p, lam)
-            b = A.load(area, g)
+            b = ops.load(g)
             r_full = K @ p - b
             F = r_full.copy()
-            F[: A.nb] = 0.0
-            res = float(np.sqrt(_dot(F[interior], F[interior])))
-            scale = float(np.sqrt(_dot(b[interior], b[interior])))
+            F[bnd] = 0.0
+            b_in = b.copy()
+            b_in[bnd] = 0.0
+            res = float(np.sqrt(_dot(F, F)))
+            scale = float(np.sqrt(_dot(b_in, b_in)))
             st.history.append(res / max(scale, 1e-300))
             if not np.isfinite(res):
                 raise PressureDivergence(f"Newton produced non-finite values at {where}: {cause}")
@@ -423,16 +484,17 @@ class PressureSolver:
                 st.newton_iterations = it
                 self.stats = st
                 # kept for the residual flux, the velocity recovery and g at this solution
-                self.last = {"residual": r_full, "area": area, "grads": grads, "g": g}
-                return p
+                self.last = {"p": p, "residual": r_full, "area": area, "grads": grads, "g": g,
+                             "ops": ops}
+                return p[: self.assembler.n]
             if it == self.max_newton:
                 break
             if it >= 3 and st.history[-1] > 0.9 * st.history[-2] and st.history[-1] > 1e-3:
                 break  # stagnating far from the solution
             t0 = time.perf_counter()
-            Jd = Kd.copy()
-            Jd[A.diag] += lam * m * g
-            J = A.matrix(A.dirichlet(Jd))
+            Jd = ops.K_data.copy()
+            Jd[S.diag] += lam * ops.m * g
+            J = S.matrix(S.dirichlet(Jd))
             st.time_assembly += time.perf_counter() - t0
             try:
                 tol = max(self.krylov_rtol, min(0.1, 0.3 * self.rtol * scale / res))
