@@ -1,0 +1,156 @@
+"""Benchmark of the pressure's elements: hand-written P1, scikit-fem P1 and scikit-fem P2.
+
+1. Seconds per pressure solve at about 1e3, 1e4 and 1e5 mesh nodes: a disc of radius 40 at
+   lam = 1e-2, uniform mesh of the size giving N nodes (continuum.mesh.h_for_nodes). For each
+   element the first solve (AMG setup included) and then the median of ``--repeats`` solves as
+   in a time step: the nodes moved (the disc scaled by 1 + 1e-3 k), warm start from the previous
+   pressure, AMG hierarchy reused. Beside them the accuracy against the exact radial solution
+   (continuum.radial): the largest nodal pressure error and the RMS error of the boundary
+   normal velocity (the velocity the nodes move with: P1 residual flux, P2 element gradients).
+2. Ring radii of whole runs (lam = 1e-2, default continuum.Config, ``element`` varied) to
+   ``--radius`` (default 40) and, with ``--target``, to 150 (the target run): wall seconds,
+   nodes, and the error of the ring radii (G = k ln 2, mean over 24 rays) against the 1D
+   reference at the same radius (cases.bench.continuum.ring_errors), the outer two rings and
+   all rings.
+
+The hand-written P1 (continuum.pressure.P1Assembler, ``PressureSolver(element=HAND_P1)``) is
+not a Config choice; for the runs of part 2 the simulation's solver class is swapped for one
+that assembles by hand (:func:`hand_written_p1`). It solves the same discrete problem as the
+scikit-fem P1 to round-off (tests/continuum/test_elements.py), so only its seconds differ.
+
+Run: ``python -m cases.bench.elements [--sizes 1000 10000 100000] [--repeats 5]
+[--radius 40] [--target] [--elements P1-hand P1 P2]``.
+Timings depend on the machine's load: compare the columns of one run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import math
+import time
+
+import numpy as np
+
+ELEMENT_NAMES = ("P1-hand", "P1", "P2")
+DISC_RADIUS = 40.0
+LAM = 1e-2
+
+
+def disc_mesh(n_nodes: int, radius: float = DISC_RADIUS):
+    """Boundary and uniform mesh (points, triangles) of the disc with about n_nodes nodes."""
+    from continuum import mesh
+
+    h = mesh.h_for_nodes(math.pi * radius**2, n_nodes)
+    bnd = mesh.resample_polygon(mesh.circle_polygon(radius, 4096), spacing=h)
+    pts, tri = mesh.triangulate(bnd, h)
+    return bnd, pts, tri
+
+
+def solve_costs(element: str, n_nodes: int, repeats: int = 5, lam: float = LAM) -> dict:
+    """First and median warm solve seconds of ``element`` on the disc, and its errors."""
+    from continuum import radial
+    from continuum.pressure import PressureSolver
+    from continuum.velocity import boundary_normals, darcy_flow
+
+    bnd, pts, tri = disc_mesh(n_nodes)
+    k = len(bnd)
+    solver = PressureSolver(lam, element)
+    t0 = time.perf_counter()
+    solver.set_mesh(tri, len(pts), k)
+    t_topology = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    p, u, _ = darcy_flow(solver, pts)
+    first = time.perf_counter() - t0
+    warm, newton, krylov = [], [], []
+    for j in range(1, repeats + 1):
+        x = pts * (1.0 + 1e-3 * j)
+        t0 = time.perf_counter()
+        p, u, _ = darcy_flow(solver, x, p)
+        warm.append(time.perf_counter() - t0)
+        newton.append(solver.stats.newton_iterations)
+        krylov.append(solver.stats.krylov_iterations)
+    R = DISC_RADIUS * (1.0 + 1e-3 * repeats)
+    r = np.hypot(*x.T)
+    n, _ = boundary_normals(x[:k])
+    un = np.sum(u[:k] * n, axis=1)
+    return {
+        "element": element, "nodes": len(pts), "dofs": solver.space.n,
+        "topology_s": t_topology, "first_s": first, "solve_s": float(np.median(warm)),
+        "newton": float(np.median(newton)), "krylov": float(np.median(krylov)),
+        "p_err": float(np.max(np.abs(p - radial.pressure(r, R, lam)))),
+        "un_err": float(np.sqrt(np.mean((un - radial.velocity(R, R, lam)) ** 2))),
+    }
+
+
+@contextlib.contextmanager
+def hand_written_p1():
+    """Within: ``continuum.Simulation`` solves the pressure with the hand-written P1 assembly."""
+    from continuum import simulation
+    from continuum.pressure import HAND_P1, PressureSolver
+
+    class HandSolver(PressureSolver):
+        def __init__(self, lam, element="P1", **kw):
+            if element != "P1":
+                raise ValueError("the hand-written assembly is P1")
+            super().__init__(lam, HAND_P1, **kw)
+
+    saved = simulation.PressureSolver
+    simulation.PressureSolver = HandSolver
+    try:
+        yield
+    finally:
+        simulation.PressureSolver = saved
+
+
+def ring_run(element: str, radius: float, lam: float = LAM) -> dict:
+    """Run to ``radius`` with ``element`` (cases.bench.continuum.target_run): seconds, rings."""
+    from cases.bench.continuum import target_run
+
+    if element == "P1-hand":
+        with hand_written_p1():
+            return target_run(radius, lam)
+    return target_run(radius, lam, element=element)
+
+
+def main(argv=None) -> None:
+    """Command line (module docstring)."""
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--sizes", type=int, nargs="*", default=[1000, 10000, 100000])
+    ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--elements", nargs="+", default=list(ELEMENT_NAMES), choices=ELEMENT_NAMES)
+    ap.add_argument("--radius", type=float, default=40.0, help="ring-radius run (0: skip)")
+    ap.add_argument("--target", action="store_true", help="also the target run to radius 150")
+    args = ap.parse_args(argv)
+    from continuum.pressure import HAND_P1, limit_blas_threads
+
+    limit_blas_threads(1)
+    if args.sizes:
+        print("| element | nodes | dofs | first solve [s] | solve [s] (median) | Newton | CG "
+              "| max nodal p error | RMS boundary u.n error |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for n in args.sizes:
+            base = None
+            for el in args.elements:
+                c = solve_costs(HAND_P1 if el == "P1-hand" else el, n, args.repeats)
+                base = c["solve_s"] if base is None else base
+                print(f"| {el} | {c['nodes']} | {c['dofs']} | {c['first_s']:.4f} | "
+                      f"{c['solve_s']:.4f} ({c['solve_s'] / base:.2f}x) | {c['newton']:.0f} | "
+                      f"{c['krylov']:.0f} | {c['p_err']:.2e} | {c['un_err']:.2e} |", flush=True)
+    radii = ([args.radius] if args.radius > 0 else []) + ([150.0] if args.target else [])
+    if radii:
+        print("\n| element | radius | wall [s] | cpu [s] | steps | nodes | outer two rings: "
+              "max abs err | max err / spacing | all rings: max err / spacing |")
+        print("|---|---|---|---|---|---|---|---|---|")
+    for radius in radii:
+        for el in args.elements:
+            r = ring_run(el, radius)
+            print(f"| {el} | {radius:g} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | {r['steps']} | "
+                  f"{r['n_nodes']} | {r['outer_max_abs_err']:.4f} | "
+                  f"{r['outer_max_rel_err']:.2%} | {r['all_max_rel_err']:.2%} |", flush=True)
+            print("  rings: " + ", ".join(f"k={k} {e:+.4f}" for k, _, e, _ in r["rings"]),
+                  flush=True)
+
+
+if __name__ == "__main__":
+    main()
