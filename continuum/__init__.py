@@ -16,6 +16,7 @@ Modules, one concept each:
 
 - ``growth``: the growth law g = exp(-lam p) and the mean length lbar = 2^frac(G / ln 2);
 - ``mesh``: boundary polygons, Triangle meshes of the colony, point location;
+- ``fem``: the pressure's P1 / P2 Lagrange space and its assembly through scikit-fem;
 - ``pressure``: Newton + AMG-preconditioned CG for -Laplace p = exp(-lam p), p = 0 on the edge;
 - ``velocity``: u = -grad p (patch recovery inside, residual flux on the boundary), the Darcy
   flow (p, u, g) at given node positions;

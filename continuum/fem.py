@@ -1,7 +1,9 @@
 """The pressure's finite-element space through scikit-fem: Lagrange P1 or P2 on the colony mesh.
 
 The colony mesh (continuum.mesh: vertices 0..K-1 on the boundary, in order) carries the
-Lagrange space of ``element``:
+Lagrange space of ``element`` (the pressure solver, continuum.pressure, uses it for P2; its P1
+is the reference of the hand-written P1 assembly, equal to round-off and 10-20 % slower per
+solve, docs/benchmarks.md):
 
 - "P1": one degree of freedom per vertex (``skfem.ElementTriP1``, affine elements);
 - "P2": one per vertex and one per edge (``skfem.ElementTriP2``), numbered as scikit-fem's
@@ -44,8 +46,8 @@ import numpy as np
 import scipy.sparse as sp
 import skfem
 from scipy.interpolate import CubicSpline
-from skfem.helpers import dot, grad
 
+from continuum.growth import growth_rate
 from continuum.mesh import boundary_spacing, turning_angles
 
 __all__ = ["ELEMENTS", "LagrangeSpace", "Operators", "boundary_midpoints", "check_element"]
@@ -68,8 +70,8 @@ def check_element(element) -> str:
 
 @skfem.BilinearForm
 def _stiffness(u, v, _):
-    """The stiffness form: the integrand grad u . grad v."""
-    return dot(grad(u), grad(v))
+    """The stiffness form: the integrand grad u . grad v (two products: faster than an einsum)."""
+    return u.grad[0] * v.grad[0] + u.grad[1] * v.grad[1]
 
 
 @skfem.BilinearForm
@@ -254,15 +256,24 @@ class LagrangeSpace:
         return d
 
     # ------------------------------------------------------------------ fields
-    def extend(self, p_nodes: np.ndarray) -> np.ndarray:
-        """Degrees of freedom of a field known at the vertices (P2: edge values the means).
+    def extend(self, p_nodes: np.ndarray, points: np.ndarray, lam: float) -> np.ndarray:
+        """Degrees of freedom of the pressure from its values at the vertices (a warm start).
 
-        The warm start of a P2 solve from vertex values; the identity for P1.
+        P1: the values themselves. P2: the value at the midpoint of edge e = (a, b) of a
+        quadratic p is (p_a + p_b)/2 - e.H e / 8, H the Hessian; with its isotropic part from
+        the equation, -Laplace p = g (H ~ -(g/2) I), ::
+
+            p_e = (p_a + p_b)/2 + |e|^2 (g_a + g_b) / 32,   g = exp(-lam p),
+
+        exact for the disc at lam = 0; the rest is O(h^2) times the anisotropic part of H.
+        A full vector of degrees of freedom is returned as it is.
         """
         if self.element == "P1" or len(p_nodes) == self.n:
             return np.array(p_nodes, dtype=float)
         a, b = self.edge_vertices
-        return np.concatenate([p_nodes, 0.5 * (p_nodes[a] + p_nodes[b])])
+        g = growth_rate(p_nodes, lam)
+        e2 = np.sum((points[b] - points[a]) ** 2, axis=1)
+        return np.concatenate([p_nodes, 0.5 * (p_nodes[a] + p_nodes[b]) + e2 * (g[a] + g[b]) / 32])
 
     def vertex_gradient(self, points: np.ndarray, p: np.ndarray) -> np.ndarray:
         """The gradient of p_h at every vertex, (N, 2): element values area-weighted over the patch.

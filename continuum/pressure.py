@@ -1,24 +1,32 @@
 """Pressure: Newton's method for -Laplace p = exp(-lam p) in Omega, p = 0 on the boundary.
 
-Discretisation (P1 finite elements on a triangle mesh, nodes 0..K-1 on the boundary)::
+Discretisation: Lagrange finite elements, P1 or P2 (``element``; P1 assembled by hand,
+``P1Assembler``, P2 by scikit-fem, continuum.fem.LagrangeSpace, which also assembles P1 as
+the hand-written assembly's reference, ``SKFEM_P1``), ::
 
-    F_i(p) = sum_j K_ij p_j - b_i(g(p)) = 0   for interior nodes i,   p_i = 0 on the boundary,
+    F_i(p) = sum_j K_ij p_j - b_i(g(p)) = 0   for interior degrees of freedom i,
+    p_i = 0 on the boundary,
 
-with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the nodes (the
-growth law, :func:`continuum.growth.growth_rate`) and
-b_i(g) = int (sum_j g_j phi_j) phi_i the consistent load of the P1 interpolant of g
-(b = M g, M the consistent mass matrix, element-wise ``|T|/12 (g_i + sum_{j in T} g_j)``).
+with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the degrees
+of freedom (the growth law, :func:`continuum.growth.growth_rate`) and b(g) = M g,
+M_ij = int phi_i phi_j, the consistent load of the interpolant of g (for P1 element-wise
+``|T|/12 (g_i + sum_{j in T} g_j)``).
 
 Newton step: J delta = -F with the symmetric positive (for lam >= 0) approximation
-J = K + lam diag(m g) of the Jacobian K + lam M diag(g) (m the lumped mass); the difference
-is O(lam h^2) relative to K, so the iteration converges at an (almost) quadratic rate. Each
-linear system is solved by conjugate gradients preconditioned with a pyamg smoothed-aggregation
-hierarchy. The hierarchy is reused across Newton iterations and time steps while the mesh
-topology is unchanged and CG converges quickly, and Newton is warm-started from the previous
-nodal pressure (nodes move with the material, so the previous p is a good guess).
+J = K + lam diag(m g) of the Jacobian K + lam M diag(g) (m the lumped mass; HRZ for P2, whose
+row sums vanish at the vertices); the difference is O(lam h^2) relative to K, so the iteration
+converges at an (almost) quadratic rate. K and M are assembled once per node position (a
+solve): every Newton iteration is then matrix-vector products and a diagonal update of J on the
+same pattern. Each linear system is solved by conjugate gradients preconditioned with a pyamg
+smoothed-aggregation hierarchy. The hierarchy is reused across Newton iterations and time steps
+while the mesh topology is unchanged and CG converges quickly, and Newton is warm-started from
+the previous nodal pressure (nodes move with the material, so the previous p is a good guess;
+P2 edge values from their vertices, continuum.fem.LagrangeSpace.extend).
 
 Assembly reuses the sparsity pattern and the element-to-CSR scatter map of a mesh topology
-(``P1Assembler``): only the geometric factors are recomputed when nodes move.
+(``LagrangeSpace``; ``P1Assembler`` by hand for P1): only the geometric factors are recomputed
+when nodes move. ``P1Assembler`` also serves the vertex mesh's geometry to the velocity recovery
+and the remesh transfer (continuum.velocity, continuum.remesh).
 
 Non-convergence (lam < 0 beyond the critical size, where ``-Laplace p = |lam|^{-1} ...`` has no
 solution, or non-finite values) raises ``PressureDivergence``.
@@ -39,7 +47,7 @@ __all__ = [
     "PressureDivergence",
     "P1Assembler",
     "PressureSolver",
-    "HAND_P1",
+    "SKFEM_P1",
     "NewtonStats",
     "pcg",
     "vcycle",
@@ -249,7 +257,7 @@ class P1Assembler:
         """The Dirichlet nodes 0..n_boundary-1."""
         return np.arange(self.nb)
 
-    def extend(self, p_nodes: np.ndarray) -> np.ndarray:
+    def extend(self, p_nodes: np.ndarray, points=None, lam=None) -> np.ndarray:
         """Nodal values as they are (the interface of continuum.fem.LagrangeSpace)."""
         return np.array(p_nodes, dtype=float)
 
@@ -287,8 +295,13 @@ class NewtonStats:
     history: list = field(default_factory=list)
 
 
-HAND_P1 = "P1-hand"
-"""The hand-written P1 assembly (``P1Assembler``), kept as the benchmark's reference."""
+SKFEM_P1 = "P1-skfem"
+"""P1 assembled by scikit-fem (continuum.fem.LagrangeSpace("P1")).
+
+The same discrete problem as the hand-written "P1" to round-off (tests/continuum/
+test_elements.py) but 10-20 % slower per solve at 1.5e4-1.5e5 nodes (docs/benchmarks.md,
+``python -m cases.bench.elements``): the reference of the hand-written assembly, not a
+``Config.element``."""
 
 
 class PressureSolver:
@@ -299,9 +312,9 @@ class PressureSolver:
     lam : float
         Stress sensitivity lambda (finite; negative values allowed but may have no solution).
     element : str
-        "P1" or "P2": the Lagrange space assembled by scikit-fem (continuum.fem.LagrangeSpace);
-        ``HAND_P1``: the hand-written P1 assembly (``P1Assembler``; the same discrete problem
-        as "P1", to round-off).
+        "P1" (default): the hand-written P1 assembly (``P1Assembler``), measured faster than
+        scikit-fem's and equal to it to round-off; "P2": the P2 space assembled by scikit-fem
+        (continuum.fem.LagrangeSpace); ``SKFEM_P1``: P1 assembled by scikit-fem.
     rtol : float
         Newton stops when ``||F(p)||_2 <= rtol ||b(g(p))||_2``.
     max_newton : int
@@ -332,7 +345,7 @@ class PressureSolver:
     ):
         if not np.isfinite(lam):
             raise ValueError(f"lam must be finite, got {lam}")
-        if element != HAND_P1:
+        if element != SKFEM_P1:
             check_element(element)
         self.lam = float(lam)
         self.element = element
@@ -350,10 +363,11 @@ class PressureSolver:
     def set_mesh(self, tris: np.ndarray, n_nodes: int, n_boundary: int) -> None:
         """Change topology: new pattern and scatter map, and forget the AMG hierarchy."""
         self.assembler = P1Assembler(tris, n_nodes, n_boundary)
-        if self.element == HAND_P1:
+        if self.element == "P1":
             self.space = self.assembler
         else:
-            self.space = LagrangeSpace(self.element, tris, n_nodes, n_boundary)
+            element = "P1" if self.element == SKFEM_P1 else self.element
+            self.space = LagrangeSpace(element, tris, n_nodes, n_boundary)
         self._amg = None
 
     def amg_state(self) -> np.ndarray | None:
@@ -431,8 +445,8 @@ class PressureSolver:
         points : array (N, 2)
             Node coordinates (topology set by ``set_mesh``).
         p0 : array (N,) or (n,), optional
-            Initial guess (warm start) at the nodes (P2: edge values their means) or at every
-            degree of freedom; boundary values are set to 0.
+            Initial guess (warm start) at the nodes (P2: edge values from them,
+            ``LagrangeSpace.extend``) or at every degree of freedom; boundary values set to 0.
         where : str
             Context for error messages (e.g. "t=3.2, area=40.1").
 
@@ -462,9 +476,9 @@ class PressureSolver:
         K = S.matrix(ops.K_data)
         st.time_assembly += time.perf_counter() - t0
         bnd = S.boundary_dofs
-        p = np.zeros(S.n) if p0 is None else S.extend(p0)
-        p[bnd] = 0.0
         lam = self.lam
+        p = np.zeros(S.n) if p0 is None else S.extend(p0, points, lam)
+        p[bnd] = 0.0
         cause = "lam < 0 beyond the critical size (no solution)" if lam < 0 else "no convergence"
         for it in range(self.max_newton + 1):
             g = growth_rate(p, lam)

@@ -1,5 +1,9 @@
 """Benchmark of the pressure's elements: hand-written P1, scikit-fem P1 and scikit-fem P2.
 
+Names: "P1" the hand-written P1 assembly (continuum.pressure.P1Assembler, the simulation's
+``element = "P1"``), "P1-skfem" P1 assembled by scikit-fem (continuum.fem.LagrangeSpace),
+"P2" P2 assembled by scikit-fem (``element = "P2"``).
+
 1. Seconds per pressure solve at about 1e3, 1e4 and 1e5 mesh nodes: a disc of radius 40 at
    lam = 1e-2, uniform mesh of the size giving N nodes (continuum.mesh.h_for_nodes). For each
    element the first solve (AMG setup included) and then the median of ``--repeats`` solves as
@@ -7,19 +11,22 @@
    pressure, AMG hierarchy reused. Beside them the accuracy against the exact radial solution
    (continuum.radial): the largest nodal pressure error and the RMS error of the boundary
    normal velocity (the velocity the nodes move with: P1 residual flux, P2 element gradients).
-2. Ring radii of whole runs (lam = 1e-2, default continuum.Config, ``element`` varied) to
-   ``--radius`` (default 40) and, with ``--target``, to 150 (the target run): wall seconds,
-   nodes, and the error of the ring radii (G = k ln 2, mean over 24 rays) against the 1D
+2. Ring radii of whole runs (lam = 1e-2, default continuum.Config, ``element`` and the mesh
+   varied) to ``--radius`` (default 40) and, with ``--target``, to 150 (the target run): wall
+   seconds, nodes, and the error of the ring radii (G = k ln 2, mean over 24 rays) against the 1D
    reference at the same radius (cases.bench.continuum.ring_errors), the outer two rings and
    all rings.
 
-The hand-written P1 (continuum.pressure.P1Assembler, ``PressureSolver(element=HAND_P1)``) is
-not a Config choice; for the runs of part 2 the simulation's solver class is swapped for one
-that assembles by hand (:func:`hand_written_p1`). It solves the same discrete problem as the
-scikit-fem P1 to round-off (tests/continuum/test_elements.py), so only its seconds differ.
+scikit-fem's P1 (``PressureSolver(element=SKFEM_P1)``) is not a Config choice; for the runs of
+part 2 the simulation's solver class is swapped for one that assembles P1 by scikit-fem
+(:func:`scikit_fem_p1`). It solves the same discrete problem as the hand-written P1 to
+round-off (tests/continuum/test_elements.py), so only its seconds differ (and, through
+round-off, remeshing decisions late in a run).
 
 Run: ``python -m cases.bench.elements [--sizes 1000 10000 100000] [--repeats 5]
-[--radius 40] [--target] [--elements P1-hand P1 P2]``.
+[--elements P1 P1-skfem P2] [--radius 40] [--runs SPEC ...] [--target [SPEC ...]]``, a SPEC
+being ``NAME[:KEY=VALUE,...]`` with continuum.Config overrides (default runs: each element on
+the default mesh, and ``P2:h_max=1.1,n_nodes=500``, P2 at twice the mesh spacing).
 Timings depend on the machine's load: compare the columns of one run.
 """
 
@@ -32,7 +39,9 @@ import time
 
 import numpy as np
 
-ELEMENT_NAMES = ("P1-hand", "P1", "P2")
+ELEMENT_NAMES = ("P1", "P1-skfem", "P2")
+RUNS = ("P1", "P1-skfem", "P2", "P2:h_max=1.1,n_nodes=500")
+"""The runs of part 2: the default mesh for each element, and P2 at twice the spacing."""
 DISC_RADIUS = 40.0
 LAM = 1e-2
 
@@ -84,33 +93,51 @@ def solve_costs(element: str, n_nodes: int, repeats: int = 5, lam: float = LAM) 
 
 
 @contextlib.contextmanager
-def hand_written_p1():
-    """Within: ``continuum.Simulation`` solves the pressure with the hand-written P1 assembly."""
+def scikit_fem_p1():
+    """Within: ``continuum.Simulation`` assembles its P1 pressure by scikit-fem."""
     from continuum import simulation
-    from continuum.pressure import HAND_P1, PressureSolver
+    from continuum.pressure import SKFEM_P1, PressureSolver
 
-    class HandSolver(PressureSolver):
+    class SkfemSolver(PressureSolver):
         def __init__(self, lam, element="P1", **kw):
             if element != "P1":
-                raise ValueError("the hand-written assembly is P1")
-            super().__init__(lam, HAND_P1, **kw)
+                raise ValueError("scikit-fem's P1 replaces P1")
+            super().__init__(lam, SKFEM_P1, **kw)
 
     saved = simulation.PressureSolver
-    simulation.PressureSolver = HandSolver
+    simulation.PressureSolver = SkfemSolver
     try:
         yield
     finally:
         simulation.PressureSolver = saved
 
 
-def ring_run(element: str, radius: float, lam: float = LAM) -> dict:
-    """Run to ``radius`` with ``element`` (cases.bench.continuum.target_run): seconds, rings."""
+def variant(spec: str) -> tuple[str, dict]:
+    """``NAME[:KEY=VALUE,...]`` -> (element name, continuum.Config overrides).
+
+    E.g. "P2:h_max=1.1,n_nodes=500": P2 on a mesh of twice the default spacing.
+    """
+    from continuum import Config
+
+    name, _, rest = spec.partition(":")
+    if name not in ELEMENT_NAMES:
+        raise SystemExit(f"unknown element {name!r} in {spec!r}")
+    over = {}
+    for kv in filter(None, rest.split(",")):
+        k, v = kv.split("=", 1)
+        over[k] = type(getattr(Config, k))(float(v))
+    return name, over
+
+
+def ring_run(spec: str, radius: float, lam: float = LAM) -> dict:
+    """Run to ``radius`` with the ``variant`` spec (cases.bench.continuum.target_run)."""
     from cases.bench.continuum import target_run
 
-    if element == "P1-hand":
-        with hand_written_p1():
-            return target_run(radius, lam)
-    return target_run(radius, lam, element=element)
+    element, over = variant(spec)
+    if element == "P1-skfem":
+        with scikit_fem_p1():
+            return target_run(radius, lam, **over)
+    return target_run(radius, lam, element=element, **over)
 
 
 def main(argv=None) -> None:
@@ -120,9 +147,12 @@ def main(argv=None) -> None:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--elements", nargs="+", default=list(ELEMENT_NAMES), choices=ELEMENT_NAMES)
     ap.add_argument("--radius", type=float, default=40.0, help="ring-radius run (0: skip)")
-    ap.add_argument("--target", action="store_true", help="also the target run to radius 150")
+    ap.add_argument("--runs", nargs="+", default=list(RUNS),
+                    help="runs to --radius: NAME[:KEY=VALUE,...] (Config overrides)")
+    ap.add_argument("--target", nargs="*", default=None,
+                    help="also the target run to radius 150 of these runs (none given: --runs)")
     args = ap.parse_args(argv)
-    from continuum.pressure import HAND_P1, limit_blas_threads
+    from continuum.pressure import limit_blas_threads
 
     limit_blas_threads(1)
     if args.sizes:
@@ -132,24 +162,25 @@ def main(argv=None) -> None:
         for n in args.sizes:
             base = None
             for el in args.elements:
-                c = solve_costs(HAND_P1 if el == "P1-hand" else el, n, args.repeats)
+                c = solve_costs(el, n, args.repeats)
                 base = c["solve_s"] if base is None else base
                 print(f"| {el} | {c['nodes']} | {c['dofs']} | {c['first_s']:.4f} | "
                       f"{c['solve_s']:.4f} ({c['solve_s'] / base:.2f}x) | {c['newton']:.0f} | "
                       f"{c['krylov']:.0f} | {c['p_err']:.2e} | {c['un_err']:.2e} |", flush=True)
-    radii = ([args.radius] if args.radius > 0 else []) + ([150.0] if args.target else [])
-    if radii:
+    plan = [(args.radius, spec) for spec in args.runs] if args.radius > 0 else []
+    if args.target is not None:
+        plan += [(150.0, spec) for spec in (args.target or args.runs)]
+    if plan:
         print("\n| element | radius | wall [s] | cpu [s] | steps | nodes | outer two rings: "
               "max abs err | max err / spacing | all rings: max err / spacing |")
         print("|---|---|---|---|---|---|---|---|---|")
-    for radius in radii:
-        for el in args.elements:
-            r = ring_run(el, radius)
-            print(f"| {el} | {radius:g} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | {r['steps']} | "
-                  f"{r['n_nodes']} | {r['outer_max_abs_err']:.4f} | "
-                  f"{r['outer_max_rel_err']:.2%} | {r['all_max_rel_err']:.2%} |", flush=True)
-            print("  rings: " + ", ".join(f"k={k} {e:+.4f}" for k, _, e, _ in r["rings"]),
-                  flush=True)
+    for radius, spec in plan:
+        r = ring_run(spec, radius)
+        print(f"| {spec} | {radius:g} | {r['wall_s']:.1f} | {r['cpu_s']:.1f} | {r['steps']} | "
+              f"{r['n_nodes']} | {r['outer_max_abs_err']:.4f} | "
+              f"{r['outer_max_rel_err']:.2%} | {r['all_max_rel_err']:.2%} |", flush=True)
+        print("  rings: " + ", ".join(f"k={k} {e:+.4f}" for k, _, e, _ in r["rings"]),
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -1,5 +1,8 @@
 """The pressure through scikit-fem, P1 and P2 (continuum.fem), against exact answers.
 
+scikit-fem's P1 (``SKFEM_P1``) equals the hand-written P1 assembly of the simulation's "P1"
+(whose orders tests/continuum/test_pressure.py checks) to round-off.
+
 Exact solutions (model.md): the disc of radius R at lam = 0 (p = (R^2 - r^2)/4) and lam = 1e-2
 (the radial solution of the nonlinear problem, continuum.radial). Errors are integrated by
 scikit-fem on the discrete domain (degree-6 quadrature): L2 of p, H1 seminorm (grad p against
@@ -15,7 +18,7 @@ from skfem.refdom import RefTri
 from continuum import Config, Simulation, radial
 from continuum import mesh as M
 from continuum.fem import LagrangeSpace, boundary_midpoints
-from continuum.pressure import HAND_P1, PressureSolver
+from continuum.pressure import SKFEM_P1, PressureSolver
 from continuum.velocity import boundary_normals, darcy_flow
 from tests.continuum.conftest import small_config, state_bytes
 
@@ -55,7 +58,7 @@ def order(hs, errs):
 def test_skfem_p1_equals_hand_written():
     """Same matrices to 1e-12 and, Newton on the same mesh, the same pressure to round-off."""
     bnd, pts, tri = disc(0.5)
-    hand, fem = PressureSolver(1e-2, HAND_P1), PressureSolver(1e-2, "P1")
+    hand, fem = PressureSolver(1e-2, "P1"), PressureSolver(1e-2, SKFEM_P1)
     for s in (hand, fem):
         s.set_mesh(tri, len(pts), len(bnd))
     a, b = hand.space.assemble(pts), fem.space.assemble(pts)
@@ -75,7 +78,7 @@ def test_skfem_p1_equals_hand_written():
 
 @pytest.mark.parametrize("lam", [0.0, 1e-2])
 @pytest.mark.parametrize("element, l2_order, h1_order", [
-    ("P1", (1.8, 2.2), (0.85, 1.2)),
+    (SKFEM_P1, (1.8, 2.2), (0.85, 1.2)),
     ("P2", (2.8, 3.8), (1.8, 2.7)),
 ])
 def test_disc_orders(element, l2_order, h1_order, lam):
