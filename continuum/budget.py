@@ -28,10 +28,9 @@ __all__ = ["BudgetError", "estimate_nodes", "available_memory", "check_memory"]
 BYTES_PER_NODE = 8_000
 #: Extra resident bytes per mesh node of the pressure's element (``Config.element``) over the
 #: hand-written P1 assembly that BYTES_PER_NODE was measured with: the peak of two pressure
-#: solves with velocity on a 46,577-node disc was 1.1 kB per node by hand, 3.0 kB with
-#: scikit-fem's P1 (elemental data, basis arrays, the mass matrix) and 12.3 kB with P2 (about 4
-#: degrees of freedom and 46 matrix entries per node), rounded up.
-ELEMENT_BYTES_PER_NODE = {"P1": 2_000, "P2": 12_000}
+#: solves with velocity on a 46,577-node disc was 1.1 kB per node with P1 and 12.3 kB with P2
+#: (scikit-fem; about 4 degrees of freedom and 46 matrix entries per node), rounded up.
+ELEMENT_BYTES_PER_NODE = {"P1": 0, "P2": 12_000}
 #: Resident bytes of the imported modules before any mesh (measured, rounded up).
 BASE_BYTES = 400 * 2**20
 
