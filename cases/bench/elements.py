@@ -16,6 +16,9 @@ Names: "P1" the hand-written P1 assembly (continuum.pressure.P1Assembler, the si
    seconds, nodes, and the error of the ring radii (G = k ln 2, mean over 24 rays) against the 1D
    reference at the same radius (cases.bench.continuum.ring_errors), the outer two rings and
    all rings.
+3. With ``--modes K ...``: the decay rate of a 1 % mode K on a disc of radius 3 at lam = 0
+   over t in [0, 1] (:func:`mode_rate`) against the linearised exact rate K / 2, for the
+   ``--mode-runs`` (default P1 and P2 on the default mesh).
 
 scikit-fem's P1 (``PressureSolver(element=SKFEM_P1)``) is not a Config choice; for the runs of
 part 2 the simulation's solver class is swapped for one that assembles P1 by scikit-fem
@@ -24,9 +27,10 @@ round-off (tests/continuum/test_elements.py), so only its seconds differ (and, t
 round-off, remeshing decisions late in a run).
 
 Run: ``python -m cases.bench.elements [--sizes 1000 10000 100000] [--repeats 5]
-[--elements P1 P1-skfem P2] [--radius 40] [--runs SPEC ...] [--target [SPEC ...]]``, a SPEC
-being ``NAME[:KEY=VALUE,...]`` with continuum.Config overrides (default runs: each element on
-the default mesh, and ``P2:h_max=1.1,n_nodes=500``, P2 at twice the mesh spacing).
+[--elements P1 P1-skfem P2] [--modes 2 4 6 8] [--radius 40] [--runs SPEC ...]
+[--target [SPEC ...]]``, a SPEC being ``NAME[:KEY=VALUE,...]`` with continuum.Config
+overrides (default runs: each element on the default mesh, and
+``P2:h_max=1.1,n_nodes=500``, P2 at twice the mesh spacing).
 Timings depend on the machine's load: compare the columns of one run.
 """
 
@@ -140,6 +144,55 @@ def ring_run(spec: str, radius: float, lam: float = LAM) -> dict:
     return target_run(radius, lam, element=element, **over)
 
 
+def mode_amplitude(boundary: np.ndarray, K: int) -> float:
+    """Relative amplitude of mode K of the boundary radius about the centroid.
+
+    Least-squares fit r(theta) = r0 + a cos K theta + b sin K theta over the boundary nodes;
+    returns sqrt(a^2 + b^2) / r0 signed by a (the initial perturbation is a cosine).
+    """
+    x = boundary - boundary.mean(axis=0)
+    th, r = np.arctan2(x[:, 1], x[:, 0]), np.hypot(x[:, 0], x[:, 1])
+    A = np.column_stack([np.ones_like(th), np.cos(K * th), np.sin(K * th)])
+    r0, a, b = np.linalg.lstsq(A, r, rcond=None)[0]
+    return float(np.sign(a) * np.hypot(a, b) / r0)
+
+
+def mode_rate(spec: str, K: int, t_end: float = 1.0, eps: float = 0.01, R: float = 3.0,
+              folder=None) -> dict:
+    """Measured decay of a mode-K perturbation of a disc at lam = 0 against the exact rate.
+
+    Initial boundary r = R (1 + eps cos K theta) (a 1024-vertex polygon); at lam = 0 the
+    linearised exact amplitude is eps exp(-K t / 2) (the mode's normal velocity (1 - K) delta / 2
+    against the mean growth R / 2). Returns the measured rate -ln(a(t) / a(0)) / t (a(0)
+    measured on the initial mesh's boundary) and the exact K / 2.
+    """
+    import tempfile
+    from pathlib import Path
+
+    from continuum import Config, Simulation
+
+    element, over = variant(spec)
+    th = np.linspace(0.0, 2 * np.pi, 1024, endpoint=False)
+    r = R * (1.0 + eps * np.cos(K * th))
+    folder = Path(folder or tempfile.mkdtemp())
+    csv = folder / f"mode{K}.csv"
+    xy = np.column_stack([r * np.cos(th), r * np.sin(th)])
+    np.savetxt(csv, np.vstack([xy, xy[:1]]), delimiter=",", header="x,y", comments="")
+    cfg = Config(lam=0.0, time=t_end, shape=f"polygon:{csv}", write_fields=False,
+                 element="P1" if element == "P1-skfem" else element, **over)
+    ctx = scikit_fem_p1() if element == "P1-skfem" else contextlib.nullcontext()
+    with ctx:
+        sim = Simulation(cfg)
+        a0 = mode_amplitude(sim.state.boundary, K)
+        c0 = time.process_time()
+        sim.advance()
+        cpu = time.process_time() - c0
+    a1 = mode_amplitude(sim.state.boundary, K)
+    rate = -math.log(a1 / a0) / t_end if a1 > 0 else float("nan")
+    return {"K": K, "a0": a0, "a1": a1, "rate": rate, "exact": K / 2, "cpu_s": cpu,
+            "nodes": len(sim.state.points)}
+
+
 def main(argv=None) -> None:
     """Command line (module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -149,6 +202,9 @@ def main(argv=None) -> None:
     ap.add_argument("--radius", type=float, default=40.0, help="ring-radius run (0: skip)")
     ap.add_argument("--runs", nargs="+", default=list(RUNS),
                     help="runs to --radius: NAME[:KEY=VALUE,...] (Config overrides)")
+    ap.add_argument("--modes", type=int, nargs="*", default=[],
+                    help="mode rates at lam = 0 for these K (disc radius 3, 1 %% mode, t = 1)")
+    ap.add_argument("--mode-runs", nargs="+", default=["P1", "P2"], help="specs of the mode runs")
     ap.add_argument("--target", nargs="*", default=None,
                     help="also the target run to radius 150 of these runs (none given: --runs)")
     args = ap.parse_args(argv)
@@ -167,6 +223,16 @@ def main(argv=None) -> None:
                 print(f"| {el} | {c['nodes']} | {c['dofs']} | {c['first_s']:.4f} | "
                       f"{c['solve_s']:.4f} ({c['solve_s'] / base:.2f}x) | {c['newton']:.0f} | "
                       f"{c['krylov']:.0f} | {c['p_err']:.2e} | {c['un_err']:.2e} |", flush=True)
+    if args.modes:
+        print("| run | K | nodes | cpu [s] | amplitude t=0 | amplitude t=1 | rate | exact K/2 "
+              "| rate error |")
+        print("|---|---|---|---|---|---|---|---|---|")
+        for K in args.modes:
+            for spec in args.mode_runs:
+                m = mode_rate(spec, K)
+                print(f"| {spec} | {K} | {m['nodes']} | {m['cpu_s']:.1f} | {m['a0']:.5f} | "
+                      f"{m['a1']:+.6f} | {m['rate']:.4f} | {m['exact']:.1f} | "
+                      f"{(m['rate'] - m['exact']) / m['exact']:+.2%} |", flush=True)
     plan = [(args.radius, spec) for spec in args.runs] if args.radius > 0 else []
     if args.target is not None:
         plan += [(150.0, spec) for spec in (args.target or args.runs)]
