@@ -2,15 +2,19 @@
 
 ::
 
-    colony continuum --lam LAM (--radius R | --time T) [--shape circle|ellipse:A,B|polygon:FILE.csv]
-                     [--element P1|P2] [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
-    colony particles --lam LAM (--radius R | --time T) [--init FILE.csv] [--seed S] [--dt DT]
-                     [--adaptive-dt] [--division-noise EPS] [--solver bbpgd|apgd|twolevel]
-                     [--threads N] [--change-step-policy]
+    colony continuum --lam LAM (--radius R | --time T) [--shape SHAPE] [--element P1|P2]
+                     [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
+    colony particles --lam LAM (--radius R | --time T) [--init FILE.csv | --shape SHAPE]
+                     [--fill-orientation tangent|rows] [--seed S] [--dt DT]
+                     [--step-control overlap|fixed|cost] [--division-noise EPS]
+                     [--solver bbpgd|apgd|twolevel] [--threads N] [--change-step-policy]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
     colony case NAME --from-data [--data-set medium|paper] [--out DIR]
+
+SHAPE (continuum.shapes): circle[:R], ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R],
+polygon:FILE.csv, and for particles line:N; the particles fill the outline (cases.shapes).
 
 Every run is configured by one dataclass (``continuum.Config`` / ``particles.Config``), built from
 the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
@@ -19,7 +23,7 @@ flags; the run writes it back as ``config.json`` next to its results.
 Output folders are never left half-written: a run writes into ``DIR.partial/`` and renames it to
 ``DIR`` only when everything (engine output, ``profile.csv``, the PNG) is written. A stopped
 particle run keeps its checkpoint in ``DIR.partial/`` and resumes from it when the same command
-is given again (``--change-step-policy``: also with another ``--dt`` or ``--adaptive-dt``). Bad
+is given again (``--change-step-policy``: also with another ``--dt`` or ``--step-control``). Bad
 input ends with a one-line message on stderr and exit status 2.
 """
 
@@ -184,13 +188,16 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
                   change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
     from cases.figures.draw import particles_picture
+    from cases.shapes import initial_state
     from particles import run
     from particles.config import STEP_POLICY_FIELDS
     from particles.simulation import check_initial
 
+    start = initial_state(config)  # the particles of config.shape (None: init or one cell)
+
     def body(partial):
         colony = run(config, out=partial, progress=progress,
-                     change_step_policy=change_step_policy).state
+                     change_step_policy=change_step_policy, state=start).state
         profile = particle_profile(colony.x, colony.y, colony.theta, colony.length, colony.stress,
                                    edge_width=PARTICLE_EDGE_WIDTH,
                                    radius=colony.enclosing_radius())
@@ -199,7 +206,7 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
         _remove_checkpoints(partial)  # the run is complete: nothing to resume
         return colony
 
-    check_initial(config)
+    check_initial(config, state=start)
     return _staged_run("particles", config, Path(out), overwrite, body, resumable=CHECKPOINTS,
                        step_policy=STEP_POLICY_FIELDS if change_step_policy else ())
 
@@ -243,7 +250,8 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("continuum", help="2D moving-boundary continuum colony")
     _common(c, "runs/continuum")
     c.add_argument("--shape", default=None,
-                   help="initial shape: circle (default), ellipse:A,B or polygon:FILE.csv")
+                   help="initial shape: circle (default, radius R0), circle:R, ellipse:A,B, "
+                   "rectangle:W,H[,ROUND], star:K,EPS[,R] or polygon:FILE.csv")
     c.add_argument("--h-max", type=float,
                    help="largest boundary mesh spacing (default 0.55; sets the resolution)")
     c.add_argument("--n-nodes", type=int, help="node count while the colony is small")
@@ -253,16 +261,23 @@ def parser() -> argparse.ArgumentParser:
     p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
     _common(p, "runs/particles")
     p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length")
+    p.add_argument("--shape", help="initial shape filled with rods: circle:R, ellipse:A,B, "
+                   "rectangle:W,H[,ROUND], star:K,EPS[,R], polygon:FILE.csv or line:N")
+    p.add_argument("--fill-orientation", help="rods of --shape: tangent (layers along the "
+                   "outline, default) or rows (parallel to x)")
     p.add_argument("--seed", type=int, help="random seed (division noise)")
-    p.add_argument("--dt", type=float, help="time step (with --adaptive-dt the largest)")
-    p.add_argument("--adaptive-dt", action="store_const", const=True, default=None,
-                   help="adapt the step to the cost of the re-solve passes")
+    p.add_argument("--dt", type=float,
+                   help="time step (the largest, unless --step-control fixed; default 0.01)")
+    p.add_argument("--step-control", choices=("overlap", "fixed", "cost"),
+                   help="overlap (default): shorten the step where its linearised move leaves "
+                   "overlaps above b/10; "
+                   "fixed: every step --dt; cost: follow the cost of the re-solve passes")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
     p.add_argument("--threads", type=int,
                    help="threads of the contact solver (default 1; same result for any number)")
     p.add_argument("--change-step-policy", action="store_true",
-                   help="resume a checkpoint written with another --dt or --adaptive-dt")
+                   help="resume a checkpoint written with another --dt or --step-control")
 
     i = sub.add_parser("info", help="print a run folder's provenance (run.json)")
     i.add_argument("dir", help="run folder (or its stopped DIR.partial)")
@@ -323,7 +338,8 @@ def _dispatch(args) -> int:
 
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
-                 "dt": _finite("dt", args.dt), "adaptive_dt": args.adaptive_dt,
+                 "shape": args.shape, "fill_orientation": args.fill_orientation,
+                 "dt": _finite("dt", args.dt), "step_control": args.step_control,
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads}
         config = build_config(particles.Config, args.config, args.set, flags)

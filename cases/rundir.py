@@ -191,7 +191,7 @@ def prepare_stage(out: Path, overwrite: bool, engine: str, config, resumable=(),
             diff = config_differences(saved, asdict(config), ignore=step_policy)
             if diff and checkpoint:
                 hint = (" or --change-step-policy to resume it with the new step"
-                        if engine == "particles" and set(diff) <= {"dt", "adaptive_dt"} else "")
+                        if engine == "particles" and set(diff) <= {"dt", "step_control"} else "")
                 raise RunFolderError(
                     f"{partial} holds a stopped run whose configuration differs in "
                     f"{', '.join(diff)}; give its command to resume it{hint}, or --overwrite "
@@ -214,13 +214,19 @@ def _stage_identity(folder: Path) -> tuple[str | None, dict]:
     """(engine, configuration) of a stage from its run.json or config.json; (None, {})."""
     record = read_record(folder)
     if record and "engine" in record:
-        return record["engine"], record.get("config", {})
-    try:
-        config = json.loads((folder / "config.json").read_text())
-    except (OSError, ValueError):
-        return None, {}
-    config.pop("step_policy_changes", None)
-    return ("particles" if "solver" in config else "continuum"), config
+        engine, config = record["engine"], record.get("config", {})
+    else:
+        try:
+            config = json.loads((folder / "config.json").read_text())
+        except (OSError, ValueError):
+            return None, {}
+        config.pop("step_policy_changes", None)
+        engine = "particles" if "solver" in config else "continuum"
+    if engine == "particles":
+        from particles.config import upgrade
+
+        config = upgrade(config)
+    return engine, config
 
 
 def publish(partial: Path) -> Path:

@@ -206,7 +206,8 @@ def run_engine(params: dict, folder: Path) -> None:
     """Sweep ``run_fn`` for either engine: ``params = {"engine": ..., "lam": ..., **config}``.
 
     The remaining keys are the fields of ``continuum.Config`` / ``particles.Config``
-    (docs/DESIGN.md); the engine writes its output contract into ``folder``.
+    (docs/DESIGN.md); the engine writes its output contract into ``folder``. A particle run
+    with a ``shape`` starts from the particles of cases.shapes.initial_state.
     """
     params = dict(params)
     engine = params.pop("engine", None)
@@ -219,7 +220,12 @@ def run_engine(params: dict, folder: Path) -> None:
     config = Config(**params)
     if hasattr(config, "validate"):
         config.validate()
-    run(config, out=Path(folder), progress=False)
+    start = {}
+    if engine == "particles" and config.shape is not None:
+        from cases.shapes import initial_state
+
+        start["state"] = initial_state(config)
+    run(config, out=Path(folder), progress=False, **start)
 
 
 #: Run sizes of the figure cases. Every case draws its runs from the same table, so cases given

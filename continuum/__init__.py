@@ -15,6 +15,8 @@ carried by the material (docs/model.md). A short use::
 Modules, one concept each:
 
 - ``growth``: the growth law g = exp(-lam p) and the mean length lbar = 2^frac(G / ln 2);
+- ``shapes``: the initial shape's specification (circle, ellipse, rectangle, star, polygon) and
+  its outline;
 - ``mesh``: boundary polygons, Triangle meshes of the colony, point location;
 - ``fem``: the pressure's P1 / P2 Lagrange space and its assembly through scikit-fem;
 - ``pressure``: Newton + AMG-preconditioned CG for -Laplace p = exp(-lam p), p = 0 on the edge;

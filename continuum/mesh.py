@@ -42,7 +42,6 @@ __all__ = [
     "ellipse_polygon",
     "boundary_spacing",
     "h_for_nodes",
-    "load_polygon_csv",
     "smooth_mesh",
     "turning_angles",
 ]
@@ -356,38 +355,6 @@ def smooth_mesh(points: np.ndarray, tris: np.ndarray, n_fixed: int, sweeps: int)
             break
         x = y
     return x
-
-
-def load_polygon_csv(path) -> np.ndarray:
-    """Read a closed boundary polygon from a CSV file with columns x,y (header line optional).
-
-    The polygon must be explicitly closed: the last row repeats the first. Returns the checked,
-    counter-clockwise vertices without the closing duplicate (see check_polygon).
-    """
-    import csv
-    from pathlib import Path
-
-    path = Path(path)
-    if not path.is_file():
-        raise PolygonError(f"polygon file not found: {path}")
-    rows = []
-    with path.open() as fh:
-        for row in csv.reader(fh):
-            if not row or row[0].strip().lower() in ("x", "#"):
-                continue
-            try:
-                rows.append([float(row[0]), float(row[1])])
-            except (ValueError, IndexError):
-                raise PolygonError(f"{path}: cannot read x,y from the line {row}") from None
-    xy = np.array(rows, dtype=float).reshape(-1, 2)
-    if len(xy) < 2 or not np.array_equal(xy[0], xy[-1]):
-        raise PolygonError(
-            f"polygon in {path} is not closed: the last vertex must repeat the first"
-        )
-    if len(xy) < 4:
-        raise PolygonError(f"polygon in {path} has {len(xy) - 1} distinct vertices; a polygon "
-                           "needs at least 3 (then the first repeated)")
-    return check_polygon(xy)
 
 
 class Locator:

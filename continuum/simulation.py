@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from continuum import checkpoint, mesh
+from continuum import checkpoint, mesh, shapes
 from continuum.budget import check_memory
 from continuum.fem import ELEMENTS
 from continuum.motion import heun_step, radius_rate, stable_dt
@@ -99,10 +99,12 @@ class Config:
         ``run`` stops at this time. ``run`` needs exactly one of ``radius`` and ``time``;
         a :class:`Simulation` at most one (the default goal of ``advance``).
     shape : str
-        "circle" (radius ``initial_radius``), "ellipse:A,B" (semi-axes A, B) or
-        "polygon:FILE.csv" (closed polygon, columns x,y).
+        Initial shape (continuum.shapes): "circle" (radius ``initial_radius``), "circle:R",
+        "ellipse:A,B", "rectangle:W,H[,ROUND]", "star:K,EPS[,R]" (R default
+        ``initial_radius``) or "polygon:FILE.csv" (closed polygon, columns x,y).
     initial_radius : float
-        Radius of the initial circle (default R0 = sqrt(b/pi), one particle's area).
+        Radius of the initial ``circle`` and of ``star:K,EPS`` (default R0 = sqrt(b/pi), one
+        particle's area); the other shapes give their own sizes.
     n_nodes : int
         Target node count while the colony is small (h = h_N(area)).
     h_max : float
@@ -196,26 +198,11 @@ class Config:
     def initial_boundary(self) -> np.ndarray:
         """A dense polygon of the initial shape (checked, counter-clockwise).
 
-        256 vertices for a circle or an ellipse, the file's for a polygon.
+        continuum.shapes.outline of ``shape`` (``circle`` of radius ``initial_radius``, and the
+        default R of ``star:K,EPS``); 256 vertices for a circle or an ellipse, the file's for
+        a polygon. ``line:N`` (particles only) is refused.
         """
-        s = str(self.shape).strip()
-        if s == "circle":
-            return mesh.circle_polygon(self.initial_radius, 256)
-        if s.startswith("ellipse:"):
-            try:
-                a, b = (float(v) for v in s[len("ellipse:") :].split(","))
-            except ValueError:
-                raise ValueError(
-                    f"shape must be ellipse:A,B with numbers A, B, got {s!r}"
-                ) from None
-            if not (math.isfinite(a) and math.isfinite(b) and a > 0 and b > 0):
-                raise ValueError(f"ellipse semi-axes must be positive and finite, got {s!r}")
-            return mesh.ellipse_polygon(a, b, 256)
-        if s.startswith("polygon:"):
-            return mesh.load_polygon_csv(s[len("polygon:") :])
-        raise ValueError(f"shape must be circle, ellipse:A,B or polygon:FILE.csv, got {s!r}")
-
-
+        return shapes.outline(self.shape, radius=self.initial_radius)
 
 
 def initial_state(config: Config) -> State:

@@ -29,7 +29,7 @@ from .geometry import B, axial_stress
 from .growth import divide, grow
 from .measures import enclosing_radius, hull_radius
 from .output import read_trajectory
-from .packings import from_csv, ring_packing, single_cell
+from .packings import fill_outline, from_csv, line, ring_packing, single_cell
 from .simulation import ParticleLimitError, Simulation, StepRecord, run
 from .state import ParticleState
 from .stepping import OverlapError
@@ -52,9 +52,11 @@ __all__ = [
     "axial_stress",
     "divide",
     "enclosing_radius",
+    "fill_outline",
     "from_csv",
     "grow",
     "hull_radius",
+    "line",
     "read_trajectory",
     "ring_packing",
     "run",

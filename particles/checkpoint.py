@@ -6,7 +6,7 @@ the trajectory bookkeeping (frames written, step of the last frame), atomically 
 temporary file, then renamed).  Format: ``np.savez`` with a JSON ``meta`` (config, t, step,
 next_id, rng, history, frames, dt_next), ``warm_keys``, ``warm_gamma`` and the particle arrays.
 Older checkpoints load: without ``parent``/``generation`` (initial particles: -1, 0), without
-``dt_next`` (``Config.dt``) or fields added to ``Config`` since (``LEGACY_CONFIG``).
+``dt_next`` (``Config.dt``) or fields added to or renamed in ``Config`` since (``config.upgrade``).
 
 SIGINT / SIGTERM during a run are deferred to the end of the current step (:class:`StopRequest`)
 so that the run writes a checkpoint of a whole step before stopping.
@@ -24,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .config import EXECUTION_FIELDS, LEGACY_CONFIG, STEP_POLICY_FIELDS, Config
+from .config import EXECUTION_FIELDS, STEP_POLICY_FIELDS, Config, upgrade
 from .state import ParticleState
 
 log = logging.getLogger(__name__)
@@ -54,8 +54,8 @@ def save_checkpoint(path: Path, config: Config, state: ParticleState, history: l
 
 
 def _saved_config(meta: dict) -> dict:
-    """The configuration fields a checkpoint's metadata holds (LEGACY_CONFIG where missing)."""
-    return {**LEGACY_CONFIG, **meta["config"]}
+    """The configuration fields a checkpoint's metadata holds, in today's names (upgrade)."""
+    return upgrade(meta["config"])
 
 
 def checkpoint_config(path: Path) -> Config:
@@ -89,7 +89,7 @@ def load_checkpoint(path: Path, config: Config, change_step_policy: bool = False
     checkpoint written before the lineage was tracked has no ``parent`` and ``generation``
     arrays: the particles then present are loaded as initial ones (parent -1, generation 0),
     and their daughters count generations from them.  With ``change_step_policy`` the next
-    step follows ``config``'s policy: ``dt_next`` is ``config.dt``, or with ``adaptive_dt`` the
+    step follows ``config``'s policy: ``dt_next`` is ``config.dt`` with a fixed step, else the
     saved ``dt_next`` capped at ``config.dt``.
     """
     with np.load(path) as z:
@@ -103,7 +103,8 @@ def load_checkpoint(path: Path, config: Config, change_step_policy: bool = False
                               rng=rng, warm_keys=z["warm_keys"], warm_gamma=z["warm_gamma"],
                               dt_next=meta.get("dt_next", config.dt))
     if change_step_policy:
-        state.dt_next = min(state.dt_next, config.dt) if config.adaptive_dt else config.dt
+        state.dt_next = (config.dt if config.step_control == "fixed"
+                         else min(state.dt_next, config.dt))
     return state, meta["history"], meta["frames"]
 
 

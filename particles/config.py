@@ -15,7 +15,8 @@ from pathlib import Path
 import numba
 
 from .geometry import B
-from .stepping import SOLVERS
+from .packings import FILL_LENGTHS, FILL_ORIENTATIONS
+from .stepping import SOLVERS, STEP_CONTROLS
 
 __all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS"]
 
@@ -33,14 +34,16 @@ class Config:
         measures.enclosing_radius) reaches ``radius`` or when t reaches ``time`` (exactly one
         for ``run``; both may be None for a ``Simulation``, which ``advance`` stops).
     dt : float
-        Time step (the last step of a ``time`` run is shortened to land on it); with
-        ``adaptive_dt`` the first and largest step.
+        Time step (the last step of a ``time`` run is shortened to land on it); with an
+        adaptive ``step_control`` the first and largest step.
         Default 0.01, measured: lam = 1e-2 to radius 40 (about 6600 particles) took 58 s,
         53 s and 44 s of wall time at dt = 0.005, 0.01, 0.02 with 0.39, 0.56 and 0.98 re-solve
         passes per step, reaching radius 40 at t = 10.52, 10.48, 10.52.
-    adaptive_dt : bool
-        Adapt the step to the cost of the re-solve passes (stepping.next_dt); default False
-        (fixed dt).
+    step_control : str
+        "overlap" (default): steps as long as ``dt`` while the overlap a step's linearised
+        move leaves is below stepping.MAIN_OVERLAP, shorter where the colony's motion demands
+        it; "fixed": every step ``dt``; "cost": adapt to the cost of the re-solve passes
+        (stepping.next_dt).
     tol : float
         Largest admitted real overlap b - d after each step (default b/500).
     seed : int
@@ -48,7 +51,23 @@ class Config:
     division_noise : float
         Amplitude eps (radians): daughters' angles are theta + eps * U(-1, 1).
     init : str or None
-        CSV file with columns x,y,theta,length; None: one particle of length 1 at the origin.
+        CSV file with columns x,y,theta,length; None: one particle of length 1 at the origin
+        (or the state of ``shape``).
+    shape : str or None
+        Initial shape (continuum.shapes: ``circle:R``, ``ellipse:A,B``, ``rectangle:W,H[,ROUND]``,
+        ``star:K,EPS[,R]``, ``polygon:FILE.csv``, ``line:N``), filled with rods by
+        packings.fill_outline (``line:N``: packings.line), the lengths seeded by ``seed``.
+        ``particles`` does not import ``continuum``, so the engine does not parse it: the
+        state is built by ``cases.shapes.initial_particles`` (``colony particles --shape``) and
+        given as ``Simulation(config, state=...)`` / ``run(config, state=...)``; the field
+        records it (config.json, run.json: ``colony info``) and a resume checks it. Not with
+        ``init``.
+    fill_orientation : str
+        Orientation of the rods of ``shape``: "tangent" (layers along the outline, default) or
+        "rows" (parallel to x) (packings.fill_outline).
+    fill_lengths : str
+        Lengths of the rods of ``shape``: "stable" (density ~ l^-2 on [1, 2], default),
+        "uniform" on [1, 2] or "birth" (all 1) (packings.sample_lengths).
     solver : str
         Contact solver name, a key of SOLVERS.
     output_every : int
@@ -80,6 +99,9 @@ class Config:
     seed: int = 0
     division_noise: float = 0.02
     init: str | None = None
+    shape: str | None = None
+    fill_orientation: str = "tangent"
+    fill_lengths: str = "stable"
     solver: str = "bbpgd"
     output_every: int = 10
     checkpoint_seconds: float = 300.0
@@ -88,7 +110,7 @@ class Config:
     contact_margin: float = 0.1
     max_passes: int = 20
     max_iterations: int = 200_000
-    adaptive_dt: bool = False
+    step_control: str = "overlap"
     threads: int = 1
 
     def validate(self, require_stop: bool = True) -> None:
@@ -103,6 +125,8 @@ class Config:
             raise ValueError("give exactly one of radius and time")
         if require_stop and self.radius is None and self.time is None:
             raise ValueError("give exactly one of radius and time")
+        if self.init is not None and self.shape is not None:
+            raise ValueError("give at most one initial state: init (a CSV file) or shape")
         for name, ok, message in _RULES:
             v = getattr(self, name)
             if not ok(v):
@@ -151,22 +175,41 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"max_passes must be an integer >= 0, got {v}"),
     ("max_iterations", lambda v: _count(v, 1),
      lambda v: f"max_iterations must be a positive integer, got {v}"),
-    ("adaptive_dt", lambda v: isinstance(v, bool),
-     lambda v: f"adaptive_dt must be true or false, got {v!r}"),
+    ("step_control", lambda v: v in STEP_CONTROLS,
+     lambda v: f"step_control must be one of {', '.join(STEP_CONTROLS)}, got {v!r}"),
     ("threads", lambda v: isinstance(v, int) and 1 <= v <= numba.config.NUMBA_NUM_THREADS,
      lambda v: f"threads must be an integer in [1, {numba.config.NUMBA_NUM_THREADS}], got {v}"),
     ("init", lambda v: v is None or Path(v).is_file(),
      lambda v: f"init file not found: {v}"),
+    ("shape", lambda v: v is None or (isinstance(v, str) and v.strip() != ""),
+     lambda v: f"shape must be a shape specification such as star:5,0.2,8, got {v!r}"),
+    ("fill_orientation", lambda v: v in FILL_ORIENTATIONS,
+     lambda v: f"fill_orientation must be one of {', '.join(FILL_ORIENTATIONS)}, got {v!r}"),
+    ("fill_lengths", lambda v: v in FILL_LENGTHS,
+     lambda v: f"fill_lengths must be one of {', '.join(FILL_LENGTHS)}, got {v!r}"),
 ]
 
 
-LEGACY_CONFIG = {"adaptive_dt": False}
+LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",
+                 "fill_lengths": "stable"}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
+
+RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}
+"""Fields of older configurations: old name -> (new name, old value -> new value)."""
+
+
+def upgrade(saved: dict) -> dict:
+    """An older run's configuration fields in today's names (RENAMED) and defaults (LEGACY)."""
+    out = dict(LEGACY_CONFIG)
+    for k, v in saved.items():
+        name, values = RENAMED.get(k, (k, None))
+        out[name] = v if values is None else values[v]
+    return out
 
 EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
 """Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
 
-STEP_POLICY_FIELDS = ("dt", "adaptive_dt")
+STEP_POLICY_FIELDS = ("dt", "step_control")
 """Configuration fields that change only the step lengths after the checkpoint (the result
 within the time-stepping error): a checkpoint resumes with other values only when asked
 (``run(..., change_step_policy=True)``); the history's dt column records every step as it ran

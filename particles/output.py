@@ -55,7 +55,7 @@ from .state import B, ParticleState
 HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "max_stress",
                    "mean_stress", "max_overlap", "iterations", "passes", "n_contacts",
                    "residual", "total_length", "divisions", "substeps", "pass_iterations",
-                   "failed_iterations")
+                   "failed_iterations", "max_rotation", "max_displacement", "main_overlap")
 
 
 def write_config(out: Path, config, step: int | None = None,

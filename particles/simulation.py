@@ -75,6 +75,12 @@ class StepRecord:
         Particles that divided.
     substeps : int
         1, or the number of half steps the step was redone as.
+    max_rotation, max_displacement : float
+        Largest turn |delta theta| and displacement |delta x| of a particle in the step (in a
+        sub-step when the step was halved).
+    main_overlap : float
+        Largest real overlap after the main solve's move, before the re-solve passes: the error
+        of the step's linearised contacts.
     """
 
     step: int
@@ -95,6 +101,9 @@ class StepRecord:
     total_length: float
     divisions: int
     substeps: int
+    max_rotation: float
+    max_displacement: float
+    main_overlap: float
 
     def row(self) -> dict:
         """The history row (a dict of the fields in their order, as checkpoints store it)."""
@@ -102,11 +111,20 @@ class StepRecord:
 
 
 def initial_state(config: Config) -> ParticleState:
-    """Initial state of ``config``: packings.single_cell(), or packings.from_csv(config.init)."""
+    """Initial state of ``config``: packings.single_cell(), or packings.from_csv(config.init).
+
+    Raises ValueError for a ``config.shape``: its state is built outside the engine
+    (cases.shapes.initial_particles) and given to :class:`Simulation` or :func:`run`.
+    """
+    if config.shape is not None:
+        raise ValueError(f"shape {config.shape!r}: give its initial state (state=..., built by "
+                         "cases.shapes.initial_particles); the particle engine does not parse "
+                         "shapes")
     return single_cell() if config.init is None else from_csv(config.init)
 
 
-def check_initial(config: Config, require_stop: bool = True) -> ParticleState:
+def check_initial(config: Config, require_stop: bool = True,
+                  state: ParticleState | None = None) -> ParticleState:
     """The initial state of ``config``, checked before any step.
 
     Checks a valid configuration (``Config.validate(require_stop)``), no overlap beyond
@@ -116,14 +134,17 @@ def check_initial(config: Config, require_stop: bool = True) -> ParticleState:
     Parameters
     ----------
     config : Config
-        The configuration; its ``init`` file (or one cell) gives the state.
+        The configuration; its ``init`` file (or one cell) gives the state when ``state`` is
+        None.
     require_stop : bool
         Require exactly one of ``radius`` and ``time`` (as :func:`run` does).
+    state : ParticleState, optional
+        The initial state to check (e.g. of ``config.shape``).
 
     Returns
     -------
     ParticleState
-        The initial state (:func:`initial_state`).
+        The initial state (``state``, or :func:`initial_state`).
 
     Raises
     ------
@@ -131,12 +152,14 @@ def check_initial(config: Config, require_stop: bool = True) -> ParticleState:
         With a one-line message, when a check fails.
     """
     config.validate(require_stop)
-    state = initial_state(config)
+    state = initial_state(config) if state is None else state
     c = detect(state, 0.0)
     if c.gap.size and c.gap.min() < -config.tol:
         k = int(np.argmin(c.gap))
+        source = (f"init file {config.init}" if config.init is not None else
+                  f"shape {config.shape}" if config.shape is not None else "initial state")
         raise ValueError(
-            f"init file {config.init}: particles {c.i[k]} and {c.j[k]} overlap by "
+            f"{source}: particles {c.i[k]} and {c.j[k]} overlap by "
             f"{-c.gap[k]:.3g} (tolerance tol = {config.tol:.3g})")
     r0 = state.enclosing_radius()
     if config.radius is not None and config.radius <= r0:
@@ -160,7 +183,8 @@ class Simulation:
         trajectory's first frame; :meth:`advance` then writes a frame every
         ``config.output_every`` steps and :meth:`save` defaults to ``out/checkpoint.npz``.
     state : ParticleState, optional
-        Initial state (default: ``config.init`` or one cell, checked by :func:`check_initial`).
+        Initial state (default: ``config.init`` or one cell, checked by :func:`check_initial`;
+        required for a ``config.shape``, e.g. from cases.shapes.initial_particles).
         Its ``rng`` is seeded with ``config.seed`` when None.
     change_step_policy : bool
         See ``out``; config.json then records the change (output.write_config).
@@ -253,8 +277,8 @@ class Simulation:
     def step(self, until: float | None = None) -> StepRecord:
         """Advance the state by one step, divisions included; return its record.
 
-        The step has length ``state.dt_next`` (``Config.dt``, or adapted with
-        ``Config.adaptive_dt``: stepping.next_dt), shortened to land on ``until`` when that is
+        The step has length ``state.dt_next`` (``Config.dt``, or adapted by
+        ``Config.step_control``: stepping.next_dt), shortened to land on ``until`` when that is
         nearer.
 
         Parameters
@@ -279,7 +303,7 @@ class Simulation:
         if until is not None and until - st.t < dt * (1 + 1e-9):
             dt = until - st.t
         info, st.warm = robust_step(st, config, dt, st.warm)
-        st.dt_next = next_dt(dt, info, config.dt) if config.adaptive_dt else config.dt
+        st.dt_next = next_dt(dt, info, config.dt, config.step_control)
         divisions = divide(st, st.rng, config.division_noise)
         st.t += dt
         st.step += 1
@@ -292,7 +316,8 @@ class Simulation:
             failed_iterations=int(info["failed_iterations"]), passes=int(info["passes"]),
             n_contacts=int(info["n_contacts"]), residual=info["residual"],
             total_length=float(st.length.sum()), divisions=int(divisions),
-            substeps=int(info["substeps"]))
+            substeps=int(info["substeps"]), max_rotation=info["max_rotation"],
+            max_displacement=info["max_displacement"], main_overlap=info["main_overlap"])
         self.history.append(record.row())
         if record.substeps > 1:
             log.debug("step %d at t = %.6g taken as %d sub-steps", st.step, st.t, record.substeps)
@@ -376,7 +401,8 @@ class _Checkpointer:
 
 
 def run(config: Config, out: str | Path | None = None, progress: bool = False,
-        stop_after: int | None = None, change_step_policy: bool = False) -> Simulation:
+        stop_after: int | None = None, change_step_policy: bool = False,
+        state: ParticleState | None = None) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
     SIGINT (Ctrl-C) or SIGTERM (e.g. a batch system's time limit) in the main thread ends the
@@ -401,6 +427,9 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         holds the new values and, under ``step_policy_changes``, the step and the old and new
         values of each change; the result differs from an uninterrupted run's within the
         time-stepping error).
+    state : ParticleState, optional
+        Initial state of a new run (default: ``config.init`` or one cell; needed for a
+        ``config.shape``); unused when ``out`` holds a checkpoint.
 
     Returns
     -------
@@ -415,7 +444,7 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         A step failed (see their docstrings).
     """
     config.validate()
-    sim = Simulation(config, out, change_step_policy=change_step_policy)
+    sim = Simulation(config, out, state=state, change_step_policy=change_step_policy)
     goal = {"radius": config.radius, "time": config.time}
     checkpointer = None if sim.output is None else _Checkpointer(sim)
     steps = 0

@@ -17,8 +17,9 @@ One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
 5. divide particles with l >= 2 (growth.divide; done by ``Simulation.step`` after this
    module's :func:`robust_step`, with the time, step count and warm start).
 
-With ``adaptive_dt`` the next step's length follows the cost of this step's passes
-(:func:`next_dt`); ``dt`` is then the first and the largest step.
+The next step's length follows ``Config.step_control`` (:func:`next_dt`): "overlap" (the
+default: keep the overlap the linearised step leaves near MAIN_OVERLAP), "fixed" (``dt``) or
+"cost" (follow the cost of the re-solve passes); ``dt`` is the first and the largest step.
 
 The step's diagnostics (``simulation.StepRecord``) are the real overlap after step 4, the
 solver iterations of steps 2 and 4 together (``iterations``), those of step 4 alone
@@ -28,6 +29,7 @@ solver iterations of steps 2 and 4 together (``iterations``), those of step 4 al
 
 from __future__ import annotations
 
+import math
 import time as _time
 from typing import TYPE_CHECKING
 
@@ -111,6 +113,20 @@ at dt = 0.01 and lam = 1e-3 a few passes took 22,000 to 200,000 (the cap) before
 halved anyway."""
 
 
+def motion(state: ParticleState, x0: np.ndarray, y0: np.ndarray, theta0: np.ndarray) -> dict:
+    """Largest rotation max_n |theta_n - theta0_n| and displacement max_n |x_n - x0_n| of a step.
+
+    Diagnostics (history.csv): large turns were the suspected cause of failed steps at paper
+    scale, but they are not a predictor (lam = 0, radius 40, dt = 0.01: median 0.14 rad, 1 %
+    of the steps above 1.2 rad, none halved: rods at the edge turn freely); the step control
+    uses the overlap the turns leave (``main_overlap``, :func:`next_dt`).
+    """
+    if state.n == 0:
+        return {"max_rotation": 0.0, "max_displacement": 0.0}
+    return {"max_rotation": float(np.abs(state.theta - theta0).max()),
+            "max_displacement": float(np.hypot(state.x - x0, state.y - y0).max())}
+
+
 def _solve(solver, spent: list, *args):
     """solver(*args), adding its iterations to spent[0] whether or not it converges."""
     try:
@@ -142,6 +158,7 @@ def step(state: ParticleState, config: Config, dt: float,
     margin = config.contact_margin
     spent = [0] if spent is None else spent
     n = state.n
+    start = (state.x.copy(), state.y.copy(), state.theta.copy())
     c = detect(state, margin, timers)
     t0 = _time.perf_counter()
     keys = c.keys(state.ids)
@@ -162,6 +179,8 @@ def step(state: ParticleState, config: Config, dt: float,
     while True:
         c2 = detect(state, margin, timers)
         overlap = max(0.0, -float(c2.gap.min())) if len(c2) else 0.0
+        if passes == 0:
+            main_overlap = overlap
         if overlap <= config.tol:
             break
         if passes >= config.max_passes:
@@ -180,7 +199,8 @@ def step(state: ParticleState, config: Config, dt: float,
     state.stress = stress
     info = {"iterations": main_iterations + pass_iterations, "pass_iterations": pass_iterations,
             "failed_iterations": 0, "passes": passes, "n_contacts": len(c),
-            "residual": float(hist[-1]), "max_overlap": overlap, "contacts": c, "gamma": gamma}
+            "residual": float(hist[-1]), "max_overlap": overlap, "contacts": c, "gamma": gamma,
+            "main_overlap": main_overlap, **motion(state, *start)}
     return info, (keys, gamma)
 
 
@@ -215,20 +235,44 @@ def robust_step(state: ParticleState, config: Config, dt: float,
     for k in ("iterations", "pass_iterations", "failed_iterations", "passes", "substeps"):
         info[k] = a[k] + b[k]
     info["failed_iterations"] += spent[0]
-    info["max_overlap"] = max(a["max_overlap"], b["max_overlap"])
-    info["residual"] = max(a["residual"], b["residual"])
+    for k in ("max_overlap", "residual", "max_rotation", "max_displacement", "main_overlap"):
+        info[k] = max(a[k], b[k])
     return info, warm
 
 
+STEP_CONTROLS = ("fixed", "overlap", "cost")
+"""Step controls of :func:`next_dt` (``Config.step_control``)."""
+
 DT_GROWTH, DT_SHRINK = 1.02, 0.7
-"""Factors of :func:`next_dt`."""
+"""Factors of the "cost" control of :func:`next_dt`."""
+
+MAIN_OVERLAP = 0.05
+"""Largest real overlap after the main move (b/10) that the "overlap" control aims at; see
+:func:`next_dt` for the measurement behind it."""
+
+DT_RISE = 1.25
+"""The "overlap" control lengthens the step by at most this factor per step."""
 
 
-def next_dt(dt: float, info: dict, dt_max: float) -> float:
+def next_dt(dt: float, info: dict, dt_max: float, control: str = "overlap") -> float:
     """Length of the next step after a step of length dt with diagnostics ``info``.
 
-    The main solve's work is nearly independent of dt (its iterations scale with dt), while
-    the re-solve passes grow from a few percent of it to more than all of it, with failed
+    ``control`` = "fixed": dt_max.
+
+    "overlap": a step moves the rods with contacts linearised about its start; the real overlap
+    e after that move (``main_overlap``, before the re-solve passes) is the linearisation's
+    error, second order in the motion, so e ~ dt^2.  Measured (lam = 0 to radius 40, dt = 0.02,
+    N > 1000): the passes cost 2-9 % of the main solve where e < 0.1, 16 % where e is in
+    [0.1, 0.3), 38 % above, and every halved step followed a step with e >= 0.35 (e saturates at
+    b = 0.5: crossed rods, which the passes cannot separate).  At paper scale and small lam the
+    same happens at any fixed dt the colony outgrows (docs/benchmarks.md).  So
+
+        dt' = min(dt_max, DT_RISE dt, dt sqrt(MAIN_OVERLAP / e)),
+
+    and at most dt / 2 after a halved step.
+
+    "cost": the main solve's work is nearly independent of dt (its iterations scale with dt),
+    while the re-solve passes grow from a few percent of it to more than all of it, with failed
     attempts, once dt is too long for the colony's speeds (measured, lam = 1e-3 to radius 40:
     187,000 main iterations at dt = 0.005 and at 0.01; pass iterations 15,000 and 395,000).
     So, with r = pass_iterations / (main iterations):
@@ -236,18 +280,26 @@ def next_dt(dt: float, info: dict, dt_max: float) -> float:
         halved step (substeps > 1)  ->  dt / 2,
         r > 1/2                     ->  DT_SHRINK dt,
         r < 1/4                     ->  min(DT_GROWTH dt, dt_max),
-        otherwise                   ->  dt,
+        otherwise                   ->  dt.
 
-    never below dt_max / 2^(MAX_HALVINGS + 2).
+    Both adaptive controls stay above dt_max / 2^(MAX_HALVINGS + 2).
     """
-    main = info["iterations"] - info["pass_iterations"]
-    r = info["pass_iterations"] / max(main, 1)
-    if info["substeps"] > 1:
-        new = dt / 2
-    elif r > 0.5:
-        new = DT_SHRINK * dt
-    elif r < 0.25:
-        new = min(DT_GROWTH * dt, dt_max)
+    if control == "fixed":
+        return dt_max
+    if control == "overlap":
+        e = max(info["main_overlap"], 1e-300)
+        new = min(dt_max, dt * min(DT_RISE, math.sqrt(MAIN_OVERLAP / e)))
+        if info["substeps"] > 1:
+            new = min(new, dt / 2)
     else:
-        new = dt
+        main = info["iterations"] - info["pass_iterations"]
+        r = info["pass_iterations"] / max(main, 1)
+        if info["substeps"] > 1:
+            new = dt / 2
+        elif r > 0.5:
+            new = DT_SHRINK * dt
+        elif r < 0.25:
+            new = min(DT_GROWTH * dt, dt_max)
+        else:
+            new = dt
     return max(new, dt_max / 2 ** (MAX_HALVINGS + 2))

@@ -4,7 +4,8 @@ The main contact solve costs about the same in total whatever dt (its iterations
 dt), while the re-detection passes that remove the overlaps left by the linearised step grow
 from a few percent of it to more than all of it once dt is too long for the colony's speeds,
 which grow as lam falls.  For each lam of ``--lams`` and each policy of ``--policies``
-(``fixed:DT`` or ``adaptive:DT_MAX``, see particles.stepping.next_dt) one colony is grown from
+(``CONTROL:DT`` with CONTROL = fixed, overlap or cost, DT the largest step; see
+particles.stepping.next_dt) one colony is grown from
 one cell to ``--radius`` and the table reports CPU seconds, steps, the solver iterations of
 the main solves, of the passes and of failed attempts (redone as half steps), and t at the
 radius (the result, which the step must not change beyond its first-order error).
@@ -21,7 +22,7 @@ no longer hold and the passes meet crossed rods).
 Command line::
 
     python -m cases.bench.timestep [--radius 40] [--lams 1e-2 1e-3 1e-4 0]
-                                   [--policies fixed:0.005 fixed:0.01 fixed:0.02 adaptive:0.04]
+                                   [--policies fixed:0.005 fixed:0.01 fixed:0.02 overlap:0.01]
                                    [--uncapped] [--out runs/bench_timestep.csv]
     python -m cases.bench.timestep --checkpoint RUN/checkpoint.npz [--duration 0.02]
                                    [--policies fixed:0.005 fixed:0.0025]
@@ -61,22 +62,23 @@ CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "duration", "cpu_s", "wall_
                       "max_rotation", "rotation_q999", "n_particles")
 
 
-def parse_policy(text: str) -> tuple[bool, float]:
-    """'fixed:DT' -> (False, DT); 'adaptive:DT_MAX' -> (True, DT_MAX)."""
+def parse_policy(text: str) -> tuple[str, float]:
+    """'CONTROL:DT' -> (CONTROL, DT), CONTROL one of stepping.STEP_CONTROLS."""
     kind, _, value = text.partition(":")
-    if kind not in ("fixed", "adaptive"):
-        raise ValueError(f"policy must be fixed:DT or adaptive:DT_MAX, got {text!r}")
+    message = f"policy must be CONTROL:DT with CONTROL in {', '.join(stepping.STEP_CONTROLS)}"
+    if kind not in stepping.STEP_CONTROLS:
+        raise ValueError(f"{message}, got {text!r}")
     try:
         dt = float(value)
     except ValueError:
-        raise ValueError(f"policy must be fixed:DT or adaptive:DT_MAX, got {text!r}") from None
-    return kind == "adaptive", dt
+        raise ValueError(f"{message}, got {text!r}") from None
+    return kind, dt
 
 
 def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> dict:
     """One colony from one cell to ``radius`` under ``policy``; its costs and result."""
-    adaptive, dt = parse_policy(policy)
-    config = Config(lam=lam, radius=radius, dt=dt, adaptive_dt=adaptive)
+    control, dt = parse_policy(policy)
+    config = Config(lam=lam, radius=radius, dt=dt, step_control=control)
     config.validate()
     floor = stepping.PASS_ITERATION_FLOOR
     if uncapped:
@@ -108,8 +110,8 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
     config = checkpoint_config(Path(path))
     state, *_ = load_checkpoint(Path(path), config)
     t0, rng, warm = state.t, state.rng, state.warm
-    adaptive, dt_max = parse_policy(policy)
-    config = replace(config, dt=dt_max, adaptive_dt=adaptive)
+    control, dt_max = parse_policy(policy)
+    config = replace(config, dt=dt_max, step_control=control)
     t, dt, rows, turns = t0, dt_max, [], []
     w0, c0 = time.perf_counter(), time.process_time()
     while t < t0 + duration * (1 - 1e-9):
@@ -120,7 +122,7 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
         divide(state, rng, config.division_noise)
         rows.append(info)
         t += dt
-        dt = stepping.next_dt(dt, info, dt_max) if adaptive else dt_max
+        dt = stepping.next_dt(dt, info, dt_max, control)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     turns = np.concatenate(turns)
 
@@ -209,7 +211,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     ap.add_argument("--radius", type=float, default=40.0)
     ap.add_argument("--lams", type=float, nargs="+", default=[1e-2, 1e-3, 1e-4, 0.0])
     ap.add_argument("--policies", nargs="+",
-                    default=["fixed:0.005", "fixed:0.01", "fixed:0.02", "adaptive:0.04"])
+                    default=["fixed:0.005", "fixed:0.01", "fixed:0.02", "overlap:0.01"])
     ap.add_argument("--uncapped", action="store_true",
                     help="also run each fixed policy without the pass iteration cap")
     ap.add_argument("--out", type=Path, default=Path("runs/bench_timestep.csv"))

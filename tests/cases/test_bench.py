@@ -68,14 +68,14 @@ def test_bench_timestep_small(tmp_path, capsys):
 
     out = tmp_path / "b.csv"
     rows = bench_timestep.main(["--radius", "4", "--lams", "1e-2", "--policies", "fixed:0.02",
-                                "adaptive:0.08", "--uncapped", "--out", str(out)])
+                                "cost:0.08", "--uncapped", "--out", str(out)])
     assert [(r["policy"], r["uncapped"]) for r in rows] == [
-        ("fixed:0.02", False), ("fixed:0.02", True), ("adaptive:0.08", False)]
+        ("fixed:0.02", False), ("fixed:0.02", True), ("cost:0.08", False)]
     for r in rows:
         assert r["main_iterations"] > 0 and r["steps"] > 10 and r["n_particles"] > 4
     assert rows[0]["t_at_radius"] == pytest.approx(rows[2]["t_at_radius"], rel=0.05)
     assert len(np.genfromtxt(out, delimiter=",", names=True, dtype=None)) == 3
-    assert "| 0.01 | adaptive:0.08 |" in capsys.readouterr().out
+    assert "| 0.01 | cost:0.08 |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench_timestep.main(["--policies", "fixed:abc"])
 
@@ -89,7 +89,7 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     """
     from cases.bench import timestep as bench_timestep
 
-    cfg = Config(lam=1e-2, time=3.6, dt=0.02, seed=3)
+    cfg = Config(lam=1e-2, time=3.6, dt=0.02, seed=3, step_control="fixed")
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
     part.mkdir()
@@ -119,6 +119,26 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
         work.sum(), rel=1e-6)
     with pytest.raises(SystemExit):
         bench_timestep.main(["--history", str(tmp_path / "none")])
+
+
+def test_bench_threads_small(tmp_path, capsys):
+    """cases.bench.threads: a row per thread count, ratio 1 for one thread; bad input refused."""
+    from cases.bench import threads as bench_threads
+
+    sim = particles.Simulation(Config(lam=1e-2, seed=1))
+    sim.advance(radius=4.0)
+    ck = sim.save(tmp_path / "ck.npz")
+    counts = [1, 2] if numba.config.NUMBA_NUM_THREADS >= 2 else [1]
+    rows = bench_threads.main(["--checkpoint", str(ck), "--steps", "2", "--repeats", "1",
+                               "--threads", *map(str, counts), "--out", str(tmp_path / "t.csv")])
+    assert [r["threads"] for r in rows] == counts
+    assert rows[0]["ratio_to_one_thread"] == 1.0 and rows[0]["n_particles"] == sim.state.n
+    assert all(r["seconds_per_step"] > 0 for r in rows)
+    assert "| 1 | no |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench_threads.main(["--checkpoint", str(tmp_path / "none.npz")])
+    with pytest.raises(SystemExit):
+        bench_threads.main(["--checkpoint", str(ck), "--threads", "0"])
 
 
 def test_bench_psi_transport_labels_exact(capsys):

@@ -109,10 +109,10 @@ def test_particles_end_to_end(tmp_path):
     out = tmp_path / "p"
     res = _colony(
         "particles", "--lam", "1e-2", "--radius", "3", "--seed", "3", "--out", str(out), "--quiet",
-        "--adaptive-dt",
+        "--step-control", "cost",
     )
     assert res.returncode == 0, res.stderr
-    assert json.loads((out / "config.json").read_text())["adaptive_dt"] is True
+    assert json.loads((out / "config.json").read_text())["step_control"] == "cost"
     for name in (
         "history.csv",
         "profile.csv",

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from continuum import mesh as M
+from continuum.shapes import polygon_csv
 
 
 def test_polygon_orientation_and_closing_vertex():
@@ -38,9 +39,9 @@ def test_load_polygon_requires_closed(tmp_path):
     f = tmp_path / "p.csv"
     f.write_text("x,y\n0,0\n1,0\n1,1\n0,1\n")
     with pytest.raises(M.PolygonError, match="not closed"):
-        M.load_polygon_csv(f)
+        polygon_csv(f)
     f.write_text("x,y\n0,0\n1,0\n1,1\n0,1\n0,0\n")
-    assert M.polygon_area(M.load_polygon_csv(f)) == pytest.approx(1.0)
+    assert M.polygon_area(polygon_csv(f)) == pytest.approx(1.0)
 
 
 def test_resample_ellipse_stays_on_curve_fourth_order():

@@ -59,9 +59,10 @@ def test_advance_equals_run_bit_for_bit(goal):
 def test_save_load_continues_bit_for_bit(tmp_path):
     """Steps after save + load are those of the uninterrupted simulation.
 
-    With adaptive dt, so the step length and the warm start are part of the saved state.
+    With the adaptive ("overlap") step, so the step length and the warm start are part of the
+    saved state.
     """
-    cfg = Config(lam=1e-2, seed=4, dt=0.02, adaptive_dt=True)
+    cfg = Config(lam=1e-2, seed=4, dt=0.02, step_control="overlap")
     whole = Simulation(cfg)
     for _ in range(120):
         whole.step()

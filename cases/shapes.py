@@ -1,0 +1,99 @@
+"""Initial shapes of both engines: the shape specification joined with the particle fill.
+
+The specification (``circle:R``, ``ellipse:A,B``, ``rectangle:W,H[,ROUND]``, ``star:K,EPS[,R]``,
+``polygon:FILE.csv``, ``line:N``) is parsed once, by :mod:`continuum.shapes`, which also gives
+the outline; :mod:`particles.packings` fills an outline with rods. ``continuum`` and
+``particles`` may not import each other, so this module joins them: the continuum reads
+``Config.shape`` itself, and the particle engine takes the state built here::
+
+    import particles
+    from cases.shapes import initial_particles
+    state = initial_particles("star:5,0.2,8", seed=1)
+    config = particles.Config(lam=1e-2, time=1.0, seed=1, shape="star:5,0.2,8")
+    sim = particles.run(config, state=state)
+
+(``initial_state(config)`` builds the same state from a configuration.)
+"""
+
+from __future__ import annotations
+
+from continuum import shapes
+from particles import packings
+from particles.state import ParticleState
+
+__all__ = ["initial_particles", "initial_state"]
+
+
+def initial_particles(spec: str, seed: int = 0, orientation: str = "tangent",
+                      lengths: str = "stable") -> ParticleState:
+    """The particles at t = 0 of a shape specification.
+
+    ``line:N``: packings.line(N), N cells of length 1 end to end on the x axis; any other
+    shape: continuum.shapes.outline(spec) (the default radius of ``circle`` and ``star:K,EPS``
+    is R0 = sqrt(b/pi), as in the continuum) filled by packings.fill_outline with these
+    ``seed``, ``orientation`` and ``lengths``.
+
+    Raises
+    ------
+    ValueError
+        One line: a malformed spec (continuum.shapes.parse), a bad option, or an outline too
+        small to hold a rod.
+    """
+    shape = shapes.parse(spec)
+    if shape.kind == "line":
+        return packings.line(shape.values[0])
+    return packings.fill_outline(shapes.outline(shape), seed=seed, orientation=orientation,
+                                 lengths=lengths)
+
+
+def initial_state(config) -> ParticleState | None:
+    """The initial particles of a ``particles.Config`` with a ``shape`` (else None).
+
+    ``initial_particles(config.shape, config.seed, config.fill_orientation,
+    config.fill_lengths)``.
+    """
+    if config.shape is None:
+        return None
+    return initial_particles(config.shape, config.seed, config.fill_orientation,
+                             config.fill_lengths)
+
+
+#: Shapes of the packing table (docs/tutorial.md, "Shapes").
+TABLE_SHAPES = ("circle:8", "circle:20", "ellipse:8,4", "rectangle:12,3,0.5", "star:3,0.3,8",
+                "star:5,0.2,8")
+
+
+def packing_table(specs=TABLE_SHAPES, seed: int = 0) -> list[dict]:
+    """N, the length packing b sum l / A and the area fraction of the fill of each shape.
+
+    For both orientations of particles.packings.fill_outline, with the seconds it took (the
+    first call includes Numba's compilation when its cache is cold).
+    """
+    import time
+
+    from continuum.mesh import polygon_area
+    from particles.packings import FILL_ORIENTATIONS, packing_fractions
+
+    rows = []
+    for spec in specs:
+        area = polygon_area(shapes.outline(spec))
+        for orientation in FILL_ORIENTATIONS:
+            start = time.perf_counter()
+            state = initial_particles(spec, seed, orientation)
+            seconds = time.perf_counter() - start
+            phi_l, phi_a = packing_fractions(state.length, area)
+            rows.append({"shape": spec, "orientation": orientation, "area": round(area, 2),
+                         "N": state.n, "length packing": round(phi_l, 3),
+                         "area fraction": round(phi_a, 3),
+                         "mean length": round(float(state.length.mean()), 3),
+                         "seconds": round(seconds, 2)})
+    return rows
+
+
+if __name__ == "__main__":  # python -m cases.shapes: the table of docs/tutorial.md
+    table = packing_table()
+    keys = list(table[0])
+    print("| " + " | ".join(keys) + " |")
+    print("|" + "---|" * len(keys))
+    for row in table:
+        print("| " + " | ".join(str(row[k]) for k in keys) + " |")
