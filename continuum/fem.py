@@ -22,9 +22,9 @@ stiffness and mass matrices ::
 
 assembled by scikit-fem (``BilinearForm`` on a ``CellBasis``; quadrature of degree 2 for P1,
 4 for P2: exact on affine elements) and the lumped mass m (HRZ: the diagonal of M scaled to the
-total area, m_i = M_ii sum(M) / trace(M); for P1 the row sums sum_T |T|/3). The load of the
-growth rate is b = M g, g = exp(-lam p) at the degrees of freedom (the consistent load of the
-interpolant of g; for P1 exactly the hand-written assembly's).
+total area, ``m_i = M_ii sum(M) / trace(M)``; for P1 the row sums ``sum_T |T| / 3``). The
+load of the growth rate is b = M g, g = exp(-lam p) at the degrees of freedom (the consistent
+load of the interpolant of g; for P1 exactly the hand-written assembly's).
 
 Reuse while only the points move (``LagrangeSpace``): the topology-dependent parts are built
 once per mesh topology: scikit-fem's ``Dofs``, the sorted connectivity, the CSR pattern of the
@@ -84,8 +84,8 @@ def boundary_midpoints(boundary: np.ndarray) -> np.ndarray:
     """Midpoints of the boundary edges (i, i+1) on the smooth curve through the vertices, (K, 2).
 
     The periodic cubic spline x(s) in the chordal arc length s (as continuum.mesh.
-    resample_polygon) at s_i + |e_i| / 2; a polygon turning by more than ``CORNER_ANGLE`` at a
-    vertex keeps its straight midpoints (a spline through a corner overshoots).
+    resample_polygon) at ``s_i + |e_i| / 2``; a polygon turning by more than ``CORNER_ANGLE``
+    at a vertex keeps its straight midpoints (a spline through a corner overshoots).
     """
     nxt = np.roll(boundary, -1, axis=0)
     if len(boundary) < 4 or np.max(turning_angles(boundary)) > CORNER_ANGLE:
@@ -279,7 +279,7 @@ class LagrangeSpace:
         """The gradient of p_h at every vertex, (N, 2): element values area-weighted over the patch.
 
         Each element's gradient is evaluated at its own vertices (a ``CellBasis`` whose
-        quadrature points are the reference vertices) and averaged with weights |T| over the
+        quadrature points are the reference vertices) and averaged with weights ``|T|`` over the
         elements around each vertex. O(h) for P1 (a patch average), O(h^2) for P2.
         """
         X = np.array([[0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # reference vertices, local 0, 1, 2
