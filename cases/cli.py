@@ -4,6 +4,8 @@
 
     colony continuum --lam LAM (--radius R | --time T) [--shape SHAPE] [--element P1|P2]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
+    colony continuum --from-particles RUN_DIR [--alpha A] [--bandwidth H] [--lam LAM]
+                     (--radius R | --time T) [--out DIR] ...
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv | --shape SHAPE]
                      [--fill-orientation tangent|rows] [--seed S] [--dt DT]
                      [--step-control overlap|fixed|cost] [--division-noise EPS]
@@ -41,7 +43,7 @@ import threading
 import tomllib
 from pathlib import Path
 
-from cases.analysis import field_profile, particle_profile, write_csv
+from cases.analysis import continuum_profile, particle_profile, write_csv
 from cases.rundir import (
     RECORD,
     RunFolderError,
@@ -65,6 +67,7 @@ CASES = {
     "fig3": "cases.figures.fig3",
     "fig4": "cases.figures.fig4",
     "crosscheck": "cases.figures.crosscheck",
+    "stability": "cases.studies.stability",
 }
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
@@ -159,27 +162,36 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
     return result
 
 
-def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True):
-    """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG."""
+def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True,
+                  start: tuple | None = None):
+    """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG.
+
+    ``start``: (state, record) of ``cases.handoff.continuum_start``, the state at t = 0 of a
+    particle colony handed over (handoff.json and outline.csv written first; the picture then
+    shows the transported mean length).
+    """
     from cases.figures.draw import continuum_picture
+    from cases.handoff import check_resume, write_handoff
     from continuum.budget import check_memory
     from continuum.output import write_rings
     from continuum.simulation import run
 
     def body(partial):
-        state = run(config, out=partial, progress=progress).state
-        profile = field_profile(state.points, state.triangles,
-                                {"mean_length": state.fields["mean_length"],
-                                 "mean_length_psi": state.fields["mean_length_psi"],
-                                 "pressure": state.fields["p"], "G": state.fields["G"]},
-                                edge_width=CONTINUUM_EDGE_WIDTH)
-        write_csv(partial / "profile.csv", profile)
+        if start is not None:
+            write_handoff(partial, start[1])
+        state = run(config, out=partial, progress=progress,
+                    initial=None if start is None else start[0]).state
+        write_csv(partial / "profile.csv", continuum_profile(
+            state.points, state.triangles, state.fields, edge_width=CONTINUUM_EDGE_WIDTH))
         write_rings(partial, state.points, state.triangles, state.fields["G"])
-        continuum_picture(state, partial / "mean_length", config.lam)
+        continuum_picture(state, partial / "mean_length", config.lam,
+                          transported=start is not None)
         _remove_checkpoints(partial)
         return state
 
     check_memory(config)  # before the stage is touched (the engine checks again on a fresh start)
+    if not overwrite:  # a stopped run resumes from its own start only
+        check_resume(partial_of(Path(os.path.abspath(out))), None if start is None else start[1])
     return _staged_run("continuum", config, Path(out), overwrite, body,
                        resumable=CHECKPOINTS)
 
@@ -252,6 +264,14 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--shape", default=None,
                    help="initial shape: circle (default, radius R0), circle:R, ellipse:A,B, "
                    "rectangle:W,H[,ROUND], star:K,EPS[,R] or polygon:FILE.csv")
+    c.add_argument("--from-particles", metavar="RUN_DIR", default=None,
+                   help="start from the final state of a particle run (cases.handoff): its "
+                   "alpha-shape outline and kernel-smoothed size distribution; lam defaults "
+                   "to the particle run's")
+    c.add_argument("--alpha", type=float, default=None,
+                   help="with --from-particles: alpha of the outline (default 1 = 2 rod widths)")
+    c.add_argument("--bandwidth", type=float, default=None,
+                   help="with --from-particles: Gaussian kernel bandwidth of Psi0 (default 2)")
     c.add_argument("--h-max", type=float,
                    help="largest boundary mesh spacing (default 0.55; sets the resolution)")
     c.add_argument("--n-nodes", type=int, help="node count while the colony is small")
@@ -270,7 +290,7 @@ def parser() -> argparse.ArgumentParser:
                    help="time step (the largest, unless --step-control fixed; default 0.01)")
     p.add_argument("--step-control", choices=("overlap", "fixed", "cost"),
                    help="overlap (default): shorten the step where its linearised move leaves "
-                   "overlaps above b/10; "
+                   "overlaps above 0.3 b; "
                    "fixed: every step --dt; cost: follow the cost of the re-solve passes")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
@@ -320,6 +340,50 @@ def _finite(name: str, value):
     return value
 
 
+def _handoff_options(args, flags: dict) -> tuple | None:
+    """(run folder, alpha, bandwidth) of --from-particles, checked; None without it.
+
+    The particle run's folder and last frame are checked here, before any work; its lam is
+    the default of ``flags["lam"]`` (unless --lam, --config or --set lam= gives one).
+    """
+    from cases import handoff
+
+    extra = [name for name in ("alpha", "bandwidth") if getattr(args, name) is not None]
+    if args.from_particles is None:
+        if extra:
+            raise UsageError(f"--{extra[0]} needs --from-particles")
+        return None
+    if args.shape is not None:
+        raise UsageError("give either --shape or --from-particles, not both")
+    for name in extra:
+        if not (math.isfinite(getattr(args, name)) and getattr(args, name) > 0):
+            raise UsageError(f"--{name} must be a positive number, got {getattr(args, name)}")
+    try:
+        handoff.final_particles(args.from_particles)
+    except ValueError as err:
+        raise UsageError(f"--from-particles: {err}") from None
+    lam_elsewhere = args.config or any(s.strip().startswith("lam=") for s in args.set)
+    if flags["lam"] is None and not lam_elsewhere:
+        flags["lam"] = handoff.particle_lam(args.from_particles)
+    return (args.from_particles,
+            handoff.ALPHA if args.alpha is None else args.alpha,
+            handoff.BANDWIDTH if args.bandwidth is None else args.bandwidth)
+
+
+def _handoff_start(config, run_dir: str, alpha: float, bandwidth: float) -> tuple:
+    """(state, record) of the particle run's final state (cases.handoff.continuum_start).
+
+    The radius goal must lie beyond the outline's radius sqrt(A / pi).
+    """
+    from cases.handoff import continuum_start
+
+    state, record = continuum_start(run_dir, config, alpha, bandwidth)
+    if config.radius is not None and config.radius <= record["outline_radius"]:
+        raise UsageError(f"--radius {config.radius:g} is not beyond the particle colony's "
+                         f"radius sqrt(A/pi) = {record['outline_radius']:.4g}")
+    return state, record
+
+
 def _dispatch(args) -> int:
     progress = not args.__dict__.get("quiet", False)
     if args.command == "continuum":
@@ -330,8 +394,10 @@ def _dispatch(args) -> int:
                  "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
                  "output_every": _finite("output-every", args.output_every),
                  "element": args.element}
+        handoff = _handoff_options(args, flags)
         config = build_config(continuum.Config, args.config, args.set, flags)
-        run_continuum(config, Path(args.out), args.overwrite, progress)
+        start = None if handoff is None else _handoff_start(config, *handoff)
+        run_continuum(config, Path(args.out), args.overwrite, progress, start)
         print(f"continuum run written to {args.out}")
     elif args.command == "particles":
         import particles

@@ -7,7 +7,9 @@ read a run folder of either engine (docs/DESIGN.md, output contract):
 - particles: config.json, history.csv, trajectory.gsd (particles.csv for the final picture).
 
 Particles are sphero-cylinders coloured by their length l, the continuum is its mean length
-lbar = 2^frac(G / ln 2) with the domain boundary; both on the colour scale [1, 2] of the paper's
+lbar = 2^frac(G / ln 2) with the domain boundary (a run handed over from particles,
+``handoff.json``: the transported Psi's nodal mean_length_psi, as 2^frac(G / ln 2) holds for the
+model's start only); both on the colour scale [1, 2] of the paper's
 Fig 2 (cases.figures.draw.LENGTH_LIMITS).  The final pictures are those
 ``colony continuum|particles`` draws (cases.figures.draw, reused); R(t) comes from
 history.csv.  Movie frames share one colour scale and the axis limits of the largest (last)
@@ -37,6 +39,7 @@ from cases.figures.draw import (  # noqa: E402
     DEFAULT_CMAP,
     LENGTH_LIMITS,
     continuum_picture,
+    draw_field,
     draw_mean_length,
     draw_particles,
     particles_picture,
@@ -111,7 +114,8 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
         if "G" not in data:
             raise ValueError(f"{d}: {vtu.name} has no point data G")
         state = SimpleNamespace(points=points, triangles=triangles, fields=data, t=t)
-        continuum_picture(state, o / "mean_length", lam)
+        continuum_picture(state, o / "mean_length", lam,
+                          transported=_handed_over(d) and "mean_length_psi" in data)
         paths = [o / "mean_length.png"]
     else:
         colony = _final_particles(d, hist)
@@ -119,7 +123,8 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
         paths = [o / "colony.png"]
     paths.append(_plot_radius(hist, kind, lam, o / "radius.png"))
     if (d / "profile.csv").is_file():
-        paths.append(_plot_profile(read_csv(d / "profile.csv"), kind, lam, o / "profile.png"))
+        paths.append(_plot_profile(read_csv(d / "profile.csv"), kind, lam, o / "profile.png",
+                                   closed_form=not _handed_over(d)))
     return paths
 
 
@@ -155,9 +160,29 @@ def _plot_radius(hist, kind: str, lam: float, path: Path) -> Path:
     return path
 
 
-def _plot_profile(profile, kind: str, lam: float, path: Path) -> Path:
+def _handed_over(d: Path) -> bool:
+    """Whether a continuum run started from a particle colony (cases.handoff: handoff.json)."""
+    from cases.handoff import HANDOFF
+
+    return (d / HANDOFF).is_file()
+
+
+def _plot_profile(profile, kind: str, lam: float, path: Path, closed_form: bool = True) -> Path:
+    """Mean length against r; a continuum's transported Psi with its band, closed form dotted.
+
+    ``closed_form`` False (a run handed over from particles): without 2^frac(<G> / ln 2).
+    """
     fig, ax = plt.subplots(figsize=(5, 3.6))
-    ax.plot(profile["r"], profile["mean_length"], lw=1.2)
+    if "mean_length_psi" in profile:
+        r, m, s = profile["r"], profile["mean_length_psi"], profile["length_std_psi"]
+        ax.plot(r, m, lw=1.2, label=r"transported $\Psi$, $\pm$ 1 s.d.")
+        ax.fill_between(r, m - s, m + s, alpha=0.25, lw=0)
+        if closed_form:
+            ax.plot(r, profile["mean_length_phase"], ":", lw=1, color="k",
+                    label=r"$2^{\mathrm{frac}(\langle G\rangle/\ln 2)}$")
+        ax.legend(fontsize=8)
+    else:
+        ax.plot(profile["r"], profile["mean_length"], lw=1.2)
     ax.set_xlabel("r")
     ax.set_ylabel(r"mean length $\bar\ell$")
     ax.set_title(f"{kind}, lam = {lam:g}: final radial profile")
@@ -205,6 +230,7 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     d = Path(run_dir)
     kind = run_kind(d)
     lam = _lam(d)
+    handed_over = kind == "continuum" and _handed_over(d)
     out_path = Path(out_path)
     if fps <= 0 or (max_frames is not None and max_frames < 1):
         raise ValueError(f"fps must be > 0 and max_frames >= 1, got {fps}, {max_frames}")
@@ -251,7 +277,10 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
                 points, triangles, data = read_continuum_frame(item)
                 size = float(np.max(points.max(axis=0) - points.min(axis=0)))
                 px = max(32, int(pixels * size / float(np.max(hi - lo))))
-                draw_mean_length(points, triangles, data["G"], ax, pixels=px)
+                if handed_over and "mean_length_psi" in data:
+                    draw_field(points, triangles, data["mean_length_psi"], ax=ax)
+                else:
+                    draw_mean_length(points, triangles, data["G"], ax, pixels=px)
                 edges = points[boundary_edges(triangles)]
                 ax.add_collection(LineCollection(edges, colors="k", linewidths=0.8))
                 ax.set_title(f"continuum, lam = {lam:g}, t = {t:.3g}")

@@ -27,9 +27,12 @@ Modules, one concept each:
 - ``sizes``: Psi(x, l, t) in s = log2 l, transport with the division condition;
 - ``state``: the ``State`` of a colony and the ``StepRecord`` of a step;
 - ``simulation``: ``Config``, ``Simulation``, ``run``;
+- ``initial``: the state at t = 0 from any polygon and Psi0 (``state_from``; e.g. a particle
+  colony handed over by cases.handoff), grown by ``Simulation(config, initial=state)``;
 - ``checkpoint``: checkpoint files, SIGINT / SIGTERM deferred to the end of a step;
 - ``output``: the run folder's files (history, boundary, rings, VTU frames);
 - ``radial``: the exact 1D reference of a disc colony (R(t), p, u, characteristics, rings);
+- ``stability``: the linear rate of a mode-K boundary perturbation of a disc colony;
 - ``rings``: the rings G = k ln 2 of a 2D field (contours and their radii);
 - ``budget``: the size of a run's mesh and memory, estimated before meshing.
 """
@@ -40,6 +43,7 @@ from importlib import metadata as _metadata
 
 from continuum.budget import BudgetError
 from continuum.growth import growth_rate, mean_length
+from continuum.initial import state_from
 from continuum.mesh import PolygonError
 from continuum.pressure import PressureDivergence
 from continuum.radial import R0, NoRadialSolution, ring_radii
@@ -60,6 +64,7 @@ __all__ = [
     "State",
     "StepRecord",
     "run",
+    "state_from",
     "growth_rate",
     "mean_length",
     "radial_radius",

@@ -4,7 +4,8 @@
 - ``history.csv``: one row per time step (t, radius, area, max_pressure, n_nodes, ...);
 - ``boundary.csv``: final boundary polygon, columns x,y;
 - ``fields.pvd`` + ``fields/frame_NNNNN.vtu``: point data p, u, G, mean_length (delta initial
-  condition, from G), mean_length_psi, number, total_length (moments of Psi) and, whenever G is
+  condition, from G), mean_length_psi, length_std_psi, number, total_length (moments of Psi:
+  mean length, standard deviation of the lengths, number and length per area) and, whenever G is
   written, ring_index = floor(G / ln 2); meshio VTU (binary, zlib), one file per output step;
 - ``rings.csv`` (:func:`write_rings`): the rings G = k ln 2 of a final field, one row per ring
   (k, level, mean_radius, min_radius, max_radius, length, cx, cy, n_pieces;

@@ -254,6 +254,10 @@ class Simulation:
         ``config.output_every`` of time, :meth:`advance` the final files at its goal
         (history.csv, boundary.csv, the last frame), and :meth:`save` defaults to
         ``out/checkpoint.npz``.
+    initial : State, optional
+        The state at t = 0 instead of the configured shape and bump (a copy is grown;
+        continuum.initial.state_from builds one from a polygon and a Psi0). A checkpoint in
+        ``out`` takes precedence.
 
     Attributes
     ----------
@@ -283,7 +287,8 @@ class Simulation:
     >>> state = sim.advance(radius=5.0)
     """
 
-    def __init__(self, config: Config, out: Path | str | None = None):
+    def __init__(self, config: Config, out: Path | str | None = None,
+                 initial: State | None = None):
         config.validate(require_stop=False)
         limit_blas_threads(1)
         self.config = config
@@ -299,7 +304,7 @@ class Simulation:
             return
         check_memory(config)
         self.solver = PressureSolver(config.lam, config.element)
-        self.state = initial_state(config)
+        self.state = initial_state(config) if initial is None else initial.copy()
         self.solver.set_mesh(self.state.triangles, len(self.state.points), self.state.n_boundary)
         self._solve_flow()
         self.history = [StepRecord.of(self.state, 0.0, None).row()]
@@ -612,6 +617,7 @@ def run(
     out: Path | str | None = None,
     progress: bool = False,
     max_steps_this_call: int | None = None,
+    initial: State | None = None,
 ) -> Simulation:
     """Grow the colony until ``config.radius`` or ``config.time``; optionally write ``out``.
 
@@ -633,6 +639,8 @@ def run(
     max_steps_this_call : int, optional
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
         the returned simulation has ``finished = False``.
+    initial : State, optional
+        The state at t = 0 (:class:`Simulation`).
 
     Returns
     -------
@@ -656,7 +664,7 @@ def run(
     config.validate()
     stop = checkpoint.StopRequest().install()
     try:
-        sim = Simulation(config, out)
+        sim = Simulation(config, out, initial)
         _steps(sim, progress, max_steps_this_call, stop)
     finally:
         stop.restore()

@@ -15,7 +15,8 @@ Extending n by n(s + 1) = n(s)/2, the exact solution is a shift by the phase sig
 G = int g dt (see :func:`exact_shift`).
 
 Moments (per material element): number N = int n ds, total length L = int l n ds = int 2^s n ds,
-mean length lbar = L / N. Exact identities of the continuous problem::
+mean length lbar = L / N, spread of the lengths sqrt(Q / N - lbar^2) with Q = int 4^s n ds the
+sum of the squared lengths (``length_std``). Exact identities of the continuous problem::
 
     dN/dt = a n(1, t),        dL/dt = g L   =>   L(t) = exp(G) L(0)  for every initial n,
 
@@ -66,6 +67,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from continuum.growth import LN2
 
+LN4 = 2.0 * LN2
+"""ln 4: int 4^s ds = 4^s / ln 4."""
+
 __all__ = [
     "LengthGrid",
     "SizeDistribution",
@@ -77,6 +81,7 @@ __all__ = [
     "lw_mc_step",
     "remap_pivots",
     "split_phase",
+    "spread",
 ]
 
 TRANSPORTS = ("characteristics", "characteristics-labels", "finite-volume")
@@ -308,6 +313,14 @@ class SizeDistribution:
         """Mean length lbar = L / N per node."""
         return self.total_length() / self.number()
 
+    def square_length(self) -> NDArray:
+        """Sum of the squared lengths per material element, Q = int 4^s n ds (exact per cell)."""
+        return self.n @ (np.diff(4.0**self.grid.edges) / LN4)
+
+    def length_std(self) -> NDArray:
+        """Standard deviation of the lengths per node, sqrt(Q / N - lbar^2) (:func:`spread`)."""
+        return spread(self.number(), self.total_length(), self.square_length())
+
     # ------------------------------------------------------------------ remeshing
 
     def take(self, index: ArrayLike) -> SizeDistribution:
@@ -349,6 +362,16 @@ def exact_shift(f0: Callable[[NDArray], NDArray], shift: float) -> Callable[[NDA
         return 2.0**k * np.asarray(f0(y + k), dtype=float)
 
     return n
+
+
+def spread(number: ArrayLike, total: ArrayLike, square: ArrayLike) -> NDArray:
+    """Standard deviation of the lengths from the moments N, L = sum l, Q = sum l^2.
+
+    sqrt(max(Q / N - (L / N)^2, 0)): the cut removes the round-off of a one-cell distribution.
+    """
+    number = np.asarray(number, dtype=float)
+    mean = np.asarray(total, dtype=float) / number
+    return np.sqrt(np.maximum(np.asarray(square, dtype=float) / number - mean * mean, 0.0))
 
 
 # ---------------------------------------------------------------------------- characteristics
@@ -445,7 +468,8 @@ class CharacteristicSizes:
     Moments, exact for piecewise-constant n (the cell integral of 2^s)::
 
         N = sum_i n_i (ds + |cell_i cap [1, 2)|)        (cells past s = 1 count twice),
-        L = sum_i n_i int_cell_i 2^s ds = 2^phi sum_i n_i (2^((i+1) ds) - 2^(i ds)) / ln 2.
+        L = sum_i n_i int_cell_i 2^s ds = 2^phi sum_i n_i (2^((i+1) ds) - 2^(i ds)) / ln 2,
+        Q = sum_i n_i (int_(cell_i, s<1) 4^s ds + int_(cell_i, s>=1) 4^s ds / 2)   (squares).
 
     L is the same in every window (a division keeps the length), so L = exp(G) L(0) exactly
     along a path; N is piecewise linear in phi (rising while a cell crosses s = 1).
@@ -548,6 +572,24 @@ class CharacteristicSizes:
     def mean_length(self) -> NDArray:
         """Mean length lbar = L / N per node."""
         return self.total_length() / self.number()
+
+    def square_length(self) -> NDArray:
+        """Sum of the squared lengths per material element (class docstring), exact for cells.
+
+        The part of cell i below s = 1, [a, min(b, 1)), holds lengths 2^s; the part past it,
+        [max(a, 1), b), twice as many cells of length 2^(s - 1), i.e. 2 4^(s - 1) = 4^s / 2 per
+        unit of n: Q = sum_i n_i (int_lo 4^s ds + int_hi 4^s ds / 2).
+        """
+        a = self.phase[:, None] + self.grid.edges[None, :-1]
+        b = a + self.grid.ds
+        mid = np.clip(1.0, a, b)
+        lo = (4.0**mid - 4.0**a) / LN4
+        hi = (4.0**b - 4.0**mid) / LN4
+        return np.einsum("ij,ij->i", self.n, lo + 0.5 * hi)
+
+    def length_std(self) -> NDArray:
+        """Standard deviation of the lengths per node, sqrt(Q / N - lbar^2) (:func:`spread`)."""
+        return spread(self.number(), self.total_length(), self.square_length())
 
     def take(self, index: ArrayLike) -> CharacteristicSizes:
         """A new distribution holding the rows ``index`` (copy)."""

@@ -10,13 +10,16 @@ Fields (:attr:`State.fields`), nodal values:
 - p, u = -grad p, G = int g dt (the growth phase of each material element);
 - mean_length = 2^frac(G / ln 2): the exact mean length for the model's initial
   Psi0 = delta(l - 1) (continuum.growth.mean_length), what the figures show;
-- mean_length_psi, number, total_length: moments of the transported size distribution Psi
+- mean_length_psi, length_std_psi, number, total_length: moments of the transported size
+  distribution Psi (its mean length, the standard deviation of its lengths)
   (started from the smooth bump of ``SizeDistribution.bump``; number and total length per
   current area, i.e. per material element divided by its area stretch exp(G)). Along
   characteristics the bump is shifted exactly between remeshes, and with the default
   ``psi_transport`` (by labels) also across them, so mean_length_psi follows the closed form
   2^frac(G / ln 2 + w) of the bump's centre w to round-off; with finite volumes it smears
-  over many divisions.
+  over many divisions. length_std_psi is the spread of the lengths within one material element
+  (the bump's width away from the rings; across a ring, where part of the bump has divided,
+  the spread of a bimodal distribution, up to ~0.5).
 
 ``sizes`` is a continuum.sizes.CharacteristicSizes (values and phase offsets) or a
 continuum.sizes.SizeDistribution (cell averages), as ``Config.psi_transport`` says.
@@ -129,10 +132,10 @@ class State:
 
     @property
     def fields(self) -> dict[str, np.ndarray]:
-        """Nodal fields (new arrays): p, u, G, mean_length, mean_length_psi, number, total_length.
+        """Nodal fields (new arrays): p, u, G, mean_length and the moments of Psi.
 
-        See the module docstring; number and total length are per current area
-        (Psi moments times exp(-G)).
+        mean_length_psi, length_std_psi, number, total_length: see the module docstring;
+        number and total length are per current area (Psi moments times exp(-G)).
         """
         stretch = np.exp(-self.G)
         number = self.sizes.number()
@@ -143,6 +146,7 @@ class State:
             "G": self.G.copy(),
             "mean_length": mean_length(self.G),
             "mean_length_psi": total / number,
+            "length_std_psi": self.sizes.length_std(),
             "number": number * stretch,
             "total_length": total * stretch,
         }

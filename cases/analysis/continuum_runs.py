@@ -3,9 +3,10 @@
 The rings are the contours G = k ln 2 of the smooth growth phase (:mod:`continuum.rings`), not
 peaks of a binned profile: :func:`frame_rings`, :func:`continuum_rings` (a run's ``rings.csv``
 or its last frame), :func:`continuum_wavelength` and :func:`continuum_wavelength_series`
-(difference of the two outermost mean ring radii). Radial profiles average G and map the mean
-by 2^frac(. / ln 2) (:func:`final_continuum_profile`). The colony radius of a frame is
-sqrt(A / pi), A the mesh's area (:func:`mesh_radius`).
+(difference of the two outermost mean ring radii). Radial profiles (:func:`continuum_profile`,
+the run's ``profile.csv``; :func:`final_continuum_profile`) give the transported Psi's mean
+length and spread of lengths per annulus, with the closed form 2^frac(<G> / ln 2) beside.
+The colony radius of a frame is sqrt(A / pi), A the mesh's area (:func:`mesh_radius`).
 """
 
 from __future__ import annotations
@@ -20,12 +21,13 @@ from continuum import rings as _rings
 from continuum.mesh import triangle_areas
 
 from .io import continuum_frames, read_continuum_frame, read_csv
-from .profiles import field_profile
+from .profiles import PSI_FIELDS, field_profile
 from .rings import contour_wavelength, profile_wavelength
 
 __all__ = [
     "mesh_radius",
     "continuum_wavelength_series",
+    "continuum_profile",
     "final_continuum_profile",
     "frame_rings",
     "continuum_rings",
@@ -68,18 +70,40 @@ def _frame_wavelength(pts: np.ndarray, tri: np.ndarray, data: dict, edge_width: 
     return profile_wavelength(prof, noisy=False, **kwargs)
 
 
+def continuum_profile(points: np.ndarray, triangles: np.ndarray, fields: dict,
+                      edge_width: float = 0.05) -> dict[str, np.ndarray]:
+    """The radial profile of a continuum state or frame: ``profile.csv`` (:func:`field_profile`).
+
+    ``fields`` the nodal fields (continuum.state.State.fields, or a VTU frame's point data with
+    the pressure as ``p``). Columns (each with its ``_std``, the spread over the annulus, but
+    where said):
+
+    - r: the radius halving the annulus' area (equal-area annuli, the outermost at most
+      ``edge_width`` wide);
+    - mean_length: annulus mean of the closed form lbar = 2^frac(G / ln 2) at the nodes;
+    - pressure;
+    - G: the growth phase; number: the number of cells per area of the transported Psi;
+    - mean_length_psi, length_std_psi (no _std): the mean and the standard deviation of the
+      lengths of all the cells of the annulus, from the transported Psi (number-weighted; the
+      one-sigma band of Fig 4A);
+    - mean_length_phase (no _std): the closed form 2^frac(<G> / ln 2) of the annulus mean of G,
+      the mean length for Psi0 = delta(l - 1), the check beside mean_length_psi;
+    - count: samples in the annulus.
+
+    Frames written before a field existed (G, length_std_psi) lack its columns.
+    """
+    values = {"mean_length": fields["mean_length"], "pressure": fields["p"]}
+    for name in ("G", *PSI_FIELDS):
+        if name in fields:
+            values[name] = fields[name]
+    return field_profile(points, triangles, values, edge_width=edge_width)
+
+
 def final_continuum_profile(folder: str | os.PathLike, edge_width: float = 0.05
                             ) -> dict[str, np.ndarray]:
-    """Radial profile of the last VTU frame of a continuum run (:func:`field_profile`).
-
-    Columns mean_length, pressure and, when the frame has it, G with
-    mean_length_phase = 2^frac(<G> / ln 2).
-    """
+    """Radial profile of the last VTU frame of a continuum run (:func:`continuum_profile`)."""
     pts, tri, data = read_continuum_frame(continuum_frames(folder)[-1][1])
-    values = {"mean_length": data["mean_length"], "pressure": data["p"]}
-    if "G" in data:
-        values["G"] = data["G"]
-    return field_profile(pts, tri, values, edge_width=edge_width)
+    return continuum_profile(pts, tri, data, edge_width=edge_width)
 
 
 def frame_rings(path: str | os.PathLike) -> dict[str, np.ndarray]:

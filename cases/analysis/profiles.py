@@ -7,8 +7,9 @@ continuum's are area-uniform points of the domain where the P1 fields are interp
 - :func:`equal_area_annuli`, :func:`annuli_for_edge_width`: the weighted mean and standard
   deviation over N annuli of area pi R^2 / N (Fig 3A, Fig 4A);
 - :func:`radial_profile`: several fields at once, about a given centre or the samples' centroid;
-- :func:`field_profile`: P1 fields on a triangle mesh (continuum), with the growth phase's
-  mean length 2^frac(<G> / ln 2) (``mean_length_phase``);
+- :func:`field_profile`: P1 fields on a triangle mesh (continuum), with the transported Psi's
+  mean length and spread of lengths per annulus (``mean_length_psi``, ``length_std_psi``) and
+  the growth phase's closed form 2^frac(<G> / ln 2) (``mean_length_phase``) beside it;
 - :func:`particle_profile`: particle length and stress.
 """
 
@@ -24,12 +25,18 @@ from continuum.mesh import triangle_areas
 from particles.measures import centroid, enclosing_radius
 
 __all__ = [
+    "PSI_FIELDS",
     "annuli_for_edge_width",
     "equal_area_annuli",
     "radial_profile",
     "field_profile",
     "particle_profile",
 ]
+
+
+PSI_FIELDS = ("number", "mean_length_psi", "length_std_psi")
+"""The nodal moments of the transported Psi (continuum.state.State.fields) that
+:func:`field_profile` turns into the annulus' length distribution."""
 
 
 def annuli_for_edge_width(radius: float, edge_width: float) -> int:
@@ -193,18 +200,39 @@ def field_profile(
     into equal-area annuli (outermost at most `edge_width` wide) and sampled at
     `samples_per_annulus` area-uniform points per annulus (Vogel spiral); the fields are
     interpolated linearly in the mesh's triangles and samples outside the domain are dropped, so
-    each annulus averages over its intersection with the colony.
+    each annulus averages over its intersection with the colony. Every field gets the columns
+    "<name>" and "<name>_std" (:func:`radial_profile`), with two exceptions.
 
-    When `values` has the growth phase ``G``, the column ``mean_length_phase`` =
+    The transported size distribution. When `values` has the moments of Psi, ``number`` N (per
+    area), ``mean_length_psi`` m and ``length_std_psi`` s (``PSI_FIELDS``), the lengths of all
+    the cells of an annulus make one distribution: the densities N, L = N m and Q = N (s^2 + m^2)
+    (number, length and squared length per area, linear in Psi, so interpolated linearly) are
+    averaged over the annulus, and the columns are its mean length and standard deviation::
+
+        mean_length_psi = <L> / <N>,   length_std_psi = sqrt(<Q> / <N> - mean_length_psi^2),
+
+    the spread within each material element and between them together (law of total variance):
+    the continuum's counterpart of the particles' mean_length +- mean_length_std. ``number``
+    keeps its plain columns.
+
+    The closed form. When `values` has the growth phase ``G``, the column ``mean_length_phase`` =
     2^frac(<G> / ln 2) of the annulus mean <G> is added: G is smooth, so <G> = G(r) + O(w^2)
     (w the annulus width) and the mapped profile keeps the rings' jumps sharp (at the annulus
     resolution), where the annulus mean of the discontinuous lbar = 2^frac(G / ln 2) (column
-    ``mean_length``) smears each jump over the annulus and so shifts its apparent peak.
+    ``mean_length``) smears each jump over the annulus and so shifts its apparent peak. It is
+    the mean length for the model's Psi0 = delta(l - 1), the check beside ``mean_length_psi``.
     """
     from matplotlib.tri import LinearTriInterpolator, Triangulation
 
     points = np.asarray(points, dtype=float)
     triangles = np.asarray(triangles, dtype=np.int64)
+    values = dict(values)
+    psi = all(name in values for name in PSI_FIELDS)
+    if psi:
+        N = np.asarray(values["number"], dtype=float)
+        m = np.asarray(values.pop("mean_length_psi"), dtype=float)
+        sd = np.asarray(values.pop("length_std_psi"), dtype=float)
+        moments = {"L": N * m, "Q": N * (sd * sd + m * m)}
     area = np.abs(triangle_areas(points, triangles))
     center = (area[:, None] * points[triangles].mean(axis=1)).sum(0) / area.sum()
     radius = float(np.max(np.hypot(*(points - center).T)))
@@ -213,18 +241,25 @@ def field_profile(
     tri = Triangulation(points[:, 0], points[:, 1], triangles)
     sampled = {}
     inside = np.ones(len(xy), dtype=bool)
-    for name, v in values.items():
+    for name, v in {**values, **(moments if psi else {})}.items():
         s = LinearTriInterpolator(tri, np.asarray(v, dtype=float))(xy[:, 0], xy[:, 1])
         s = np.ma.filled(s.astype(float), np.nan)
         inside &= np.isfinite(s)
         sampled[name] = s
     sampled = {k: v[inside] for k, v in sampled.items()}
-    out = radial_profile(xy[inside], sampled, center=center, radius=radius, n_annuli=n_annuli)
+    prof = radial_profile(xy[inside], sampled, center=center, radius=radius, n_annuli=n_annuli)
+    count = prof.pop("count")
+    if psi:
+        with np.errstate(invalid="ignore", divide="ignore"):
+            mean = prof.pop("L") / prof["number"]
+            square = prof.pop("Q") / prof["number"]
+        del prof["L_std"], prof["Q_std"]
+        prof["mean_length_psi"] = mean
+        prof["length_std_psi"] = np.sqrt(np.maximum(square - mean * mean, 0.0))
     if "G" in values:
-        count = out.pop("count")
-        out["mean_length_phase"] = mean_length(out["G"])
-        out["count"] = count
-    return out
+        prof["mean_length_phase"] = mean_length(prof["G"])
+    prof["count"] = count
+    return prof
 
 
 def particle_profile(

@@ -176,10 +176,19 @@ def draw_mean_length(points, triangles, G, ax: Axes, pixels: int = 900):
                      vmin=LENGTH_LIMITS[0], vmax=LENGTH_LIMITS[1], interpolation="nearest")
 
 
-def continuum_picture(state, stem: Path, lam: float) -> None:
-    """``stem.png``: lbar of a continuum state (points, triangles, fields["G"], t), colour bar."""
+def continuum_picture(state, stem: Path, lam: float, transported: bool = False) -> None:
+    """``stem.png``: lbar of a continuum state (points, triangles, fields, t), colour bar.
+
+    The closed form 2^frac(G / ln 2) per pixel (:func:`draw_mean_length`, sharp rings), or with
+    ``transported`` the transported Psi's nodal mean length ``mean_length_psi``, Gouraud-shaded
+    (a start other than the model's narrow bump, e.g. a particle colony handed over).
+    """
     fig, ax = plt.subplots(figsize=(6.6, 6))
-    mappable = draw_mean_length(state.points, state.triangles, state.fields["G"], ax)
+    if transported:
+        mappable = draw_field(state.points, state.triangles, state.fields["mean_length_psi"],
+                              ax=ax)
+    else:
+        mappable = draw_mean_length(state.points, state.triangles, state.fields["G"], ax)
     ax.set_aspect("equal")
     colorbar(fig, mappable, ax, label=r"mean length $\bar\ell$")
     ax.set_title(f"continuum, lam = {lam:g}, t = {state.t:.3g}")

@@ -7,10 +7,12 @@ continuum mean length lbar at the same five fractions of its own final time, sam
 All panels of a row share the final colony's scale, so the growth is visible.
 
 The continuum panels are drawn from the azimuthal average of the 2D field (equal-area annuli at
-most 0.05 wide at the edge) revolved about the centre: lbar = 2^frac(<G>/ln 2) of the annulus
-mean <G> of the smooth growth phase (column mean_length_phase; the annulus mean of the
-discontinuous lbar itself, column mean_length, smears every ring over an annulus and is drawn
-only from data made before the phase column existed): the CSVs behind the figure stay small
+most 0.05 wide at the edge) revolved about the centre: the mean length of the transported Psi
+over the annulus (column mean_length_psi, cases.analysis.continuum_profile), with the closed
+form lbar = 2^frac(<G>/ln 2) of the annulus mean <G> of the smooth growth phase beside it in
+the CSV as the check (column mean_length_phase; drawn from data made before the Psi column
+existed; the annulus mean of the discontinuous lbar itself, column mean_length, smears every
+ring over an annulus and is drawn only from data older still): the CSVs behind the figure stay small
 (a 2D mesh at radius 150 has ~1e5 nodes per frame). How far the 2D field departs from radial
 symmetry is not shown here. The particle snapshots are stored as gzipped CSV (x, y, theta,
 length at 4 significant digits): at paper scale about 2 MB in all.
@@ -89,16 +91,24 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:
             for k, j in enumerate(pick, start=1):
                 t, path = frames[j]
                 pts, tri, d = A.read_continuum_frame(path)
-                values = {"mean_length": d["mean_length"]}
-                if "G" in d:
-                    values["G"] = d["G"]
-                prof = A.field_profile(pts, tri, values)
+                prof = A.continuum_profile(pts, tri, d)
                 A.write_csv(data / f"continuum_lam={lam:g}_k={k}.csv",
-                            {c: prof[c] for c in ("r", "mean_length", "mean_length_phase")
-                             if c in prof})
+                            {c: prof[c] for c in CONTINUUM_COLUMNS if c in prof})
                 _index(index, 0, lam, k, t, A.mesh_radius(pts, tri))
     A.write_csv(data / "snapshots.csv", index)
     return data
+
+
+#: Columns of a continuum snapshot's CSV (cases.analysis.continuum_profile).
+CONTINUUM_COLUMNS = ("r", "mean_length_psi", "length_std_psi", "mean_length_phase", "mean_length")
+
+
+def _continuum_mean_length(p: dict[str, np.ndarray]) -> np.ndarray:
+    """The drawn mean length: the transported Psi's, else (older data) the closed form."""
+    for name in ("mean_length_psi", "mean_length_phase", "mean_length"):
+        if name in p:
+            return p[name]
+    raise ValueError("no mean length column in a continuum snapshot")
 
 
 def _index(index: dict, engine: int, lam: float, k: int, t: float, radius: float) -> None:
@@ -163,7 +173,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                                           ax=ax)
             else:
                 p = A.read_csv(data / f"continuum_lam={lam:g}_k={k}.csv")
-                mappable = _revolved(ax, p["r"], p.get("mean_length_phase", p["mean_length"]))
+                mappable = _revolved(ax, p["r"], _continuum_mean_length(p))
             ax.set_xlim(-1.05 * R, 1.05 * R)
             ax.set_ylim(-1.05 * R, 1.05 * R)
             ax.set_xticks([])

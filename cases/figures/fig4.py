@@ -1,10 +1,14 @@
 """Fig 4 of the paper: dynamics of size inhomogeneity (the rings).
 
 (A) radially averaged particle length <l_n> in equal-area annuli at the final time, with a
-    one-standard-deviation band, for the three lam of Fig 2 (continuum dashed: 2^frac(<G>/ln 2)
-    of the annulus mean of the growth phase, column mean_length_phase, its band lbar s_G, the
-    azimuthal spread s_G of G carried by d lbar / dG = lbar; data made before that column
-    existed: the annulus mean of lbar and its spread);
+    one-standard-deviation band, for the three lam of Fig 2; continuum dashed: the mean length
+    of the transported Psi over the annulus, column mean_length_psi, its band the standard
+    deviation of the lengths of all the annulus' cells, length_std_psi
+    (cases.analysis.continuum_profile), and beside it, dotted, the closed form
+    2^frac(<G>/ln 2) of the annulus mean of the growth phase (mean_length_phase) as the check.
+    Data made before the Psi columns existed: the closed form with the band lbar s_G (the
+    azimuthal spread s_G of G carried by d lbar / dG = lbar); older still: the annulus mean of
+    lbar and its spread;
 (B) ring wavelength against time, continuum (lines): difference of the two outermost rings,
     the contours G = k ln 2 of the growth phase (cases.analysis.continuum_wavelength_series,
     continuum.rings), where lbar = 2^frac(G/ln 2) peaks; particles (open circles): distance
@@ -165,14 +169,18 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             p = A.read_csv(path)
             ok = p["count"] > 0
             r, m, s = p["r"][ok], p["mean_length"][ok], p["mean_length_std"][ok]
-            if "mean_length_phase" in p:  # continuum: 2^frac(<G>/ln 2), spread lbar s_G
+            if "mean_length_psi" in p:  # continuum: the transported Psi, the closed form beside
+                m, s = p["mean_length_psi"][ok], p["length_std_psi"][ok]
+                a.plot(r, p["mean_length_phase"][ok], ":", color=colors[lam], lw=0.8)
+            elif "mean_length_phase" in p:  # older data: 2^frac(<G>/ln 2), spread lbar s_G
                 m = p["mean_length_phase"][ok]
                 s = m * p["G_std"][ok]
             a.plot(r, m, style, color=colors[lam], lw=1, label=label)
             label = None
             a.fill_between(r, m - s, m + s, color=colors[lam], alpha=0.2, lw=0)
     a.set(xlabel="r", ylabel=r"$\langle \ell_n \rangle$ $\pm$ 1 s.d.",
-          title="(A) final time: particles solid, continuum dashed")
+          title="(A) final time: particles solid, continuum dashed\n"
+                r"(dotted: $2^{\mathrm{frac}(\langle G\rangle/\ln 2)}$)")
     a.legend(fontsize=8)
 
     a = ax[1]

@@ -339,3 +339,30 @@ def test_continuum_rings_from_rings_csv_or_last_frame(tmp_path):
     series = A.continuum_wavelength_series(tmp_path)
     np.testing.assert_array_equal(series["t"], [0.0, 1.0])
     np.testing.assert_allclose(series["wavelength"], 1.5, atol=0.01)
+
+
+def test_field_profile_of_the_transported_psi_pools_the_cells_of_an_annulus():
+    """mean_length_psi, length_std_psi: the mean and spread of all the cells of an annulus.
+
+    One cell per area (N = 1): the annulus mean of the nodal means, and by the law of total
+    variance sqrt(s^2 + the annulus variance of the means) (to 2.2e-4 here: Q is interpolated
+    linearly, the square of the interpolated mean is not). Twice as many cells outside: the
+    mean is weighted by the number (against the generic columns of N m and N).
+    """
+    pts, tri = _disc(5.0, 0.1)
+    r = np.hypot(*pts.T)
+    m, sd = 1.0 + r / 5.0, np.full(len(r), 0.1)
+    for N in (np.ones(len(r)), 1.0 + r / 5.0):
+        prof = A.field_profile(pts, tri, {"number": N, "mean_length_psi": m,
+                                          "length_std_psi": sd, "m": m, "Nm": N * m})
+        assert list(prof)[-3:] == ["mean_length_psi", "length_std_psi", "count"]
+        assert "mean_length_psi_std" not in prof and "L" not in prof
+        ok = prof["count"] > 0
+        if np.all(N == 1):
+            np.testing.assert_allclose(prof["mean_length_psi"][ok], prof["m"][ok], rtol=1e-12)
+            np.testing.assert_allclose(prof["length_std_psi"][ok],
+                                       np.hypot(0.1, prof["m_std"][ok]), atol=5e-4)
+        else:
+            np.testing.assert_allclose(prof["mean_length_psi"][ok],
+                                       prof["Nm"][ok] / prof["number"][ok], rtol=1e-12)
+            assert np.all(prof["mean_length_psi"][ok] > prof["m"][ok])  # weighted outwards

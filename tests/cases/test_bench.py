@@ -173,3 +173,17 @@ def test_bench_elements_small(capsys):
     assert float(by["P2"][7]) < 0.1 * float(by["P1"][7])
     mode = rows[3]
     assert mode[0].strip() == "P1" and abs(float(mode[6]) - 1.0) < 0.02
+
+
+def test_bench_handoff_table(capsys):
+    """The hand-off's accuracy table (docs/validation.md) at the default alpha and bandwidth."""
+    from cases.bench.handoff import main
+
+    outline, psi0 = main(["--alphas", "1", "--bandwidths", "2"])
+    assert all(abs(r["area_error"]) < 0.01 for r in outline)
+    assert all(r["aspect"] == pytest.approx(r["aspect_exact"], rel=0.01) for r in outline)
+    (row,) = psi0
+    assert row["max_mean_error"] < 1e-3
+    assert row["median_spread"] == pytest.approx(row["spread_exact"], rel=0.1)
+    assert row["step_width_10_90"] == pytest.approx(row["step_width_exact"], rel=0.1)
+    assert "| packing |" in capsys.readouterr().out

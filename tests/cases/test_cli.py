@@ -95,7 +95,8 @@ def test_continuum_end_to_end(tmp_path):
         assert (out / name).is_file(), name
     assert {"k", "mean_radius", "min_radius", "max_radius", "length"} <= set(
         _header(out / "rings.csv"))
-    assert {"G", "mean_length_phase"} <= set(_header(out / "profile.csv"))
+    assert {"G", "mean_length_phase", "mean_length_psi", "length_std_psi"} <= set(
+        _header(out / "profile.csv"))
     assert {"t", "radius", "area", "max_pressure"} <= set(_header(out / "history.csv"))
     assert {"r", "mean_length", "pressure"} <= set(_header(out / "profile.csv"))
     assert _header(out / "boundary.csv") == ["x", "y"]

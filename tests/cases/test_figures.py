@@ -86,7 +86,9 @@ def fake_continuum_run(folder: Path, lam: float) -> Path:
         r = np.hypot(*pts.T)
         G = phase(r, lam)
         data = {"p": radial.pressure(np.minimum(r, Rt), Rt, lam), "G": G,
-                "mean_length": growth.mean_length(G)}
+                "mean_length": growth.mean_length(G),  # a narrow transported Psi:
+                "mean_length_psi": growth.mean_length(G), "length_std_psi": 0.02 + 0 * r,
+                "number": 1.0 + 0 * r}
         name = f"fields/frame_{i:05d}.vtu"
         meshio.write(folder / name, meshio.Mesh(np.column_stack([pts, 0 * r]),
                                                 [("triangle", tri)], point_data=data))
@@ -201,7 +203,10 @@ def test_fig4_reduce_and_plot(fake_runs, tmp_path):
                                atol=0.02)
     assert "radius_exact" in rings
     prof = A.read_csv(data / "profile_continuum_lam=0.04.csv")
-    assert {"G", "G_std", "mean_length_phase"} <= set(prof)
+    assert {"G", "G_std", "mean_length_phase", "mean_length_psi", "length_std_psi"} <= set(prof)
+    # the transported mean is the closed form, but in the annuli a ring crosses
+    assert np.nanmedian(np.abs(prof["mean_length_psi"] - prof["mean_length_phase"])) < 0.01
+    assert np.nanmin(prof["length_std_psi"]) >= 0.02 - 1e-9
     paths = fig4.plot(data, tmp_path)
     assert all(p.stat().st_size > 5000 for p in paths)
 

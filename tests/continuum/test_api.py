@@ -71,7 +71,8 @@ def test_step_returns_its_record():
     assert record.n_nodes == len(sim.state.points) and record.radius == sim.state.radius
     assert record.row() == sim.history[-1] and len(sim.history) == 2
     assert record.newton_iterations >= 2 and record.krylov_iterations >= record.newton_iterations
-    assert set(sim.fields) == {"p", "u", "G", "mean_length", "mean_length_psi", "number",
+    assert set(sim.fields) == {"p", "u", "G", "mean_length", "mean_length_psi", "length_std_psi",
+                               "number",
                                "total_length"}
     assert np.array_equal(sim.fields["mean_length"], continuum.mean_length(sim.state.G))
 

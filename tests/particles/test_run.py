@@ -235,9 +235,9 @@ def test_next_dt_overlap():
 def test_overlap_step_keeps_the_linearisation_error():
     """The "overlap" control keeps the overlap a step's move leaves near MAIN_OVERLAP.
 
-    A fixed step of the same length leaves several times more (lam = 0, dt = 0.1, to 400
-    particles: medians 0.036 and 0.29); the step follows it (shorter than dt once the colony
-    jams, never longer).
+    A fixed step of the same length leaves twice as much (lam = 0, dt = 0.1, to 400 particles:
+    medians 0.133 and 0.29); the step follows it (shorter than dt once the colony jams, never
+    longer).
     """
     def grow(control):
         sim = Simulation(Config(lam=0.0, dt=0.1, seed=1, step_control=control))
@@ -248,7 +248,7 @@ def test_overlap_step_keeps_the_linearisation_error():
                 np.array([r["dt"] for r in sim.history]))
     fixed, _ = grow("fixed")
     adapted, dts = grow("overlap")
-    assert adapted <= 2 * stepping.MAIN_OVERLAP < fixed
+    assert adapted <= stepping.MAIN_OVERLAP < fixed
     assert dts.min() < 0.05 and dts.max() <= 0.1
 
 
