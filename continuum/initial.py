@@ -87,15 +87,23 @@ def state_from(config, boundary: ArrayLike,
     PolygonError, ValueError
         A polygon that is not simple, or a bad Psi0.
     """
-    dense = mesh.check_polygon(boundary)
+    return meshed_state(config, mesh.check_polygon(boundary),
+                        lambda points: sizes_from(config, points, psi0))
+
+
+def meshed_state(config, dense: NDArray, sizes: Callable) -> State:
+    """The colony at t = 0 inside the dense polygon ``dense``, with Psi0 = sizes(points).
+
+    The polygon is resampled at h = min(h_max, h_N(area)) (mesh.target_spacing) and meshed
+    (mesh.colony_mesh); G = 0, p = 0 (u, g zero until the first pressure solve).
+    """
     h = mesh.target_spacing(abs(mesh.polygon_area(dense)), config.h_max, config.n_nodes)
     outline = mesh.resample_polygon(dense, spacing=h, min_points=16)
     t0 = time.perf_counter()
     points, tris = mesh.colony_mesh(outline, h, config.interior_coarsening, config.grading)
     n = len(points)
     state = State(points=points, triangles=tris, n_boundary=len(outline), p=np.zeros(n),
-                  u=np.zeros((n, 2)), g=np.zeros(n), G=np.zeros(n),
-                  sizes=sizes_from(config, points, psi0))
+                  u=np.zeros((n, 2)), g=np.zeros(n), G=np.zeros(n), sizes=sizes(points))
     state.set_mesh(points, tris, len(outline), h)
     state.timings["meshing"] += time.perf_counter() - t0
     return state

@@ -47,6 +47,7 @@ import numpy as np
 from continuum import checkpoint, mesh, shapes
 from continuum.budget import check_memory
 from continuum.fem import ELEMENTS
+from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.radial import R0
@@ -211,18 +212,8 @@ def initial_state(config: Config) -> State:
     The initial shape meshed at h = min(h_max, h_N(area)), G = 0, Psi the bump of
     ``bump_width``, p = 0 (u, g zero until the first pressure solve).
     """
-    dense = config.initial_boundary()
-    h = _target_spacing(config, abs(mesh.polygon_area(dense)))
-    boundary = mesh.resample_polygon(dense, spacing=h, min_points=16)
-    t0 = _time.perf_counter()
-    points, tris = mesh.colony_mesh(boundary, h, config.interior_coarsening, config.grading)
-    n = len(points)
-    state = State(points=points, triangles=tris, n_boundary=len(boundary), p=np.zeros(n),
-                  u=np.zeros((n, 2)), g=np.zeros(n), G=np.zeros(n),
-                  sizes=initial_sizes(config, n))
-    state.set_mesh(points, tris, len(boundary), h)
-    state.timings["meshing"] += _time.perf_counter() - t0
-    return state
+    return meshed_state(config, config.initial_boundary(),
+                        lambda points: initial_sizes(config, len(points)))
 
 
 def initial_sizes(config: Config, n: int) -> SizeDistribution | CharacteristicSizes:

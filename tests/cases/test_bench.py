@@ -121,26 +121,6 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
         bench_timestep.main(["--history", str(tmp_path / "none")])
 
 
-def test_bench_threads_small(tmp_path, capsys):
-    """cases.bench.threads: a row per thread count, ratio 1 for one thread; bad input refused."""
-    from cases.bench import threads as bench_threads
-
-    sim = particles.Simulation(Config(lam=1e-2, seed=1))
-    sim.advance(radius=4.0)
-    ck = sim.save(tmp_path / "ck.npz")
-    counts = [1, 2] if numba.config.NUMBA_NUM_THREADS >= 2 else [1]
-    rows = bench_threads.main(["--checkpoint", str(ck), "--steps", "2", "--repeats", "1",
-                               "--threads", *map(str, counts), "--out", str(tmp_path / "t.csv")])
-    assert [r["threads"] for r in rows] == counts
-    assert rows[0]["ratio_to_one_thread"] == 1.0 and rows[0]["n_particles"] == sim.state.n
-    assert all(r["seconds_per_step"] > 0 for r in rows)
-    assert "| 1 | no |" in capsys.readouterr().out
-    with pytest.raises(SystemExit):
-        bench_threads.main(["--checkpoint", str(tmp_path / "none.npz")])
-    with pytest.raises(SystemExit):
-        bench_threads.main(["--checkpoint", str(ck), "--threads", "0"])
-
-
 def test_bench_psi_transport_labels_exact(capsys):
     """Labels transport exact at every node, finite volumes smeared (docs/validation.md's table).
 
