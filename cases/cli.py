@@ -2,7 +2,7 @@
 
 ::
 
-    colony continuum --lam LAM (--radius R | --time T) [--shape SHAPE]
+    colony continuum --lam LAM (--radius R | --time T) [--shape SHAPE] [--element P1|P2]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony continuum --from-particles RUN_DIR [--alpha A] [--bandwidth H] [--lam LAM]
                      (--radius R | --time T) [--out DIR] ...
@@ -277,6 +277,7 @@ def parser() -> argparse.ArgumentParser:
                    help="largest boundary mesh spacing (default 0.55; sets the resolution)")
     c.add_argument("--n-nodes", type=int, help="node count while the colony is small")
     c.add_argument("--output-every", type=float, help="time between VTU outputs (0: final only)")
+    c.add_argument("--element", help="pressure element: P1 (default) or P2")
 
     p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
     _common(p, "runs/particles")
@@ -392,7 +393,8 @@ def _dispatch(args) -> int:
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "shape": args.shape,
                  "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
-                 "output_every": _finite("output-every", args.output_every)}
+                 "output_every": _finite("output-every", args.output_every),
+                 "element": args.element}
         handoff = _handoff_options(args, flags)
         config = build_config(continuum.Config, args.config, args.set, flags)
         start = None if handoff is None else _handoff_start(config, *handoff)

@@ -18,6 +18,7 @@ Modules, one concept each:
 - ``shapes``: the initial shape's specification (circle, ellipse, rectangle, star, polygon) and
   its outline;
 - ``mesh``: boundary polygons, Triangle meshes of the colony, point location;
+- ``fem``: the pressure's P1 / P2 Lagrange space and its assembly through scikit-fem;
 - ``pressure``: Newton + AMG-preconditioned CG for -Laplace p = exp(-lam p), p = 0 on the edge;
 - ``velocity``: u = -grad p (patch recovery inside, residual flux on the boundary), the Darcy
   flow (p, u, g) at given node positions;

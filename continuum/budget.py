@@ -26,6 +26,11 @@ __all__ = ["BudgetError", "estimate_nodes", "available_memory", "check_memory"]
 #: the default 40 length cells, transfer matrices), measured: peak RSS minus the imported
 #: modules' at radius 100 (lam = 1e-2, ~3.2e4 nodes), rounded up.
 BYTES_PER_NODE = 8_000
+#: Extra resident bytes per mesh node of the pressure's element (``Config.element``) over the
+#: hand-written P1 assembly that BYTES_PER_NODE was measured with: the peak of two pressure
+#: solves with velocity on a 46,577-node disc was 1.1 kB per node with P1 and 12.3 kB with P2
+#: (scikit-fem; about 4 degrees of freedom and 46 matrix entries per node), rounded up.
+ELEMENT_BYTES_PER_NODE = {"P1": 0, "P2": 12_000}
 #: Resident bytes of the imported modules before any mesh (measured, rounded up).
 BASE_BYTES = 400 * 2**20
 
@@ -84,7 +89,8 @@ def check_memory(config, memory: int | None = None) -> float:
     ``memory`` in bytes, default the available memory. Returns the estimated node count.
     """
     nodes, when = largest_nodes(config)
-    need = BASE_BYTES + BYTES_PER_NODE * nodes
+    per_node = BYTES_PER_NODE + ELEMENT_BYTES_PER_NODE.get(getattr(config, "element", "P1"), 0)
+    need = BASE_BYTES + per_node * nodes
     memory = available_memory() if memory is None else memory
     if need > memory:
         raise BudgetError(

@@ -115,6 +115,8 @@ def load(path: Path, config=None) -> tuple:
     """
     with np.load(path) as z:
         meta = json.loads(str(z["meta"]))
+        # checkpoints from before Config.element solved with P1 elements
+        meta["config"].setdefault("element", "P1")
         if config is not None:
             check_resumable(path, meta["config"], config)
         arrays = {k: z[k] for k in z.files if k != "meta"}

@@ -1,24 +1,32 @@
 """Pressure: Newton's method for -Laplace p = exp(-lam p) in Omega, p = 0 on the boundary.
 
-Discretisation (P1 finite elements on a triangle mesh, nodes 0..K-1 on the boundary)::
+Discretisation: Lagrange finite elements, P1 or P2 (``element``; P1 assembled by hand,
+``P1Assembler``, P2 by scikit-fem, continuum.fem.LagrangeSpace, which also assembles P1 as
+the hand-written assembly's reference, ``SKFEM_P1``), ::
 
-    F_i(p) = sum_j K_ij p_j - b_i(g(p)) = 0   for interior nodes i,   p_i = 0 on the boundary,
+    F_i(p) = sum_j K_ij p_j - b_i(g(p)) = 0   for interior degrees of freedom i,
+    p_i = 0 on the boundary,
 
-with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the nodes (the
-growth law, :func:`continuum.growth.growth_rate`) and
-b_i(g) = int (sum_j g_j phi_j) phi_i the consistent load of the P1 interpolant of g
-(b = M g, M the consistent mass matrix, element-wise ``|T|/12 (g_i + sum_{j in T} g_j)``).
+with K_ij = int grad phi_i . grad phi_j the stiffness matrix, g = exp(-lam p) at the degrees
+of freedom (the growth law, :func:`continuum.growth.growth_rate`) and b(g) = M g,
+M_ij = int phi_i phi_j, the consistent load of the interpolant of g (for P1 element-wise
+``|T|/12 (g_i + sum_{j in T} g_j)``).
 
 Newton step: J delta = -F with the symmetric positive (for lam >= 0) approximation
-J = K + lam diag(m g) of the Jacobian K + lam M diag(g) (m the lumped mass); the difference
-is O(lam h^2) relative to K, so the iteration converges at an (almost) quadratic rate. Each
-linear system is solved by conjugate gradients preconditioned with a pyamg smoothed-aggregation
-hierarchy. The hierarchy is reused across Newton iterations and time steps while the mesh
-topology is unchanged and CG converges quickly, and Newton is warm-started from the previous
-nodal pressure (nodes move with the material, so the previous p is a good guess).
+J = K + lam diag(m g) of the Jacobian K + lam M diag(g) (m the lumped mass; HRZ for P2, whose
+row sums vanish at the vertices); the difference is O(lam h^2) relative to K, so the iteration
+converges at an (almost) quadratic rate. K and M are assembled once per node position (a
+solve): every Newton iteration is then matrix-vector products and a diagonal update of J on the
+same pattern. Each linear system is solved by conjugate gradients preconditioned with a pyamg
+smoothed-aggregation hierarchy. The hierarchy is reused across Newton iterations and time steps
+while the mesh topology is unchanged and CG converges quickly, and Newton is warm-started from
+the previous nodal pressure (nodes move with the material, so the previous p is a good guess;
+P2 edge values from their vertices, continuum.fem.LagrangeSpace.extend).
 
 Assembly reuses the sparsity pattern and the element-to-CSR scatter map of a mesh topology
-(``P1Assembler``): only the geometric factors are recomputed when nodes move.
+(``LagrangeSpace``; ``P1Assembler`` by hand for P1): only the geometric factors are recomputed
+when nodes move. ``P1Assembler`` also serves the vertex mesh's geometry to the velocity recovery
+and the remesh transfer (continuum.velocity, continuum.remesh).
 
 Non-convergence (lam < 0 beyond the critical size, where ``-Laplace p = |lam|^{-1} ...`` has no
 solution, or non-finite values) raises ``PressureDivergence``.
@@ -32,12 +40,14 @@ import numpy as np
 import pyamg
 import scipy.sparse as sp
 
+from continuum.fem import LagrangeSpace, check_element
 from continuum.growth import growth_rate
 
 __all__ = [
     "PressureDivergence",
     "P1Assembler",
     "PressureSolver",
+    "SKFEM_P1",
     "NewtonStats",
     "pcg",
     "vcycle",
@@ -242,6 +252,34 @@ class P1Assembler:
         d[self.bnd_diag] = 1.0
         return d
 
+    @property
+    def boundary_dofs(self) -> np.ndarray:
+        """The Dirichlet nodes 0..n_boundary-1."""
+        return np.arange(self.nb)
+
+    def extend(self, p_nodes: np.ndarray, points=None, lam=None) -> np.ndarray:
+        """Nodal values as they are (the interface of continuum.fem.LagrangeSpace)."""
+        return np.array(p_nodes, dtype=float)
+
+    def assemble(self, points: np.ndarray) -> HandOperators:
+        """K, the load and the lumped mass at these node positions, hand-written (P1)."""
+        area, grads = self.geometry(points)
+        return HandOperators(self, area, self.stiffness_data(area, grads), self.lumped_mass(area))
+
+
+@dataclass
+class HandOperators:
+    """The hand-written P1 operators of one node position (``P1Assembler.assemble``)."""
+
+    assembler: P1Assembler
+    area: np.ndarray
+    K_data: np.ndarray
+    m: np.ndarray
+
+    def load(self, g: np.ndarray) -> np.ndarray:
+        """Consistent load b = M g, element by element."""
+        return self.assembler.load(self.area, g)
+
 
 @dataclass
 class NewtonStats:
@@ -257,6 +295,15 @@ class NewtonStats:
     history: list = field(default_factory=list)
 
 
+SKFEM_P1 = "P1-skfem"
+"""P1 assembled by scikit-fem (continuum.fem.LagrangeSpace("P1")).
+
+The same discrete problem as the hand-written "P1" to round-off (tests/continuum/
+test_elements.py) but 10-20 % slower per solve at 1.5e4-1.5e5 nodes (docs/benchmarks.md,
+``python -m cases.bench.elements``): the reference of the hand-written assembly, not a
+``Config.element``."""
+
+
 class PressureSolver:
     """Newton solver for -Laplace p = exp(-lam p), p = 0 on the boundary, on a moving mesh.
 
@@ -264,6 +311,10 @@ class PressureSolver:
     ----------
     lam : float
         Stress sensitivity lambda (finite; negative values allowed but may have no solution).
+    element : str
+        "P1" (default): the hand-written P1 assembly (``P1Assembler``), measured faster than
+        scikit-fem's and equal to it to round-off; "P2": the P2 space assembled by scikit-fem
+        (continuum.fem.LagrangeSpace); ``SKFEM_P1``: P1 assembled by scikit-fem.
     rtol : float
         Newton stops when ``||F(p)||_2 <= rtol ||b(g(p))||_2``.
     max_newton : int
@@ -274,11 +325,19 @@ class PressureSolver:
         just enough for the next residual to meet ``rtol``.
     reuse_factor : int
         Rebuild the AMG hierarchy when CG needs more than this many iterations.
+
+    Attributes
+    ----------
+    assembler : P1Assembler
+        The P1 topology of the mesh's vertices (geometry, velocity recovery, remesh transfer).
+    space : LagrangeSpace or P1Assembler
+        The degrees of freedom of the pressure and their assembly.
     """
 
     def __init__(
         self,
         lam: float,
+        element: str = "P1",
         rtol: float = 1e-8,
         max_newton: int = 30,
         krylov_rtol: float = 1e-10,
@@ -286,12 +345,16 @@ class PressureSolver:
     ):
         if not np.isfinite(lam):
             raise ValueError(f"lam must be finite, got {lam}")
+        if element != SKFEM_P1:
+            check_element(element)
         self.lam = float(lam)
+        self.element = element
         self.rtol = rtol
         self.max_newton = max_newton
         self.krylov_rtol = krylov_rtol
         self.reuse_factor = reuse_factor
         self.assembler: P1Assembler | None = None
+        self.space = None
         self._amg = None
         self._amg_source: np.ndarray | None = None
         self.stats = NewtonStats()
@@ -300,10 +363,15 @@ class PressureSolver:
     def set_mesh(self, tris: np.ndarray, n_nodes: int, n_boundary: int) -> None:
         """Change topology: new pattern and scatter map, and forget the AMG hierarchy."""
         self.assembler = P1Assembler(tris, n_nodes, n_boundary)
+        if self.element == "P1":
+            self.space = self.assembler
+        else:
+            element = "P1" if self.element == SKFEM_P1 else self.element
+            self.space = LagrangeSpace(element, tris, n_nodes, n_boundary)
         self._amg = None
 
     def amg_state(self) -> np.ndarray | None:
-        """CSR data (on the assembler's pattern) of the matrix the AMG hierarchy was built from.
+        """CSR data (on the space's pattern) of the matrix the AMG hierarchy was built from.
 
         None when there is no hierarchy. Together with the topology this is all the state the
         solver carries from one solve to the next (the hierarchy is reused while CG converges
@@ -318,9 +386,9 @@ class PressureSolver:
             self._amg = None
             return
         data = np.array(data, dtype=float)
-        if self.assembler is None or data.shape != (self.assembler.nnz,):
+        if self.space is None or data.shape != (self.space.nnz,):
             raise ValueError("restore_amg: the matrix does not fit the current mesh topology")
-        self._amg = amg_hierarchy(self.assembler.matrix(data))
+        self._amg = amg_hierarchy(self.space.matrix(data))
         self._amg_source = data
 
     def _setup(self, A: sp.csr_matrix, st: NewtonStats) -> None:
@@ -358,29 +426,35 @@ class PressureSolver:
         )
 
     def residual(self, points: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """FE residual r = K p - b(g(p)) at every node (no boundary condition) and the load b.
+        """FE residual r = K p - b(g(p)) at every degree of freedom (no boundary condition), b.
 
-        At a boundary node r_i = int_boundary (dp/dn) phi_i ds is the consistent flux.
+        ``p`` holds the degrees of freedom (the nodal values for P1). At a boundary node
+        r_i = int_boundary (dp/dn) phi_i ds is the consistent flux.
         """
-        A = self.assembler
-        area, grads = A.geometry(points)
-        Kd = A.stiffness_data(area, grads)
-        b = A.load(area, growth_rate(p, self.lam))
-        return A.matrix(Kd) @ p - b, b
+        ops = self.space.assemble(points)
+        b = ops.load(growth_rate(p, self.lam))
+        return self.space.matrix(ops.K_data) @ p - b, b
 
     def solve(
         self, points: np.ndarray, p0: np.ndarray | None = None, where: str = ""
     ) -> np.ndarray:
-        """Solve for the nodal pressure on the mesh with these node positions.
+        """Solve for the pressure on the mesh with these node positions; its nodal values.
 
         Parameters
         ----------
         points : array (N, 2)
             Node coordinates (topology set by ``set_mesh``).
-        p0 : array (N,), optional
-            Initial guess (warm start); boundary values are set to 0.
+        p0 : array (N,) or (n,), optional
+            Initial guess (warm start) at the nodes (P2: edge values from them,
+            ``LagrangeSpace.extend``) or at every degree of freedom; boundary values set to 0.
         where : str
             Context for error messages (e.g. "t=3.2, area=40.1").
+
+        Returns
+        -------
+        ndarray (N,)
+            The pressure at the mesh nodes. All degrees of freedom, the residual, the operators
+            and g are kept in ``last`` (keys "p", "residual", "area", "grads", "g", "ops").
 
         Raises
         ------
@@ -390,31 +464,32 @@ class PressureSolver:
         """
         import time
 
-        A = self.assembler
-        if A is None:
+        S = self.space
+        if S is None:
             raise ValueError("PressureSolver.solve called before set_mesh")
         st = NewtonStats()
         t0 = time.perf_counter()
-        area, grads = A.geometry(points)
+        area, grads = self.assembler.geometry(points)
         if np.any(area <= 0):
             raise PressureDivergence(f"inverted mesh element ({where})")
-        Kd = A.stiffness_data(area, grads)
-        K = A.matrix(Kd)
-        m = A.lumped_mass(area)
+        ops = S.assemble(points)
+        K = S.matrix(ops.K_data)
         st.time_assembly += time.perf_counter() - t0
-        p = np.zeros(A.n) if p0 is None else np.array(p0, dtype=float)
-        p[: A.nb] = 0.0
+        bnd = S.boundary_dofs
         lam = self.lam
-        interior = slice(A.nb, None)
+        p = np.zeros(S.n) if p0 is None else S.extend(p0, points, lam)
+        p[bnd] = 0.0
         cause = "lam < 0 beyond the critical size (no solution)" if lam < 0 else "no convergence"
         for it in range(self.max_newton + 1):
             g = growth_rate(p, lam)
-            b = A.load(area, g)
+            b = ops.load(g)
             r_full = K @ p - b
             F = r_full.copy()
-            F[: A.nb] = 0.0
-            res = float(np.sqrt(_dot(F[interior], F[interior])))
-            scale = float(np.sqrt(_dot(b[interior], b[interior])))
+            F[bnd] = 0.0
+            b_in = b.copy()
+            b_in[bnd] = 0.0
+            res = float(np.sqrt(_dot(F, F)))
+            scale = float(np.sqrt(_dot(b_in, b_in)))
             st.history.append(res / max(scale, 1e-300))
             if not np.isfinite(res):
                 raise PressureDivergence(f"Newton produced non-finite values at {where}: {cause}")
@@ -423,16 +498,17 @@ class PressureSolver:
                 st.newton_iterations = it
                 self.stats = st
                 # kept for the residual flux, the velocity recovery and g at this solution
-                self.last = {"residual": r_full, "area": area, "grads": grads, "g": g}
-                return p
+                self.last = {"p": p, "residual": r_full, "area": area, "grads": grads, "g": g,
+                             "ops": ops}
+                return p[: self.assembler.n]
             if it == self.max_newton:
                 break
             if it >= 3 and st.history[-1] > 0.9 * st.history[-2] and st.history[-1] > 1e-3:
                 break  # stagnating far from the solution
             t0 = time.perf_counter()
-            Jd = Kd.copy()
-            Jd[A.diag] += lam * m * g
-            J = A.matrix(A.dirichlet(Jd))
+            Jd = ops.K_data.copy()
+            Jd[S.diag] += lam * ops.m * g
+            J = S.matrix(S.dirichlet(Jd))
             st.time_assembly += time.perf_counter() - t0
             try:
                 tol = max(self.krylov_rtol, min(0.1, 0.3 * self.rtol * scale / res))

@@ -46,6 +46,7 @@ import numpy as np
 
 from continuum import checkpoint, mesh, shapes
 from continuum.budget import check_memory
+from continuum.fem import ELEMENTS
 from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
@@ -78,6 +79,7 @@ _RULES = [  # (field, test, what the value must be), checked by Config.validate
     ("stretch", lambda v: math.isfinite(v) and v > 1.1, "> 1.1"),
     ("n_length_cells", lambda v: isinstance(v, int) and v >= 8, "an integer >= 8"),
     ("psi_transport", lambda v: v in TRANSPORTS, " or ".join(map(repr, TRANSPORTS))),
+    ("element", lambda v: v in ELEMENTS, " or ".join(map(repr, ELEMENTS))),
     ("output_every", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
     ("max_steps", lambda v: isinstance(v, int) and v > 0, "a positive integer"),
     ("checkpoint_seconds", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
@@ -129,6 +131,12 @@ class Config:
         "characteristics" (the same transport; a remesh remaps the cells conservatively in s,
         which smears across rings: median error of the mean length 0.030 at radius 150) or
         "finite-volume" (flux-limited Lax-Wendroff, continuum.sizes.SizeDistribution).
+    element : str
+        Lagrange element of the pressure: "P1" (default: hand-written assembly, equal to
+        scikit-fem's to round-off and faster; velocity by patch recovery and residual flux,
+        continuum.velocity) or "P2" (scikit-fem, continuum.fem; isoparametric at the boundary;
+        velocity from the element gradients at the vertices, one order more accurate; 6-12x
+        the cost per solve on the same mesh, docs/benchmarks.md).
     output_every : float
         Time between field frames (VTU); 0 writes only the first and last.
     write_fields : bool
@@ -155,6 +163,7 @@ class Config:
     n_length_cells: int = 40
     bump_width: float = 0.08
     psi_transport: str = "characteristics-labels"
+    element: str = "P1"
     output_every: float = 1.0
     write_fields: bool = True
     max_steps: int = 200_000
@@ -285,7 +294,7 @@ class Simulation:
                      state.t, state.step)
             return
         check_memory(config)
-        self.solver = PressureSolver(config.lam)
+        self.solver = PressureSolver(config.lam, config.element)
         self.state = initial_state(config) if initial is None else initial.copy()
         self.solver.set_mesh(self.state.triangles, len(self.state.points), self.state.n_boundary)
         self._solve_flow()
@@ -295,7 +304,7 @@ class Simulation:
 
     def _restore(self, state: State, amg: np.ndarray | None, history: list) -> None:
         """Continue from a loaded state: the solver's topology and AMG hierarchy rebuilt."""
-        self.solver = PressureSolver(self.config.lam)
+        self.solver = PressureSolver(self.config.lam, self.config.element)
         self.solver.set_mesh(state.triangles, len(state.points), state.n_boundary)
         self.solver.restore_amg(amg)
         self.state, self.history = state, history

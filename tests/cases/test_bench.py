@@ -136,6 +136,25 @@ def test_bench_psi_transport_labels_exact(capsys):
     assert "| transport |" in capsys.readouterr().out
 
 
+def test_bench_elements_small(capsys):
+    """cases.bench.elements: a row per element and a mode rate near the exact K / 2.
+
+    The two P1 assemblies print equal errors, P2 a smaller pressure error.
+    """
+    from cases.bench.elements import main
+
+    main(["--sizes", "300", "--repeats", "1", "--radius", "0", "--modes", "2",
+          "--mode-runs", "P1"])
+    rows = [line.split("|")[1:-1] for line in capsys.readouterr().out.splitlines()
+            if line.startswith("| P")]
+    by = {r[0].strip(): r for r in rows[:3]}
+    assert list(by) == ["P1", "P1-skfem", "P2"]
+    assert by["P1"][7:9] == by["P1-skfem"][7:9]  # same pressure and velocity errors
+    assert float(by["P2"][7]) < 0.1 * float(by["P1"][7])
+    mode = rows[3]
+    assert mode[0].strip() == "P1" and abs(float(mode[6]) - 1.0) < 0.02
+
+
 def test_bench_handoff_table(capsys):
     """The hand-off's accuracy table (docs/validation.md) at the default alpha and bandwidth."""
     from cases.bench.handoff import main

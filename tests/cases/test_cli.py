@@ -192,3 +192,14 @@ def test_plot_and_movie_of_a_run(tmp_path):
                      "--quiet", "--overwrite", "--set", "n_nodes=200"]) == 0
     res = _colony("movie", str(tmp_path))
     assert res.returncode == 2 and res.stderr.count("\n") == 1
+
+
+def test_continuum_element_flag(colony, tmp_path):
+    """``--element P2`` reaches continuum.Config; another element is one line, exit 2."""
+    status, err = colony("continuum", "--lam", "1e-2", "--radius", "1", "--element", "P3",
+                         "--out", str(tmp_path / "bad"), "--quiet")
+    assert status == 2 and err.count("\n") == 1 and "element must be 'P1' or 'P2'" in err
+    out = tmp_path / "p2"
+    assert colony("continuum", "--lam", "1e-2", "--radius", "0.8", "--element", "P2",
+                  "--out", str(out), "--quiet", "--set", "n_nodes=100")[0] == 0
+    assert json.loads((out / "config.json").read_text())["element"] == "P2"
