@@ -76,8 +76,8 @@ class StepRecord:
     substeps : int
         1, or the number of half steps the step was redone as.
     max_rotation, max_displacement : float
-        Largest turn |delta theta| and displacement |delta x| of a particle in the step (in a
-        sub-step when the step was halved).
+        Largest turn ``abs(delta theta)`` and displacement ``norm(delta x)`` of a particle in
+        the step (in a sub-step when the step was halved).
     main_overlap : float
         Largest real overlap after the main solve's move, before the re-solve passes: the error
         of the step's linearised contacts.

@@ -114,7 +114,7 @@ halved anyway."""
 
 
 def motion(state: ParticleState, x0: np.ndarray, y0: np.ndarray, theta0: np.ndarray) -> dict:
-    """Largest rotation max_n |theta_n - theta0_n| and displacement max_n |x_n - x0_n| of a step.
+    """Largest rotation ``max_n abs(theta_n - theta0_n)`` and displacement of a particle in a step.
 
     Diagnostics (history.csv): large turns were the suspected cause of failed steps at paper
     scale, but they are not a predictor (lam = 0, radius 40, dt = 0.01: median 0.14 rad, 1 %
