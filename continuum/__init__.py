@@ -32,6 +32,7 @@ Modules, one concept each:
 - ``checkpoint``: checkpoint files, SIGINT / SIGTERM deferred to the end of a step;
 - ``output``: the run folder's files (history, boundary, rings, VTU frames);
 - ``radial``: the exact 1D reference of a disc colony (R(t), p, u, characteristics, rings);
+- ``ellipse``: the exact lam = 0 ellipse (semi-axes in time; a polygon's moment axes);
 - ``stability``: the linear rate of a mode-K boundary perturbation of a disc colony;
 - ``rings``: the rings G = k ln 2 of a 2D field (contours and their radii);
 - ``budget``: the size of a run's mesh and memory, estimated before meshing.

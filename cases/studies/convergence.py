@@ -69,11 +69,11 @@ import numpy as np
 
 from cases import analysis as A
 from cases.sweep import ENGINES, is_done, run_engine, run_name, sweep
-from continuum import radial
+from continuum import ellipse, radial
 from continuum.growth import LN2, mean_length
 
 __all__ = ["SCALES", "Family", "families", "compute", "reduce", "plot", "continuum_errors",
-           "particle_quantities", "ellipse_axes", "ellipse_reference", "fit_order", "order_tables",
+           "particle_quantities", "ellipse_reference", "fit_order", "order_tables",
            "ORDER_COLUMNS"]
 
 #: Cells of the fine length grid of the exact shift of the initial bump (``mean_length_transport``).
@@ -272,34 +272,10 @@ def _all_params(scale: str, engines: tuple[str, ...]) -> dict[str, dict]:
 # ----------------------------------------------------------------------------- references
 
 
-def ellipse_axes(boundary: np.ndarray) -> tuple[float, float]:
-    """Semi-axes (a, b) of the ellipse with the polygon's area moments.
-
-    About the area centroid, I_xx = int x^2 dA / A = a^2 / 4 and I_yy = b^2 / 4 for an ellipse
-    with axes along x and y; the moments of the polygon by the shoelace formulas.
-    """
-    x, y = boundary[:, 0], boundary[:, 1]
-    xn, yn = np.roll(x, -1), np.roll(y, -1)
-    cr = x * yn - xn * y
-    area = cr.sum() / 2
-    cx = ((x + xn) * cr).sum() / (6 * area)
-    cy = ((y + yn) * cr).sum() / (6 * area)
-    ixx = ((x * x + x * xn + xn * xn) * cr).sum() / (12 * area) - cx**2
-    iyy = ((y * y + y * yn + yn * yn) * cr).sum() / (12 * area) - cy**2
-    return 2 * math.sqrt(ixx), 2 * math.sqrt(iyy)
-
-
 def ellipse_reference(a0: float, b0: float, t: float) -> tuple[float, float]:
-    """Exact semi-axes at t of the lam = 0 ellipse (model.md), to rtol 1e-12.
-
-    da/dt = a b^2 / (a^2 + b^2), db/dt = b a^2 / (a^2 + b^2) from (a0, b0).
-    """
-    from scipy.integrate import solve_ivp
-
-    sol = solve_ivp(lambda _, z: [z[0] * z[1] ** 2 / (z[0] ** 2 + z[1] ** 2),
-                                  z[1] * z[0] ** 2 / (z[0] ** 2 + z[1] ** 2)],
-                    (0.0, t), [a0, b0], rtol=1e-12, atol=1e-14)
-    return float(sol.y[0, -1]), float(sol.y[1, -1])
+    """Exact semi-axes at t of the lam = 0 ellipse (continuum.ellipse.semi_axes)."""
+    a, b = ellipse.semi_axes(a0, b0, t)
+    return float(a), float(b)
 
 
 def _exact_bump_shift(config: dict, G: np.ndarray) -> np.ndarray:
@@ -354,7 +330,7 @@ def continuum_errors(folder: str | Path, mask_width: float | None = None,
         out["outer_ring"] = float(rings["mean_radius"][np.argmax(rings["k"])])
     if config["shape"].startswith("ellipse:"):
         a0, b0 = (float(v) for v in config["shape"].split(":")[1].split(","))
-        a, b = ellipse_axes(np.loadtxt(folder / "boundary.csv", delimiter=",", skiprows=1))
+        a, b = ellipse.moment_axes(np.loadtxt(folder / "boundary.csv", delimiter=",", skiprows=1))
         a_ref, b_ref = ellipse_reference(a0, b0, t)
         out |= {"a": a, "b": b, "semi_axes": max(abs(a / a_ref - 1), abs(b / b_ref - 1))}
         return out

@@ -16,14 +16,11 @@
 from __future__ import annotations
 
 import csv
-import math
 
 import numpy as np
-import pytest
 
 from cases.studies import convergence as C
 from cases.sweep import run_engine, run_name, run_one
-from continuum import mesh
 
 
 def _family(study: str) -> C.Family:
@@ -92,16 +89,6 @@ def test_smoke_end_to_end(tmp_path):
         assert (data / name).is_file()
     paths = C.plot(data, tmp_path / "fig")
     assert {p.name for p in paths} >= {"convergence_continuum.png", "convergence_particles.png"}
-
-
-def test_ellipse_references():
-    a, b = C.ellipse_axes(mesh.ellipse_polygon(3.0, 1.5, 4000))
-    assert a == pytest.approx(3.0, rel=1e-5) and b == pytest.approx(1.5, rel=1e-5)
-    # a circle stays a circle: a = b = a0 exp(t/2)
-    assert C.ellipse_reference(1.0, 1.0, 2.0) == pytest.approx((math.e, math.e), rel=1e-10)
-    # the area pi a b grows as exp(t) (div u = 1)
-    a, b = C.ellipse_reference(2.0, 1.0, 1.5)
-    assert a * b == pytest.approx(2.0 * math.exp(1.5), rel=1e-10)
 
 
 def test_plot_from_committed_data(tmp_path):
