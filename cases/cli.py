@@ -61,6 +61,7 @@ CASES = {
     "fig3": "cases.figures.fig3",
     "fig4": "cases.figures.fig4",
     "crosscheck": "cases.figures.crosscheck",
+    "ensemble": "cases.studies.ensemble",
 }
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
