@@ -39,6 +39,8 @@ import numpy as np
 from cases import analysis as A
 from cases.sweep import ENGINES, _engine_params, is_done, run_engine, run_name, scale_config, sweep
 from continuum import radial
+from particles.geometry import B
+from particles.measures import centroid, enclosing_radius
 
 __all__ = ["ENSEMBLES", "particle_params", "continuum_params", "compute", "reduce", "plot",
            "QUANTITIES", "ensemble_data"]
@@ -171,7 +173,29 @@ def _seed_numbers(folder: Path) -> tuple[dict[str, float], dict, dict, dict]:
     row["wavelength"] = float(growth["wavelength"][-1])
     row["outer_ring"] = float(growth["outer_ring"][-1])
     row["ring_z"] = A.final_ring_coherence(folder)[1]
+    row |= central_packing(folder)
     return row, profile, hist, growth
+
+
+def central_packing(folder: Path, fraction: float = 0.5) -> dict[str, float]:
+    """Length packing b rho_l and area fraction of the last frame within fraction x R.
+
+    rho_l = sum l_n / (pi r_c^2) over the particles whose centres lie within r_c = fraction R
+    of the centroid, phi = sum a_n / (pi r_c^2) with a_n = (l_n - b) b + pi b^2 / 4. The
+    continuum's p is the contact pressure P divided by rho_l (friction xi l_n per particle:
+    -grad P = rho_l v, u = -grad p), while a rod's load sigma_n is b times the stress along its
+    axis (mean of its two end forces over the cap width b); under an isotropic P they agree when
+    b rho_l = 1, which a brick packing of rods has exactly.
+    """
+    ((_, fr),) = A.particle_frames(folder, last_only=True)
+    cx, cy = centroid(fr["x"], fr["y"], fr["length"])
+    R = enclosing_radius(fr["x"], fr["y"], fr["theta"], fr["length"])
+    rc = fraction * R
+    inside = np.hypot(fr["x"] - cx, fr["y"] - cy) < rc
+    area = math.pi * rc * rc
+    length = fr["length"][inside]
+    return {"packing": float(B * length.sum() / area),
+            "area_fraction": float(((length - B) * B + math.pi * B * B / 4).sum() / area)}
 
 
 def _common_profile(profiles: list[dict], radius: float, name: str) -> tuple[np.ndarray, ...]:
