@@ -43,7 +43,9 @@ from particles.geometry import B
 from particles.measures import centroid, enclosing_radius
 
 __all__ = ["ENSEMBLES", "particle_params", "continuum_params", "compute", "reduce", "plot",
-           "QUANTITIES", "ensemble_data"]
+           "QUANTITIES", "ensemble_data", "central_packing", "continuum_mean_pressure",
+           "cycle_mean", "mean_stress_ratio", "history_growth", "trailing_rate",
+           "DIVISION_PERIOD"]
 
 #: Ensemble sizes. medium: the lam of the medium figure cases (Fig 3, Fig 4) at radius 40, 8
 #: seeds each (the lam of the figures' curves first); "numerics": one run per halved setting
@@ -57,8 +59,8 @@ ENSEMBLES: dict[str, dict[str, Any]] = {
 }
 
 #: Per-seed numbers of ``seeds.csv`` reduced over the seeds in ``summary.csv``.
-QUANTITIES = ("t_final", "slope", "central_max", "central_fit", "wavelength", "outer_ring",
-              "ring_z")
+QUANTITIES = ("t_final", "slope", "central_max", "central_fit", "mean_stress_now",
+              "mean_stress_cycle", "wavelength", "outer_ring", "ring_z", "packing")
 #: Late dR/dt: linear fit over this last fraction of the run (as Fig 3D).
 LATE_FRACTION = 0.2
 #: Particle profiles: outermost annulus about one particle diameter wide (as the figures).
@@ -128,7 +130,8 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-ensemble-smoke",
 
     ``engines`` must hold both engines (the ensemble compares them). ``finished_only``: engines
     whose runs are only reused where finished (``--engines finished``: the particle seeds
-    finished so far; every lam needs at least one).
+    finished so far; a lam without any is left out, ``n_seeds`` in summary.csv says how many
+    each lam has).
     """
     if set(engines) != set(ENGINES):
         raise ValueError("the ensemble compares particles with the continuum: it needs both "
@@ -150,11 +153,11 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-ensemble-smoke",
         return {k: root / run_name(p) for k, p in params.items() if is_done(root / run_name(p))}
 
     pf, cf = done(particles), done(continuum)
-    missing = [lam for lam in continuum if lam not in cf or not any(k[0] == lam for k in pf)]
-    if missing:
-        raise ValueError(f"no finished runs of both engines for lam = {missing} under {root}")
-    return reduce(pf, cf, done(numerics), Path(out) / "data", _ensemble(scale)["radius"],
-                  _ensemble(scale)["numerics_lam"])
+    lams = [lam for lam in cf if any(k[0] == lam for k in pf)]
+    if not lams:
+        raise ValueError(f"no lam has finished runs of both engines under {root}")
+    return reduce(pf, {lam: cf[lam] for lam in lams}, done(numerics), Path(out) / "data",
+                  _ensemble(scale)["radius"], _ensemble(scale)["numerics_lam"])
 
 
 # --------------------------------------------------------------------------- reductions
@@ -168,6 +171,9 @@ def _seed_numbers(folder: Path) -> tuple[dict[str, float], dict, dict, dict]:
     row = {"radius_final": R_f, "t_final": float(hist["t"][-1]),
            "slope": A.late_slope(hist["t"], hist["radius"], LATE_FRACTION)}
     row |= A.profile_central_stress(profile, R_f)
+    ratio = mean_stress_ratio(hist, float(json.loads((folder / "config.json").read_text())["lam"]))
+    row |= {"mean_stress_now": float(ratio["now"][-1]),
+            "mean_stress_cycle": float(ratio["cycle"][-1])}
     growth = A.particle_growth_series(folder, edge_width=EDGE_WIDTH,
                                       min_radius=0.2 * R_f)
     row["wavelength"] = float(growth["wavelength"][-1])
@@ -335,16 +341,18 @@ def _write_growth(data: Path, lam: float, radius: float, series: list[dict], his
     """growth_lam=*.csv: the growing colony against the continuum at the same radius.
 
     Per seed and frame: central stress (both estimators) / p(0) of the 1D reference at the
-    frame's radius - 1; outermost ring and wavelength / the reference's - 1; the time to reach
-    the radius / the continuum run's - 1 (from the histories, every step). Each is interpolated
-    in log R onto radii GROWTH_FRACTIONS x R and reduced over the seeds. Returns the exponents a
-    of |mean relative difference| ~ R^a (nan where fewer than two radii have one).
+    frame's radius - 1; outermost ring and wavelength / the reference's - 1. From the histories
+    (every step, :func:`history_growth`): the colony's mean stress over the continuum's mean
+    pressure - 1 (averaged over one division period) and the time to reach the radius / the
+    continuum run's - 1. Each is interpolated in log R onto radii GROWTH_FRACTIONS x R and reduced over the seeds. Returns the exponents a
+    of |mean relative difference| ~ R^a over the radii where it keeps its final sign
+    (:func:`trailing_rate`).
     """
     grid = GROWTH_FRACTIONS * radius
     cols: dict[str, np.ndarray] = {"radius": grid}
     rates: dict[str, float] = {}
     rel: dict[str, list] = {k: [] for k in ("central_max", "central_fit", "outer_ring",
-                                            "wavelength", "t")}
+                                            "wavelength", "mean_stress", "t")}
     for g, h in zip(series, hists, strict=True):
         logR = np.log(g["radius"])
         p0 = radial.max_pressure(g["radius"], lam)
@@ -355,19 +363,35 @@ def _write_growth(data: Path, lam: float, radius: float, series: list[dict], his
                      "wavelength": _relative(g["wavelength"], exact[:, 1])}
         for k, v in frame_rel.items():
             rel[k].append(_interp_log(grid, logR, v))
-        t_p = A.time_at_radius(h["t"], h["radius"], grid)
-        t_c = A.time_at_radius(hist_c["t"], hist_c["radius"], grid)
-        rel["t"].append(_relative(t_p, t_c))
+        for k, v in history_growth(h, hist_c["t"], hist_c["radius"], lam, grid).items():
+            rel[k].append(v)
     for k, v in rel.items():
         values = np.array(v)
         cols |= _stats_columns(f"rel_{k}", values)
-        mean = np.abs(cols[f"rel_{k}_mean"])
-        try:
-            rates[f"rate_{k}"] = A.power_law_fit(grid, mean)[0]
-        except ValueError:
-            rates[f"rate_{k}"] = math.nan
+        rates[f"rate_{k}"] = trailing_rate(grid, cols[f"rel_{k}_mean"])
     A.write_csv(data / f"growth_lam={lam:g}.csv", cols)
     return rates
+
+
+def trailing_rate(radii: np.ndarray, diff: np.ndarray, min_points: int = 3) -> float:
+    """Exponent a of |diff| ~ R^a over the largest radii where diff keeps its final sign.
+
+    The fit (:func:`cases.analysis.power_law_fit`) takes the trailing run of finite values of
+    ``diff`` with the sign of the last one (a difference that changes sign has no power law);
+    nan when that run has fewer than ``min_points`` radii.
+    """
+    radii, diff = np.asarray(radii, float), np.asarray(diff, float)
+    ok = np.isfinite(diff)
+    if not ok.any():
+        return math.nan
+    r, d = radii[ok], diff[ok]
+    sign = np.sign(d[-1])
+    start = len(d)
+    while start > 0 and np.sign(d[start - 1]) == sign and sign != 0:
+        start -= 1
+    if len(d) - start < min_points:
+        return math.nan
+    return A.power_law_fit(r[start:], np.abs(d[start:]))[0]
 
 
 def _interp_log(grid: np.ndarray, logR: np.ndarray, values: np.ndarray) -> np.ndarray:
@@ -378,6 +402,76 @@ def _interp_log(grid: np.ndarray, logR: np.ndarray, values: np.ndarray) -> np.nd
     x, y = logR[ok], values[ok]
     order = np.argsort(x)
     return np.interp(np.log(grid), x[order], y[order], left=np.nan, right=np.nan)
+
+
+#: Division period of a particle growing at the free rate (l doubles in ln 2).
+DIVISION_PERIOD = math.log(2.0)
+
+
+def continuum_mean_pressure(R: np.ndarray, lam: float, points: int = 400) -> np.ndarray:
+    """Area mean of the radial pressure over the disc of radius R: (2 / R^2) int_0^R p r dr.
+
+    R^2 / 8 at lam = 0; for lam > 0 by the trapezoidal rule in r over ``points`` nodes of
+    continuum.radial.pressure (relative error below 1e-5 at 400 nodes).
+    """
+    R = np.atleast_1d(np.asarray(R, dtype=float))
+    if lam == 0:
+        return R * R / 8.0
+    x = np.linspace(0.0, 1.0, points)
+    out = np.empty_like(R)
+    for i, Ri in enumerate(R):
+        p = radial.pressure(x * Ri, Ri, lam)
+        out[i] = 2.0 * np.trapezoid(p * x, x)
+    return out
+
+
+def cycle_mean(t: np.ndarray, y: np.ndarray, period: float = DIVISION_PERIOD) -> np.ndarray:
+    """Trailing mean of y(t) over one division period [t - period, t] (trapezoidal in t).
+
+    A colony at lam = 0 divides in synchronous waves (every particle at once, every ln 2): its
+    stress collapses at each wave and recovers over ~0.1 time units, so an instantaneous value
+    depends on the phase of the wave; the mean over a period does not. nan for t < t_0 + period.
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (y[1:] + y[:-1]) * np.diff(t))])
+    start = t - period
+    out = np.full(t.shape, np.nan)
+    ok = start >= t[0]
+    cum_start = np.interp(start[ok], t, cum)
+    out[ok] = (cum[ok] - cum_start) / period
+    return out
+
+
+def mean_stress_ratio(hist: dict[str, np.ndarray], lam: float) -> dict[str, np.ndarray]:
+    """The colony's mean particle stress over the continuum's mean pressure at the same radius.
+
+    ``now``: mean_stress(t) / pbar(R(t)) at every history row (pbar:
+    :func:`continuum_mean_pressure`, R the enclosing radius), ``cycle``: its
+    :func:`cycle_mean`. The whole colony's mean carries far less noise than a central value.
+    """
+    R = hist["radius"]
+    grid = np.geomspace(max(float(R.min()), 0.1), float(R.max()), 200)
+    pbar = np.interp(R, grid, continuum_mean_pressure(grid, lam))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        now = np.where(pbar > 0, hist["mean_stress"] / pbar, np.nan)
+    return {"now": now, "cycle": cycle_mean(hist["t"], now)}
+
+
+def history_growth(hist: dict[str, np.ndarray], t_c: np.ndarray, R_c: np.ndarray, lam: float,
+                   grid: np.ndarray) -> dict[str, np.ndarray]:
+    """Relative differences at the radii ``grid`` from a particle history and a continuum R(t).
+
+    ``mean_stress``: cycle-mean :func:`mean_stress_ratio` - 1 when the colony first reaches
+    each radius; ``t``: time to reach it over the continuum's (t_c, R_c) - 1.
+    """
+    ratio = mean_stress_ratio(hist, lam)["cycle"]
+    t_p = A.time_at_radius(hist["t"], hist["radius"], grid)
+    ok = np.isfinite(t_p)
+    at = np.full(grid.shape, np.nan)
+    at[ok] = np.interp(t_p[ok], hist["t"], ratio)
+    return {"mean_stress": at - 1.0,
+            "t": _relative(t_p, A.time_at_radius(t_c, R_c, grid))}
 
 
 def _write_numerics(data: Path, numerics: dict[str, Path],
