@@ -344,9 +344,9 @@ def _write_growth(data: Path, lam: float, radius: float, series: list[dict], his
     frame's radius - 1; outermost ring and wavelength / the reference's - 1. From the histories
     (every step, :func:`history_growth`): the colony's mean stress over the continuum's mean
     pressure - 1 (averaged over one division period) and the time to reach the radius / the
-    continuum run's - 1. Each is interpolated in log R onto radii GROWTH_FRACTIONS x R and reduced over the seeds. Returns the exponents a
-    of |mean relative difference| ~ R^a over the radii where it keeps its final sign
-    (:func:`trailing_rate`).
+    continuum run's - 1. Each is interpolated in log R onto radii GROWTH_FRACTIONS x R and
+    reduced over the seeds. Returns the exponents a of |mean relative difference| ~ R^a over
+    the radii where it keeps its final sign (:func:`trailing_rate`).
     """
     grid = GROWTH_FRACTIONS * radius
     cols: dict[str, np.ndarray] = {"radius": grid}
