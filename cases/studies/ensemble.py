@@ -45,7 +45,7 @@ from particles.measures import centroid, enclosing_radius
 __all__ = ["ENSEMBLES", "particle_params", "continuum_params", "compute", "reduce", "plot",
            "QUANTITIES", "ensemble_data", "central_packing", "continuum_mean_pressure",
            "cycle_mean", "mean_stress_ratio", "history_growth", "trailing_rate",
-           "DIVISION_PERIOD"]
+           "DIVISION_PERIOD", "markdown_tables"]
 
 #: Ensemble sizes. medium: the lam of the medium figure cases (Fig 3, Fig 4) at radius 40, 8
 #: seeds each (the lam of the figures' curves first); "numerics": one run per halved setting
@@ -586,7 +586,74 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     a.legend(fontsize=8)
     plain_log_ticks(fig)
     fig.tight_layout()
+    (out / "tables.md").write_text(markdown_tables(data))
     return save_figure(fig, out / "ensemble")
+
+
+def _pm(mean: float, std: float, scale: float = 100.0, digits: int = 1) -> str:
+    """'mean +- std' (percent by default); '-' for nan."""
+    if not math.isfinite(mean):
+        return "-"
+    text = f"{scale * mean:+.{digits}f}"
+    return text + (f" +- {scale * std:.{digits}f}" if math.isfinite(std) else "")
+
+
+def markdown_tables(data: str | Path) -> str:
+    """The ensemble's tables (docs/results.md) from its CSVs: differences with the seed spread.
+
+    Relative differences particles / continuum - 1 in percent, seed mean +- standard deviation
+    over the seeds (n per lam); then the numerics runs against the seed spread; then the growing
+    colony's differences at the radii of growth_lam=*.csv.
+    """
+    data = Path(data)
+    s = A.read_csv(data / "summary.csv")
+    d = A.read_csv(data / "differences.csv")
+    rows = []
+    for i, lam in enumerate(s["lam"]):
+        cycle = s["mean_stress_cycle_mean"][i] - 1, s["mean_stress_cycle_std"][i]
+        rows.append([f"{lam:g}", f"{int(s['n_seeds'][i])}",
+                     _pm(d["rel_t_final_mean"][i], d["rel_t_final_std"][i]),
+                     _pm(d["rel_slope_mean"][i], d["rel_slope_std"][i]),
+                     _pm(d["rel_central_max_mean"][i], d["rel_central_max_std"][i]),
+                     _pm(d["rel_central_fit_mean"][i], d["rel_central_fit_std"][i]),
+                     _pm(*cycle),
+                     _pm(d["rel_wavelength_mean"][i], d["rel_wavelength_std"][i]),
+                     f"{s['packing_mean'][i]:.3f}"])
+    out = [A.markdown_rows(
+        ["lam", "seeds", "t to final R", "late dR/dt", "central stress: largest annulus",
+         "central stress: fit", "mean stress (cycle mean)", "wavelength", "b rho_l (r < R/2)"],
+        rows)]
+    if (data / "numerics.csv").exists():
+        num = A.read_csv(data / "numerics.csv")
+        lam = float(num["lam"][0])
+        i = int(np.flatnonzero(s["lam"] == lam)[0]) if lam in s["lam"] else None
+        nrows = []
+        for j in range(len(num["dt"])):
+            row = [f"{num['dt'][j]:g}", f"{num['tol'][j]:g}"]
+            for q in ("t_final", "slope", "central_fit", "mean_stress_cycle"):
+                base = num[q][0]
+                rel = num[q][j] / base - 1 if j else math.nan
+                spread = s[f"{q}_std"][i] / s[f"{q}_mean"][i] if i is not None else math.nan
+                row.append(f"{num[q][j]:.4g}" + (f" ({100 * rel:+.1f} %)" if j else "")
+                           + (f" [seeds +- {100 * spread:.1f} %]" if j == 0 else ""))
+            nrows.append(row)
+        out.append(A.markdown_rows(["dt", "tol", "t to final R", "late dR/dt",
+                                    "central stress (fit)", "mean stress / continuum"],
+                                   nrows))
+    grows = []
+    radii = None
+    for lam in s["lam"]:
+        g = A.read_csv(data / f"growth_lam={lam:g}.csv")
+        radii = g["radius"]
+        for key, name in (("mean_stress", "mean stress (cycle)"), ("central_fit",
+                                                                   "central stress (fit)"),
+                          ("t", "time to reach R")):
+            grows.append([f"{lam:g}", name, *[_pm(m, e) for m, e in zip(
+                g[f"rel_{key}_mean"], g[f"rel_{key}_std"], strict=True)]])
+    if radii is not None:
+        out.append(A.markdown_rows(["lam", "quantity", *[f"R = {R:.3g}" for R in radii]],
+                                   grows))
+    return "\n\n".join(out) + "\n"
 
 
 if __name__ == "__main__":  # same options as `colony case ensemble ...`
