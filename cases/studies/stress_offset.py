@@ -77,14 +77,18 @@ PAPER_RADII = np.geomspace(10.0, 150.0, 9)
 
 
 def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA / "fig3_paper",
-                 radii: np.ndarray = PAPER_RADII) -> dict[str, np.ndarray]:
+                 fig4: Path = DATA / "fig4_paper", radii: np.ndarray = PAPER_RADII
+                 ) -> dict[str, np.ndarray]:
     """The committed paper-scale colonies against the continuum as they grow (radius 10 to 150).
 
     From each lam's particle history (``particles_paper/lam=*/history.csv``, thinned to ~400
     rows) and the continuum's R(t) (``fig3_paper/radius_continuum_lam=*.csv``):
     :func:`cases.studies.ensemble.history_growth` at ``radii`` (mean stress over the
-    continuum's mean pressure - 1, cycle-averaged; time to reach the radius - 1). No particle
-    profiles at intermediate radii are committed, so no central value or ring there.
+    continuum's mean pressure - 1, cycle-averaged; time to reach the radius - 1) and, for the
+    lam of Fig 4, the ring wavelength at every frame of both models
+    (``fig4_paper/wavelength_*_lam=*.csv``) compared at the same radius (each interpolated
+    linearly in R between its frames with two rings; nan elsewhere). No particle profiles at
+    intermediate radii are committed, so no central value or ring radius there.
     """
     from cases.studies.ensemble import history_growth
 
@@ -97,11 +101,28 @@ def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA /
         hc = A.read_csv(cont)
         g = history_growth(A.read_csv(folder / "history.csv"), hc["t"], hc["radius"], lam,
                            radii)
+        w = _wavelength_at(fig4, lam, radii)
         for i, R in enumerate(radii):
             for k, v in (("lam", lam), ("radius", R), ("rel_mean_stress", g["mean_stress"][i]),
-                         ("rel_t", g["t"][i])):
+                         ("rel_t", g["t"][i]), ("rel_wavelength", w[i])):
                 rows.setdefault(k, []).append(v)
     return {k: np.asarray(v, dtype=float) for k, v in rows.items()}
+
+
+def _wavelength_at(fig4: Path, lam: float, radii: np.ndarray) -> np.ndarray:
+    """Particle wavelength / continuum wavelength - 1 at ``radii`` (nan without both)."""
+    out = {}
+    for engine in ("particles", "continuum"):
+        path = fig4 / f"wavelength_{engine}_lam={lam:g}.csv"
+        if not path.exists():
+            return np.full(radii.shape, np.nan)
+        w = A.read_csv(path)
+        ok = np.isfinite(w["wavelength"])
+        if ok.sum() < 2:
+            return np.full(radii.shape, np.nan)
+        out[engine] = np.interp(radii, w["radius"][ok], w["wavelength"][ok], left=np.nan,
+                                right=np.nan)
+    return out["particles"] / out["continuum"] - 1.0
 
 
 def _markdown(table: dict[str, np.ndarray]) -> str:
@@ -150,6 +171,11 @@ def _growth_markdown(g: dict[str, np.ndarray]) -> str:
                                                        g["rel_t"][sel], strict=True)]
         a_m, a_t = (trailing_rate(radii, g[k][sel]) for k in ("rel_mean_stress", "rel_t"))
         rows.append([f"{lam:g}", *cells, f"{a_m:.2f} / {a_t:.2f}".replace("nan", "-")])
+        wl = g["rel_wavelength"][sel]
+        if np.isfinite(wl).any():
+            rows.append([f"{lam:g} wavelength", *[f"{100 * x:+.0f}" if math.isfinite(x) else "-"
+                                                  for x in wl],
+                         f"{trailing_rate(radii, wl):.2f}".replace("nan", "-")])
     return A.markdown_rows(["lam", *[f"R = {R:.3g}" for R in radii],
                             "a of abs(diff) ~ R^a (trailing same-sign radii)"], rows)
 

@@ -146,3 +146,28 @@ def test_ensemble_needs_both_engines(tmp_path):
         ensemble.compute(scale="smoke", out=tmp_path, engines=("continuum",))
     with pytest.raises(ValueError, match="scale must be one of"):
         ensemble.compute(scale="paper", out=tmp_path)
+
+
+def test_cycle_mean_removes_a_periodic_dip_and_mean_pressure_exact():
+    period = ensemble.DIVISION_PERIOD
+    t = np.linspace(0, 5, 50001)
+    y = 1.0 + 0.5 * np.sin(2 * np.pi * t / period)
+    m = ensemble.cycle_mean(t, y)
+    assert np.all(np.isnan(m[t < period - 1e-9]))
+    np.testing.assert_allclose(m[t >= period + 1e-3], 1.0, atol=1e-7)
+    from continuum import radial
+
+    R = np.array([10.0, 40.0])
+    np.testing.assert_allclose(ensemble.continuum_mean_pressure(R, 0.0), R**2 / 8, rtol=1e-15)
+    r = np.linspace(0, 40.0, 400001)
+    exact = 2 * np.trapezoid(radial.pressure(r, 40.0, 1e-2) * r, r) / 40.0**2
+    assert ensemble.continuum_mean_pressure(40.0, 1e-2)[0] == pytest.approx(exact, rel=1e-5)
+
+
+def test_trailing_rate():
+    R = np.array([10.0, 20, 40, 80, 160])
+    assert ensemble.trailing_rate(R, -0.5 * R**-1.0) == pytest.approx(-1.0)
+    # the sign changes after R = 20: only the last three radii are fitted
+    assert ensemble.trailing_rate(R, np.array([-0.3, -0.1, 0.01 * 40, 0.01 * 80, 0.01 * 160])
+                                  ) == pytest.approx(1.0)
+    assert math.isnan(ensemble.trailing_rate(R, np.array([1.0, 1, 1, -1, 1])))
