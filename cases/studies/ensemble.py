@@ -515,8 +515,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     (A) final stress profiles: seed mean (solid) and 2.5-97.5 % seed band, continuum pressure of
     the 1D reference (dashed); (B) R(t): seed band, continuum dashed; (C) central stress / p(0)
     against lam, both estimators, seed mean with the seed band (2.5-97.5 %) and the t-interval
-    of the mean; (D) the growing colony: relative difference of the fitted central stress and
-    of the time to reach each radius against the radius, seed bands.
+    of the mean; (D) the growing colony: relative difference of the colony's mean stress
+    (averaged over one division period) from the continuum's mean pressure and of the time to
+    reach each radius, against the radius, seed bands.
     """
     import matplotlib.pyplot as plt
 
@@ -574,15 +575,15 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     a = ax[1, 1]
     for lam in lams:
         g = A.read_csv(data / f"growth_lam={lam:g}.csv")
-        a.plot(g["radius"], 100 * g["rel_central_fit_mean"], "-o", ms=3, color=colors[lam],
+        a.plot(g["radius"], 100 * g["rel_mean_stress_mean"], "-o", ms=3, color=colors[lam],
                label=rf"$\lambda$ = {lam:g}")
-        a.fill_between(g["radius"], 100 * g["rel_central_fit_q025"],
-                       100 * g["rel_central_fit_q975"], color=colors[lam], alpha=0.15, lw=0)
+        a.fill_between(g["radius"], 100 * g["rel_mean_stress_q025"],
+                       100 * g["rel_mean_stress_q975"], color=colors[lam], alpha=0.15, lw=0)
         a.plot(g["radius"], 100 * g["rel_t_mean"], ":", color=colors[lam])
     a.axhline(0.0, color="k", lw=0.8)
     a.set(xlabel="colony radius R", xscale="log",
           ylabel="particles / continuum - 1 (%)",
-          title="(D) central stress (fit, solid) and time to reach R (dotted)")
+          title="(D) mean stress over one division period (solid), time to reach R (dotted)")
     a.legend(fontsize=8)
     plain_log_ticks(fig)
     fig.tight_layout()
