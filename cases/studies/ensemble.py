@@ -22,7 +22,7 @@ the same radius (``growth_lam=*.csv``, relative differences; ``growth_rates.csv`
 step halved and with the overlap tolerance halved (the solver tolerance follows it), against
 the seed spread.
 
-Scales (:data:`ENSEMBLES`): "smoke" (radius 8, lam = 0.1, 3 seeds; seconds) and "medium"
+Scales (:data:`ENSEMBLES`): "smoke" (radius 8, lam = 0.1, 2 seeds; about 40 s of CPU) and "medium"
 (radius 40, the lam of the medium figure cases, 8 seeds each; about 50 particle runs of 30-80 s
 CPU each). Committed data: cases/data/ensemble (``colony case ensemble --from-data``).
 """
@@ -52,7 +52,7 @@ __all__ = ["ENSEMBLES", "particle_params", "continuum_params", "compute", "reduc
 #: (dt, tol) at the first seed of ``numerics_lam``. Engine settings of the figure scale
 #: ``scale`` (cases.sweep.SCALES) with the radius replaced.
 ENSEMBLES: dict[str, dict[str, Any]] = {
-    "smoke": {"scale": "smoke", "radius": 8.0, "lams": (0.1,), "seeds": 3,
+    "smoke": {"scale": "smoke", "radius": 8.0, "lams": (0.1,), "seeds": 2,
               "numerics_lam": 0.1, "numerics": ({"dt": 0.005}, {"tol": 5e-4})},
     "medium": {"scale": "medium", "radius": 40.0, "lams": (0.0, 1e-3, 1e-2, 3e-2, 3e-3, 1e-1),
                "seeds": 8, "numerics_lam": 1e-3, "numerics": ({"dt": 0.005}, {"tol": 5e-4})},

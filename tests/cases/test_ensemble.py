@@ -4,8 +4,8 @@
    largest annulus mean is biased upwards (by many of its standard errors), the fit
    p0 - c r^2 is not, and its stated standard error is the fit's actual scatter.
 2. seed_spread and time_at_radius against exact values.
-3. The smoke ensemble end to end with the real engines (five particle runs and one continuum
-   run at radius 8).
+3. The smoke ensemble end to end with the real engines (four particle runs and one continuum
+   run at radius 8; about 40 s of CPU).
 """
 
 from __future__ import annotations
@@ -118,11 +118,11 @@ def test_smoke_ensemble_end_to_end(tmp_path):
     paths = ensemble.plot(data, tmp_path)
     assert all(p.stat().st_size > 0 for p in paths)
     seeds = A.read_csv(data / "seeds.csv")
-    assert seeds["seed"].tolist() == [0, 1, 2]
+    assert seeds["seed"].tolist() == [0, 1]
     assert np.all(np.abs(seeds["radius_final"] - 8.0) < 0.5)
     s = A.read_csv(data / "summary.csv")
-    assert s["n_seeds"].tolist() == [3]
-    # the three colonies differ (seeds), and lie near the continuum: the central stress within
+    assert s["n_seeds"].tolist() == [2]
+    # the two colonies differ (seeds), and lie near the continuum: the central stress within
     # 35 % of p(0), the time to radius 8 within 15 % of the continuum's
     assert s["t_final_std"][0] > 0
     d = A.read_csv(data / "differences.csv")
