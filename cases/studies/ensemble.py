@@ -569,7 +569,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     a.axhline(1.0, color="k", lw=0.8, ls=":")
     a.set(xscale="log", xlabel=r"$\lambda$ (leftmost: $\lambda$ = 0)",
           ylabel=r"central stress / continuum $p(0)$",
-          title="(C) central stress; thick bars: 95 % t-interval of the mean")
+          title="(C) thick bars: 95 % t-interval of the mean")
     a.legend(fontsize=8)
 
     a = ax[1, 1]
@@ -583,7 +583,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     a.axhline(0.0, color="k", lw=0.8)
     a.set(xlabel="colony radius R", xscale="log",
           ylabel="particles / continuum - 1 (%)",
-          title="(D) mean stress over one division period (solid), time to reach R (dotted)")
+          title="(D) mean stress, cycle mean (solid); time to R (dotted)")
     a.legend(fontsize=8)
     plain_log_ticks(fig)
     fig.tight_layout()
