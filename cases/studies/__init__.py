@@ -1,6 +1,4 @@
-"""Studies beyond the paper's figures, one module per study.
-
-Non-radial colonies, convergence, seed ensembles (:mod:`.ensemble`, :mod:`.stress_offset`).
+"""Studies beyond the paper's figures (non-radial colonies, convergence), one module per study.
 
 A study is written as a figure case (:mod:`cases.figures`): ``compute(scale, out, ...)`` runs or
 reuses its engine runs through :mod:`cases.sweep` and reduces them with :mod:`cases.analysis` to
