@@ -18,7 +18,7 @@ lam): the final stress and mean-length profiles on common equal-area annuli
 each radius against the continuum's (``time_lam=*.csv``) and, frame by frame as the colony grows
 from R/4 to R, the central stress, outermost ring and wavelength against the 1D reference at
 the same radius (``growth_lam=*.csv``, relative differences; ``growth_rates.csv`` fits
-|difference| ~ R^a). ``numerics.csv``: the first seed of ``numerics_lam`` again with the time
+abs(difference) ~ R^a). ``numerics.csv``: the first seed of ``numerics_lam`` again with the time
 step halved and with the overlap tolerance halved (the solver tolerance follows it), against
 the seed spread.
 
@@ -345,7 +345,7 @@ def _write_growth(data: Path, lam: float, radius: float, series: list[dict], his
     (every step, :func:`history_growth`): the colony's mean stress over the continuum's mean
     pressure - 1 (averaged over one division period) and the time to reach the radius / the
     continuum run's - 1. Each is interpolated in log R onto radii GROWTH_FRACTIONS x R and
-    reduced over the seeds. Returns the exponents a of |mean relative difference| ~ R^a over
+    reduced over the seeds. Returns the exponents a of abs(mean relative difference) ~ R^a over
     the radii where it keeps its final sign (:func:`trailing_rate`).
     """
     grid = GROWTH_FRACTIONS * radius
@@ -374,7 +374,7 @@ def _write_growth(data: Path, lam: float, radius: float, series: list[dict], his
 
 
 def trailing_rate(radii: np.ndarray, diff: np.ndarray, min_points: int = 3) -> float:
-    """Exponent a of |diff| ~ R^a over the largest radii where diff keeps its final sign.
+    """Exponent a of abs(diff) ~ R^a over the largest radii where diff keeps its final sign.
 
     The fit (:func:`cases.analysis.power_law_fit`) takes the trailing run of finite values of
     ``diff`` with the sign of the last one (a difference that changes sign has no power law);
