@@ -172,3 +172,18 @@ def test_trailing_rate():
     assert ensemble.trailing_rate(R, np.array([-0.3, -0.1, 0.01 * 40, 0.01 * 80, 0.01 * 160])
                                   ) == pytest.approx(1.0)
     assert math.isnan(ensemble.trailing_rate(R, np.array([1.0, 1, 1, -1, 1])))
+
+
+def test_plot_and_offset_tables_from_committed_data(tmp_path):
+    """`colony case ensemble --from-data` and `python -m cases.studies.stress_offset`."""
+    from pathlib import Path
+
+    from cases.studies import stress_offset
+
+    data = Path(ensemble.__file__).resolve().parents[1] / "data" / "ensemble"
+    paths = ensemble.plot(data, tmp_path)
+    assert all(p.stat().st_size > 1000 for p in paths)
+    assert "| lam | seeds |" in (tmp_path / "tables.md").read_text()
+    assert stress_offset.main(["--out", str(tmp_path)]) == 0
+    for name in ("estimators.csv", "growth_paper.csv"):  # the committed tables, reproduced
+        assert (tmp_path / name).read_bytes() == (data / name).read_bytes()
