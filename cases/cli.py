@@ -69,6 +69,7 @@ CASES = {
     "crosscheck": "cases.figures.crosscheck",
     "stability": "cases.studies.stability",
     "convergence": "cases.studies.convergence",
+    "ensemble": "cases.studies.ensemble",
 }
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")

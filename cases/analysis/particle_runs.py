@@ -6,7 +6,9 @@ every particle) and profiles are taken about that centroid (:mod:`particles.meas
 
 - :func:`particle_wavelength_series`: the ring wavelength at every frame;
 - :func:`final_particle_profile`: the final radial profile, pooled over the last frames;
-- :func:`final_ring_coherence`: whether the final colony has rings.
+- :func:`final_ring_coherence`: whether the final colony has rings;
+- :func:`particle_growth_series`: central stress, rings and wavelength at every frame (how the
+  colony compares with the continuum as it grows).
 """
 
 from __future__ import annotations
@@ -20,12 +22,15 @@ from particles.measures import centroid, enclosing_radius
 
 from .io import particle_frames
 from .profiles import equal_area_annuli, particle_profile
-from .rings import profile_wavelength, ring_coherence
+from .rings import profile_wavelength, ring_coherence, ring_peaks
+from .statistics import central_value, max_value
 
 __all__ = [
     "particle_wavelength_series",
     "final_particle_profile",
     "final_ring_coherence",
+    "particle_growth_series",
+    "profile_central_stress",
 ]
 
 
@@ -102,3 +107,52 @@ def final_ring_coherence(folder: str | os.PathLike, width: float = 1.0) -> tuple
         return math.nan, math.nan
     return ring_coherence(last["x"], last["y"], last["length"], width=width)
 
+
+
+def profile_central_stress(profile: dict[str, np.ndarray], radius: float) -> dict[str, float]:
+    """Central stress of a particle profile by both estimators.
+
+    ``central_max``: the largest annulus mean (:func:`max_value`, the figures' "max stress",
+    biased upwards by the annuli's noise); ``central_fit``, ``central_fit_se``: p0 of the fit
+    p0 - c r^2 over the central region (:func:`central_value`, annuli weighted by their counts;
+    nan with fewer than two annuli there).
+    """
+    try:
+        p0, se, _ = central_value(profile["r"], profile["stress"], radius, profile["count"])
+    except ValueError:  # fewer than two annuli in the central region (a small colony)
+        p0, se = math.nan, math.nan
+    return {"central_max": max_value(profile["stress"]), "central_fit": p0,
+            "central_fit_se": se}
+
+
+def particle_growth_series(folder: str | os.PathLike, edge_width: float = 0.5,
+                           min_radius: float = 10.0, min_count: int = 10
+                           ) -> dict[str, np.ndarray]:
+    """Central stress, rings and wavelength of every trajectory frame with radius >= min_radius.
+
+    Each frame's :func:`particle_profile` (annuli at most ``edge_width`` wide at the edge);
+    :func:`profile_central_stress` of it; the peaks of its mean-length profile (annuli with at
+    least ``min_count`` particles, noise threshold from their standard errors, as
+    :func:`profile_wavelength`): the outermost peak radius ``outer_ring`` and the
+    ``wavelength`` (difference of the two outermost; nan with fewer peaks). Columns t, radius,
+    n_particles, central_max, central_fit, central_fit_se, outer_ring, wavelength.
+    """
+    names = ("t", "radius", "n_particles", "central_max", "central_fit", "central_fit_se",
+             "outer_ring", "wavelength")
+    out: dict[str, list] = {k: [] for k in names}
+    for t, fr in particle_frames(folder):
+        R = _radius(fr)
+        if R < min_radius:
+            continue
+        prof = particle_profile(fr["x"], fr["y"], fr["theta"], fr["length"], fr["stress"],
+                                edge_width=edge_width, radius=R)
+        row = {"t": t, "radius": R, "n_particles": fr["x"].size}
+        row |= profile_central_stress(prof, R)
+        keep = prof["count"] >= min_count
+        se = prof["mean_length_std"][keep] / np.sqrt(prof["count"][keep])
+        peaks = ring_peaks(prof["r"][keep], prof["mean_length"][keep], stderr=se)
+        row["outer_ring"] = float(peaks[-1]) if peaks.size else math.nan
+        row["wavelength"] = float(peaks[-1] - peaks[-2]) if peaks.size >= 2 else math.nan
+        for k in names:
+            out[k].append(row[k])
+    return {k: np.asarray(v, dtype=float) for k, v in out.items()}

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
+from cases.studies.ensemble import ensemble_data
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 from continuum import radial
 
@@ -127,14 +128,33 @@ def _lam_files(data: Path, prefix: str) -> dict[float, Path]:
     return dict(sorted(out.items()))
 
 
+def _seeds(ens: Path) -> int:
+    return int(np.max(A.read_csv(ens / "summary.csv")["n_seeds"]))
+
+
+def _seed_bars(ax, ens: Path, key: str) -> None:
+    """The ensemble's 2.5-97.5 % seed range of ``key`` at each lam > 0 (grey bars)."""
+    s = A.read_csv(ens / "summary.csv")
+    pos = s["lam"] > 0
+    lo, hi = s[f"{key}_q025"][pos], s[f"{key}_q975"][pos]
+    ax.vlines(s["lam"][pos], lo, hi, color="0.4", lw=3, alpha=0.5,
+              label=f"particles, {_seeds(ens)} seeds: 2.5-97.5 %")
+
+
 def plot(data: str | Path, out: str | Path) -> list[Path]:
-    """Draw Fig 3 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
+    """Draw Fig 3 (PNG and PDF in ``out``) from the CSVs in ``data`` only.
+
+    Where the seed ensemble's data lie beside ``data`` (cases.studies.ensemble.ensemble_data:
+    cases/data/ensemble for cases/data/fig3, OUT/ensemble for OUT/data) at the same radius, the
+    particle curves get its seed bands (2.5-97.5 % of the seeds) and panels C, D its seed ranges.
+    """
     import matplotlib.pyplot as plt
 
     from cases.figures.draw import note_missing_engines, plain_log_ticks, save_figure
 
     data, out = Path(data), Path(out)
     summary = A.read_csv(data / "summary.csv")
+    ens = ensemble_data(data, float(summary["radius_continuum"][0]))
     fig, ax = plt.subplots(2, 2, figsize=(10, 8))
     prof_lams = sorted(_lam_files(data, "profile_continuum"))
     colors = {lam: plt.cm.plasma(i / max(1, len(prof_lams))) for i, lam in enumerate(prof_lams)}
@@ -146,7 +166,12 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         if (path := data / f"profile_particles_lam={lam:g}.csv").exists():
             pp = A.read_csv(path)
             a.plot(pp["r"], pp["stress"], "-", color=colors[lam])
-    a.set(xlabel="r", ylabel=r"$\langle\sigma_n\rangle$ (solid), $p$ (dashed)", title="(A)")
+        if ens is not None and (path := ens / f"profile_lam={lam:g}.csv").exists():
+            pe = A.read_csv(path)
+            a.fill_between(pe["r"], pe["stress_q025"], pe["stress_q975"], color=colors[lam],
+                           alpha=0.2, lw=0)
+    a.set(xlabel="r", ylabel=r"$\langle\sigma_n\rangle$ (solid), $p$ (dashed)",
+          title="(A)" + (f" bands: {_seeds(ens)} seeds, 2.5-97.5 %" if ens else ""))
     a.legend(fontsize=8)
 
     a = ax[0, 1]
@@ -156,6 +181,10 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         if (path := data / f"radius_particles_lam={lam:g}.csv").exists():
             hp = A.read_csv(path)
             a.plot(hp["t"], hp["radius"], "-", color=colors[lam])
+        if ens is not None and (path := ens / f"radius_lam={lam:g}.csv").exists():
+            he = A.read_csv(path)
+            a.fill_between(he["t"], he["radius_q025"], he["radius_q975"], color=colors[lam],
+                           alpha=0.25, lw=0)
     a.set(xlabel="t", ylabel="R(t)", yscale="log", title="(B) particles solid, continuum dashed")
     a.legend(fontsize=8)
 
@@ -174,6 +203,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         except ValueError:
             pass
         a.plot(lam, y, style, mfc="none", label=label)
+    if ens is not None:
+        _seed_bars(a, ens, "central_max")
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel="max stress", title="(C)")
     a.legend(fontsize=8)
 
@@ -182,6 +213,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                               ("slope_continuum", "s", "continuum")):
         if np.isfinite(summary[key][pos]).any():
             a.plot(lam, summary[key][pos], style, mfc="none", label=label)
+    if ens is not None:
+        _seed_bars(a, ens, "slope")
     a.plot(lam, summary["slope_exact"][pos], "k:", label=r"disc $4cR$ at final $R$")
     lg = np.logspace(np.log10(lam.min()), np.log10(lam.max()), 50)
     a.plot(lg, np.sqrt(2 / lg), "k--", label=r"$(2/\lambda)^{1/2}$")

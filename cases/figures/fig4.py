@@ -42,6 +42,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
+from cases.studies.ensemble import ensemble_data
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "exact_wavelength", "exact_rings"]
@@ -149,13 +150,37 @@ def _lams(data: Path, prefix: str) -> list[float]:
     return sorted(float(p.stem.split("lam=")[1]) for p in data.glob(f"{prefix}_lam=*.csv"))
 
 
+def _seed_band(ax, ens: Path | None, lam: float, color) -> None:
+    """The ensemble's 2.5-97.5 % seed band of the final mean-length profile (dash-dot)."""
+    if ens is None or not (path := ens / f"profile_lam={lam:g}.csv").exists():
+        return
+    pe = A.read_csv(path)
+    for q in ("mean_length_q025", "mean_length_q975"):
+        ax.plot(pe["r"], pe[q], "-.", color=color, lw=0.8)
+
+
+def _seed_bars(ax, ens: Path) -> None:
+    """The ensemble's 2.5-97.5 % seed range of the final wavelength (lam with rings)."""
+    e = A.read_csv(ens / "summary.csv")
+    pos = (e["lam"] > 0) & (e["ring_z_mean"] >= A.RING_Z)
+    n = int(np.max(e["n_seeds"]))
+    ax.vlines(e["lam"][pos], e["wavelength_q025"][pos], e["wavelength_q975"][pos],
+              color="0.4", lw=3, alpha=0.5, label=f"particles, {n} seeds: 2.5-97.5 %")
+
+
 def plot(data: str | Path, out: str | Path) -> list[Path]:
-    """Draw Fig 4 (PNG and PDF in ``out``) from the CSVs in ``data`` only."""
+    """Draw Fig 4 (PNG and PDF in ``out``) from the CSVs in ``data`` only.
+
+    With the seed ensemble's data beside ``data`` (as for Fig 3) panel A adds its 2.5-97.5 %
+    seed band of the mean length (dash-dot) and panel C its seed range of the wavelength (lam
+    whose mean ring coherence is at least RING_Z).
+    """
     import matplotlib.pyplot as plt
 
     from cases.figures.draw import note_missing_engines, plain_log_ticks, save_figure
 
     data, out = Path(data), Path(out)
+    ens = ensemble_data(data, float(A.read_csv(data / "summary.csv")["radius_continuum"][0]))
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.5))
     lams = sorted({*_lams(data, "profile_particles"), *_lams(data, "profile_continuum")})
     colors = {lam: plt.cm.viridis(i / max(1, len(lams))) for i, lam in enumerate(lams)}
@@ -178,9 +203,11 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             a.plot(r, m, style, color=colors[lam], lw=1, label=label)
             label = None
             a.fill_between(r, m - s, m + s, color=colors[lam], alpha=0.2, lw=0)
+        _seed_band(a, ens, lam, colors[lam])
     a.set(xlabel="r", ylabel=r"$\langle \ell_n \rangle$ $\pm$ 1 s.d.",
           title="(A) final time: particles solid, continuum dashed\n"
-                r"(dotted: $2^{\mathrm{frac}(\langle G\rangle/\ln 2)}$)")
+                r"(dotted: $2^{\mathrm{frac}(\langle G\rangle/\ln 2)}$)"
+                + ("\ndash-dot: 2.5-97.5 % of the ensemble's seeds" if ens else ""))
     a.legend(fontsize=8)
 
     a = ax[1]
@@ -216,6 +243,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         except ValueError:
             pass
         a.plot(lam, w, style, mfc="none", label=label)
+    if ens is not None:
+        _seed_bars(a, ens)
     ok = np.isfinite(s["wavelength_exact"]) & (s["wavelength_exact"] > 0)
     if ok.any():
         C = np.exp(np.mean(np.log(s["wavelength_exact"][ok] * np.sqrt(s["lam"][ok]))))
