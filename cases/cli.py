@@ -289,7 +289,7 @@ def parser() -> argparse.ArgumentParser:
                    "outline, default) or rows (parallel to x)")
     p.add_argument("--seed", type=int, help="random seed (division noise)")
     p.add_argument("--dt", type=float,
-                   help="time step (the largest, unless --step-control fixed; default 0.01)")
+                   help="time step (the largest, unless --step-control fixed; default 0.02)")
     p.add_argument("--step-control", choices=("overlap", "fixed", "cost"),
                    help="overlap (default): shorten the step where its linearised move leaves "
                    "overlaps above 0.3 b; "

@@ -36,9 +36,9 @@ class Config:
     dt : float
         Time step (the last step of a ``time`` run is shortened to land on it); with an
         adaptive ``step_control`` the first and largest step.
-        Default 0.01, measured: lam = 1e-2 to radius 40 (about 6600 particles) took 58 s,
-        53 s and 44 s of wall time at dt = 0.005, 0.01, 0.02 with 0.39, 0.56 and 0.98 re-solve
-        passes per step, reaching radius 40 at t = 10.52, 10.48, 10.52.
+        Default 0.02 with the "overlap" control, measured to radius 40 against the former
+        default (a fixed 0.01): 0.77x, 0.87x and 0.94x the CPU time at lam = 1e-2, 1e-3 and 0,
+        no halved step, t at radius 40 within 0.3 % (docs/benchmarks.md, "Step control").
     step_control : str
         "overlap" (default): steps as long as ``dt`` while the overlap a step's linearised
         move leaves is below stepping.MAIN_OVERLAP, shorter where the colony's motion demands
@@ -94,7 +94,7 @@ class Config:
     lam: float
     radius: float | None = None
     time: float | None = None
-    dt: float = 0.01
+    dt: float = 0.02
     tol: float = B / 500
     seed: int = 0
     division_noise: float = 0.02
