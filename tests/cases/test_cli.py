@@ -172,7 +172,7 @@ def test_particles_resume_with_another_step_only_when_asked(tmp_path):
     assert res.returncode == 0, res.stderr
     config = json.loads((out / "config.json").read_text())
     assert config["dt"] == 0.005 and config["step_policy_changes"] == [
-        {"step": 20, "dt": [0.01, 0.005]}]
+        {"step": 20, "dt": [0.02, 0.005]}]
 
 
 def test_plot_and_movie_of_a_run(tmp_path):

@@ -35,7 +35,7 @@ def test_all_names_exist_and_version():
 
 
 def test_step_returns_a_frozen_record_and_divides_inside():
-    sim = Simulation(Config(lam=1e-2, seed=1))
+    sim = Simulation(Config(lam=1e-2, seed=1, dt=0.01))
     record = sim.step()
     assert isinstance(record, StepRecord)
     assert (record.step, record.t, record.dt, record.n_particles) == (1, 0.01, 0.01, 1)
