@@ -4,8 +4,8 @@
 cases"). For each shape of the scale, at one lam (``LAM`` = 1e-2), both engines start from the
 same outline and grow for the same time ``t_end``:
 
-- ``ellipse`` 2:1 (``ellipse:A,A/2``), ``rectangle`` 4:1 (``rectangle:W,W/4,ROUND``, corners
-  rounded), ``star3`` and ``star5`` (``star:K,0.2,R``): the continuum from
+- ``ellipse`` 2:1 (``ellipse:A,A/2``), ``rectangle`` 4:1 (``rectangle:2A,A/2,A/8``, corners
+  rounded), ``star3`` and ``star5`` (``star:K,0.2,A``): the continuum from
   continuum.shapes.outline, the particles from its fill (cases.shapes.initial_particles) with
   ``fill_lengths = "birth"`` (every rod at l = 1: like for like with the continuum's narrow bump
   of Psi0 at l = 1, so both start synchronised);
@@ -73,7 +73,7 @@ LAM = 1e-2
 MODES = (2, 3, 4, 5, 6)
 """Fourier modes of the boundary radius that are measured."""
 
-#: size: A of the ellipse (semi-axes A, A/2), W of the rectangle (W x W/4), R of the stars;
+#: size: A of the ellipse (semi-axes A, A/2; 2A x A/2 the rectangle, R = A the stars);
 #: line_cells: N of the line; handoff_radius: the particle colony handed over; t_end: the time
 #: both engines grow from the initial shape; frames: output interval in t.
 SCALES = {
@@ -92,7 +92,7 @@ def shape_specs(cfg: dict) -> dict[str, tuple[str, str | None]]:
     """{name: (continuum shape, particle shape)} of a scale; ``handoff`` has no spec (None)."""
     a = cfg["size"]
     n = cfg["line_cells"]
-    rect = f"rectangle:{a:g},{a / 4:g},{a / 16:g}"
+    rect = f"rectangle:{2 * a:g},{a / 2:g},{a / 8:g}"
     return {
         "ellipse": (f"ellipse:{a:g},{a / 2:g}",) * 2,
         "rectangle": (rect, rect),

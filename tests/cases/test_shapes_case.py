@@ -1,0 +1,58 @@
+"""``colony case shapes`` at smoke scale, end to end (both engines, the hand-off, the figure)."""
+
+import numpy as np
+import pytest
+
+from cases import analysis as A
+from cases.studies import shapes as S
+
+
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    out = tmp_path_factory.mktemp("shapes")
+    return S.compute("smoke", out, n_workers=1), out
+
+
+def test_columns_and_files(smoke):
+    data, out = smoke
+    names = ["ellipse", "rectangle", "star3", "star5", "line", "handoff"]
+    for name in names:
+        s = A.read_csv(data / f"shape_{name}.csv")
+        assert list(s) == list(S.COLUMNS)
+        assert set(s["engine"]) == {0.0, 1.0}
+        o = A.read_csv(data / f"outlines_{name}.csv")
+        assert list(o) == ["engine", "t", "x", "y"]
+    d = A.read_csv(data / "differences.csv")
+    assert {"shape", "t", "area_rel", "aspect", "mode2", "mode6"} <= set(d)
+    assert set(d["shape"]) == set(range(len(names)))
+    paths = S.plot(data, out / "fig")
+    assert (out / "fig" / "results.md").read_text().count("| ellipse |") == 2
+    assert all(p.is_file() for p in paths)
+
+
+def test_initial_areas_agree_within_packing(smoke):
+    """At t = 0 the fill's area is the outline's up to the packing of rods at its edge."""
+    data, _ = smoke
+    d = A.read_csv(data / "differences.csv")
+    for i in (0, 2, 3):  # ellipse, star3, star5 (the thin rectangle and the line are narrower)
+        first = np.flatnonzero(d["shape"] == i)[0]
+        assert d["t"][first] == 0.0
+        assert abs(d["area_rel"][first]) < 0.1, (i, d["area_rel"][first])
+    handoff = np.flatnonzero(d["shape"] == 5)[0]  # the continuum starts from the alpha shape
+    assert abs(d["area_rel"][handoff]) < 0.1
+
+
+def test_ellipse_relaxes_in_both_engines(smoke):
+    data, _ = smoke
+    s = A.read_csv(data / "shape_ellipse.csv")
+    for engine in (0, 1):
+        aspect = s["aspect"][s["engine"] == engine]
+        assert abs(aspect[0] - 2.0) < 0.05
+        assert 1.0 < aspect[-1] < aspect[0] - 0.1, (engine, aspect)
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="scale"):
+        S.compute("huge")
+    with pytest.raises(ValueError, match="both"):
+        S.compute("smoke", engines=("continuum",))
