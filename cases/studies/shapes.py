@@ -1,4 +1,4 @@
-"""Non-radial colonies in both models: the same initial shapes grown by the continuum and the particles.
+"""Non-radial colonies in both models: the same initial shapes grown by both engines.
 
 ``colony case shapes [--scale smoke|medium|paper]`` (issue 16, "Cross-check and stability
 cases"). For each shape of the scale, at one lam (``LAM`` = 1e-2), both engines start from the
@@ -325,7 +325,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             ts = np.unique(o["t"][o["engine"] == engine])
             for j, t in enumerate(ts):
                 sel = (o["engine"] == engine) & (o["t"] == t)
-                x, y = np.append(o["x"][sel], o["x"][sel][0]), np.append(o["y"][sel], o["y"][sel][0])
+                x, y = (np.append(o[k][sel], o[k][sel][0]) for k in ("x", "y"))
                 c = plt.cm.viridis(0.8 * (1 - j / max(1, len(ts) - 1)))
                 ax.plot(x, y, style, color=c, lw=1.0,
                         label=(("continuum" if engine == 0 else "particles") + f" t={t:.2g}"))
