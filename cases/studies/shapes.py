@@ -27,8 +27,11 @@ its triangles; particles: the alpha shape of the rods, cases.handoff.particle_ou
 and the aspect ratio of the region (cases.handoff.polygon_moments: sqrt of the ratio of the
 principal second moments of area), and the relative amplitudes ``abs(r_K) / r_0`` of modes
 K = 2..6 of the boundary radius about the area centroid
-(cases.studies.stability.mode_amplitude; nan where the outline is not star-shaped about its
-centroid, e.g. a buckled line). Rings: the contours G = k ln 2 of the continuum's last frame
+(:func:`radius_modes`, cases.studies.stability.mode_amplitude with r(theta) interpolated
+linearly, of :func:`radial_outline`: the notches where a particle
+outline turns back by a few hundredths of a radian are dropped; nan where it turns back by more
+than ``BACK_STEP`` = 0.05 rad in total, e.g. a buckled line, whose r(theta) is not a function).
+Rings: the contours G = k ln 2 of the continuum's last frame
 (their count and mean radii, continuum.rings via cases.analysis.continuum_rings); the particles'
 length pattern is left out (at these radii, a few cell lengths, a radial length profile has too
 few cells per annulus to show a ring).
@@ -59,14 +62,14 @@ from cases.handoff import (
     polygon_moments,
     write_handoff,
 )
-from cases.studies.stability import mode_amplitude
+from cases.studies.stability import area_centroid
 from cases.sweep import run_engine, run_name, sweep
 from continuum.mesh import polygon_area
 from particles import B
 
 __all__ = ["SCALES", "LAM", "MODES", "shape_specs", "run_shape", "mesh_boundary",
-           "outline_measures", "reduce_pair", "differences", "compute", "markdown_table",
-           "plot"]
+           "radial_outline", "radius_modes", "outline_measures", "reduce_pair", "differences",
+           "compute", "markdown_table", "plot"]
 
 LAM = 1e-2
 """Stress sensitivity of every run of the case."""
@@ -167,16 +170,61 @@ def mesh_boundary(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
     return points[max(loops, key=lambda q: abs(polygon_area(points[q])))]
 
 
+BACK_STEP = 0.05
+"""Largest total back-step (radians) of an outline's polar angle for its modes to be measured."""
+
+
+def radial_outline(outline: np.ndarray, back_step: float = BACK_STEP) -> np.ndarray | None:
+    """The vertices of an outline along which the polar angle about its centroid increases.
+
+    Walking the counter-clockwise outline from its farthest vertex, a vertex is kept when the
+    angle turned so far (unwrapped, below 2 pi) exceeds that of the last kept one; the dropped
+    vertices are the small notches where the boundary turns back (the rods' caps of a particle
+    outline). None when the angles turned back by more than ``back_step`` in total (a bay, a
+    buckled line): the radius r(theta) of the outline is then not a function.
+    """
+    d = outline - area_centroid(outline)
+    th = np.arctan2(d[:, 1], d[:, 0])
+    step = (np.diff(np.append(th, th[0])) + np.pi) % (2 * np.pi) - np.pi
+    if -step[step < 0].sum() > back_step:
+        return None
+    start = int(np.argmax(np.hypot(d[:, 0], d[:, 1])))
+    order = np.roll(np.arange(len(outline)), -start)
+    turned = np.concatenate([[0.0], np.cumsum(np.roll(step, -start)[:-1])])  # unwrapped angle
+    keep = [0]
+    for i in range(1, len(order)):
+        if turned[keep[-1]] < turned[i] < 2 * np.pi:
+            keep.append(i)
+    return outline[order[keep]]
+
+
+def radius_modes(outline: np.ndarray, modes=MODES, n_samples: int = 4096) -> list[float]:
+    """Relative amplitudes abs(r_K) / r_0 of the boundary radius about the area centroid.
+
+    The definition of cases.studies.stability.mode_amplitude, with r(theta) interpolated
+    linearly (periodic) between the vertices instead of by a cubic spline: a particle outline
+    has pieces where r changes steeply with theta (the sides of rods pointing outwards), where a
+    spline overshoots. For a smooth, finely sampled outline both agree to O(h^2).
+    """
+    d = outline - area_centroid(outline)
+    th = np.mod(np.arctan2(d[:, 1], d[:, 0]), 2.0 * np.pi)
+    order = np.argsort(th)
+    r = np.hypot(d[order, 0], d[order, 1])
+    grid = 2 * np.pi * np.arange(n_samples) / n_samples
+    c = np.fft.rfft(np.interp(grid, th[order], r, period=2 * np.pi)) / n_samples
+    return [float(2.0 * abs(c[k]) / abs(c[0])) for k in modes]
+
+
 def outline_measures(outline: np.ndarray) -> dict[str, float]:
-    """area, aspect (cases.handoff.polygon_moments) and modeK (mode_amplitude) of an outline."""
+    """area, aspect (cases.handoff.polygon_moments) and modeK (mode_amplitude) of an outline.
+
+    The modes are :func:`radius_modes` of :func:`radial_outline` (nan where it is None).
+    """
     area, aspect = polygon_moments(outline)
     row = {"area": area, "aspect": aspect}
-    for k in MODES:
-        try:
-            row[f"mode{k}"] = mode_amplitude(outline, k)
-        except ValueError:  # not star-shaped about its centroid
-            row[f"mode{k}"] = math.nan
-    return row
+    radial = radial_outline(outline)
+    amps = radius_modes(radial) if radial is not None else [math.nan] * len(MODES)
+    return row | {f"mode{k}": a for k, a in zip(MODES, amps, strict=True)}
 
 
 def _continuum_series(folder: Path):

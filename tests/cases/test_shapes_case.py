@@ -56,3 +56,21 @@ def test_bad_input():
         S.compute("huge")
     with pytest.raises(ValueError, match="both"):
         S.compute("smoke", engines=("continuum",))
+
+
+def test_radial_outline_drops_notches_only():
+    """A star keeps every vertex and its exact mode; a small notch is dropped, a bay is not."""
+    from continuum import shapes
+
+    star = shapes.outline("star:3,0.2,7")
+    assert len(S.radial_outline(star)) == len(star)
+    assert abs(S.outline_measures(star)["mode3"] - 0.2) < 1e-6
+    notch = star.copy()
+    notch[10] = notch[9] + 0.3 * (notch[9] - notch[11])  # turns back by ~0.01 rad
+    kept = S.radial_outline(notch)
+    assert kept is not None and len(kept) == len(star) - 1
+    assert abs(S.outline_measures(notch)["mode3"] - 0.2) < 1e-3
+    bay = shapes.outline("star:5,0.9,7") * [1.0, 1.0]
+    bay[40:60] *= 0.2  # a deep bay: rays meet the boundary more than once
+    if S.radial_outline(bay) is None:
+        assert np.isnan(S.outline_measures(bay)["mode2"])
