@@ -330,6 +330,25 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-shapes-smoke",
     return data
 
 
+#: The shapes whose own mode is drawn and tabulated beside the aspect ratio.
+OWN_MODE = {"star3": "mode3", "star5": "mode5"}
+
+
+def own_mode_rows(data: Path, names: list[str]) -> list[tuple]:
+    """(shape, K, t_end, mode K at t = 0 and t_end of the continuum, of the particles)."""
+    rows = []
+    for name in names:
+        if name not in OWN_MODE:
+            continue
+        col = OWN_MODE[name]
+        s = A.read_csv(data / f"shape_{name}.csv")
+        c, p = s["engine"] == 0, s["engine"] == 1
+        rows.append((name, col[4:], f"{s['t'][c][-1]:.2f}",
+                     *(f"{v:.4f}" for v in (s[col][c][0], s[col][c][-1], s[col][p][0],
+                                            s[col][p][-1]))))
+    return rows
+
+
 def markdown_table(data: str | Path) -> str:
     """The differences at the first and last matched time of each shape, as a markdown table."""
     data = Path(data)
@@ -345,16 +364,21 @@ def markdown_table(data: str | Path) -> str:
                          *(f"{d[f'mode{k}'][j]:+.3f}" for k in MODES)))
     head = ("shape", "t", "area (continuum)", "area diff %", "aspect (continuum)",
             "aspect (particles)", *(f"d mode {k}" for k in MODES))
+    own = A.markdown_rows(("shape", "K", "t_end", "continuum t = 0", "continuum t_end",
+                           "particles t = 0", "particles t_end"),
+                          own_mode_rows(data, meta["names"]))
     return (f"lam = {meta['lam']:g}, scale {meta['scale']}; differences particles - continuum "
             "(area relative, modes absolute in relative amplitude abs(r_K)/r_0)\n\n"
-            + A.markdown_rows(head, rows) + "\n")
+            + A.markdown_rows(head, rows) + "\n\nThe stars' own mode abs(r_K)/r_0:\n\n"
+            + own + "\n")
 
 
 def plot(data: str | Path, out: str | Path) -> list[Path]:
     """results.md and shapes.png / .pdf from the CSVs of ``data``.
 
-    One row per shape: the outlines of both models at the first, middle and last kept frame
-    (continuum solid, particles dashed; darker = later), and the aspect ratio against t.
+    One column per shape: the outlines of both models at the first, middle and last kept frame
+    (continuum solid, particles dashed; darker = later), and below the aspect ratio against t
+    (for the stars the amplitude of their own mode K instead).
     """
     import matplotlib.pyplot as plt
 
@@ -381,16 +405,18 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         ax.set_title(name, fontsize=9)
         ax.tick_params(labelsize=6)
         s = A.read_csv(data / f"shape_{name}.csv")
+        column = OWN_MODE.get(name, "aspect")
         for engine, style, label in ((0, "-", "continuum"), (1, "--", "particles")):
             sel = s["engine"] == engine
-            asp.plot(s["t"][sel], s["aspect"][sel], style, label=label)
+            asp.plot(s["t"][sel], s[column][sel], style, label=label)
         asp.set_xlabel("t", fontsize=8)
+        asp.set_ylabel("aspect ratio" if column == "aspect" else
+                       rf"mode {column[4:]} $|r_K|/r_0$", fontsize=8)
         asp.tick_params(labelsize=6)
         if col == 0:
-            asp.set_ylabel("aspect ratio", fontsize=8)
             asp.legend(fontsize=6)
             ax.legend(fontsize=5)
     fig.suptitle(rf"Shapes in both models, $\lambda$ = {LAM:g}: outlines (continuum solid, "
-                 "particles dashed) and aspect ratio", fontsize=9)
+                 "particles dashed), aspect ratio or the star's own mode", fontsize=9)
     fig.tight_layout()
-    return save_figure(fig, out / "shapes")
+    return save_figure(fig, out / "shapes", dpi=100)
