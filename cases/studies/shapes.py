@@ -63,7 +63,7 @@ from cases.handoff import (
     write_handoff,
 )
 from cases.studies.stability import area_centroid
-from cases.sweep import run_engine, run_name, sweep
+from cases.sweep import is_done, run_engine, run_name, sweep
 from continuum.mesh import polygon_area
 from particles import B
 
@@ -313,9 +313,22 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-shapes-smoke",
     root = Path(runs) if runs is not None else out / "runs"
     pairs, seed = run_params(cfg)
     plain = [p for name, pair in pairs.items() if name != "handoff" for p in pair]
-    folders = sweep(run_shape, [*plain, seed], root, scheduler=scheduler, n_workers=n_workers)
-    folders += sweep(run_shape, list(pairs["handoff"]), root, scheduler=scheduler,
-                     n_workers=n_workers)
+    cluster = None
+    if scheduler is None and not all(is_done(root / run_name(p))
+                                     for p in [*plain, seed, *pairs["handoff"]]):
+        from dask.distributed import LocalCluster  # one cluster for both sweeps
+
+        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None)
+        scheduler = cluster.scheduler_address
+    try:
+        folders = sweep(run_shape, [*plain, seed], root, scheduler=scheduler,
+                        n_workers=n_workers)
+        folders += sweep(run_shape, list(pairs["handoff"]), root, scheduler=scheduler,
+                         n_workers=n_workers)
+    finally:
+        if cluster is not None:
+            cluster.close()
     data = out / "data"
     data.mkdir(parents=True, exist_ok=True)
     names = list(pairs)
