@@ -70,6 +70,7 @@ CASES = {
     "stability": "cases.studies.stability",
     "convergence": "cases.studies.convergence",
     "ensemble": "cases.studies.ensemble",
+    "shapes": "cases.studies.shapes",
 }
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
