@@ -19,6 +19,22 @@ Scales: "smoke" (K = 3; lam = 0, 1e-2; 300 and 600 nodes; t_end = 0.4: seconds),
 (2000, 8000, 32000 nodes: an hour). Output: ``out/data/rates.csv`` (K, lam, measured, theory,
 relative error, h, nodes), ``out/data/orders.csv`` (observed order of the rate error per K,
 lam) and, from ``plot``, ``stability.png`` / ``.pdf`` and ``results.md``.
+
+Particle colonies (when ``"particles"`` is in ``engines``; :func:`particle_stage`). A colony
+filled into ``star:K,EPS,R`` (cases.shapes.initial_particles; lengths "stable", the
+asynchronous length distribution, so that no synchronous division burst falls in the window, as
+a "birth" fill would at t = ln 2) grows over [0, t_end] for several seeds (one seed drives both
+the fill's lengths and the division noise). Per trajectory frame the outline is the alpha shape
+of the rods (cases.handoff.particle_outline) and its mode-K amplitude about the area centroid is
+:func:`mode_amplitude`; the rate per seed is the least-squares slope of ln amplitude against t
+(all frames; ``measured_late``: the frames of the second half of the window). A particle
+boundary is rough at the rod scale, so EPS is large (0.15-0.2) and nonlinear terms O(EPS) are
+not negligible: the continuum is run from the same EPS for comparison (``continuum_same_eps``).
+The noise floor of a frame is the median amplitude of the modes 2..16 that are not multiples of
+K; a mode counts as measurable at the end when its amplitude is above 3 floors. Output:
+``out/data/particle_rates.csv`` (one row per K, lam, seed), ``particle_amplitudes.csv`` (the
+time series), ``particle_modes.csv`` (mean and seed spread per K, lam against the theory and the
+continuum) and, from ``plot``, ``particle_modes.png`` / ``.pdf``.
 """
 
 from __future__ import annotations
@@ -33,6 +49,7 @@ from cases import analysis as A
 from continuum import stability
 from continuum.mesh import boundary_spacing, polygon_area
 from continuum.simulation import Config, Simulation
+from particles.output import read_trajectory
 
 __all__ = [
     "SCALES",
@@ -42,6 +59,10 @@ __all__ = [
     "measure_rate",
     "theory_rate",
     "observed_orders",
+    "PARTICLE_SCALES",
+    "noise_floor",
+    "particle_mode_series",
+    "particle_stage",
     "compute",
     "plot",
 ]
@@ -53,6 +74,16 @@ SCALES = {
     "paper": dict(modes=tuple(range(2, 9)), lams=(0.0, 1e-3, 1e-2),
                   n_nodes=(2000, 8000, 32000), t_end=1.0, samples=11),
 }
+PARTICLE_SCALES = {
+    "smoke": dict(modes=(3,), lams=(0.0,), seeds=(1, 2), radius=5.0, eps=0.2, t_end=0.5,
+                  output_every=10, continuum_nodes=300),
+    "medium": dict(modes=(2, 3, 4, 5, 6, 8), lams=(0.0, 1e-2), seeds=(1, 2, 3), radius=8.0,
+                   eps=0.15, t_end=1.0, output_every=10, continuum_nodes=600),
+    "paper": dict(modes=tuple(range(2, 9)), lams=(0.0, 1e-3, 1e-2), seeds=tuple(range(1, 9)),
+                  radius=10.0, eps=0.15, t_end=1.0, output_every=10, continuum_nodes=2000),
+}
+"""The particle stage per scale: modes K, lams, seeds, the star's R and EPS, t_end, frames every
+``output_every`` steps, and the node count of the continuum run from the same star."""
 RADIUS = 10.0
 """Initial disc radius of the study."""
 EPS = 0.01
@@ -168,22 +199,132 @@ def observed_orders(rates: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
+FLOOR_MODES = 16
+"""Highest mode of the noise floor (:func:`noise_floor`)."""
+
+
+def noise_floor(boundary: np.ndarray, K: int, k_max: int = FLOOR_MODES) -> float:
+    """Median relative amplitude of the modes k = 2..k_max that are not multiples of K.
+
+    A circle's outline of rods has amplitudes of order (roughness / R) / sqrt(boundary rods) in
+    every mode; the multiples of K are left out as the mode's nonlinear harmonics.
+    """
+    ks = [k for k in range(2, k_max + 1) if k % K]
+    return float(np.median([mode_amplitude(boundary, k) for k in ks]))
+
+
+def particle_mode_series(folder: Path, K: int) -> dict[str, np.ndarray]:
+    """t, the mode-K amplitude, its noise floor and N per frame of a particle run's trajectory.
+
+    The outline of a frame is cases.handoff.particle_outline of its rods.
+    """
+    from cases.handoff import particle_outline
+
+    cols: dict[str, list] = {"t": [], "amplitude": [], "floor": [], "particles": []}
+    for fr in read_trajectory(Path(folder) / "trajectory.gsd"):
+        outline = particle_outline(fr.x, fr.y, fr.theta, fr.length)
+        cols["t"].append(fr.t)
+        cols["amplitude"].append(mode_amplitude(outline, K))
+        cols["floor"].append(noise_floor(outline, K))
+        cols["particles"].append(len(fr.x))
+    return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+
+
+def particle_stage(scale: str, out: Path, runs: Path, scheduler: str | None = None,
+                   n_workers: int = 2) -> Path:
+    """The particle colonies of PARTICLE_SCALES[scale]: particle_rates.csv, particle_modes.csv.
+
+    The runs (cases.sweep.run_engine, one folder per K, lam, seed under ``runs/particles``,
+    reused when finished) go through cases.sweep.sweep; the continuum from the same star
+    (``continuum_nodes`` nodes) runs here. Returns the data folder ``out/data``.
+    """
+    from cases.sweep import run_engine, sweep
+
+    cfg = PARTICLE_SCALES[scale]
+    R, eps, t_end = cfg["radius"], cfg["eps"], cfg["t_end"]
+    params = [dict(engine="particles", lam=float(lam), time=t_end, seed=int(seed),
+                   shape=f"star:{K},{eps:g},{R:g}", fill_lengths="stable",
+                   output_every=cfg["output_every"])
+              for lam in cfg["lams"] for K in cfg["modes"] for seed in cfg["seeds"]]
+    folders = sweep(run_engine, params, runs / "particles", scheduler=scheduler,
+                    n_workers=n_workers, progress=False)
+    rate_cols = ("K", "lam", "seed", "radius", "eps", "measured", "measured_late",
+                 "amplitude_start", "amplitude_end", "floor_end", "particles_start",
+                 "particles_end")
+    rates: dict[str, list] = {k: [] for k in rate_cols}
+    series: dict[str, list] = {k: [] for k in ("K", "lam", "seed", "t", "amplitude", "floor",
+                                                "particles")}
+    for p, folder in zip(params, folders, strict=True):
+        K = int(p["shape"].split(":")[1].split(",")[0])
+        s = particle_mode_series(folder, K)
+        log_amp = np.log(s["amplitude"])
+        late = s["t"] >= 0.5 * t_end
+        row = dict(K=K, lam=p["lam"], seed=p["seed"], radius=R, eps=eps,
+                   measured=_slope(s["t"], log_amp),
+                   measured_late=_slope(s["t"][late], log_amp[late]),
+                   amplitude_start=s["amplitude"][0], amplitude_end=s["amplitude"][-1],
+                   floor_end=s["floor"][-1], particles_start=s["particles"][0],
+                   particles_end=s["particles"][-1])
+        for k in rate_cols:
+            rates[k].append(row[k])
+        n = len(s["t"])
+        for k, v in (("K", K), ("lam", p["lam"]), ("seed", p["seed"])):
+            series[k].extend([v] * n)
+        for k in ("t", "amplitude", "floor", "particles"):
+            series[k].extend(s[k])
+    data = out / "data"
+    rates_arr = {k: np.asarray(v, dtype=float) for k, v in rates.items()}
+    A.write_csv(data / "particle_rates.csv", rates_arr)
+    A.write_csv(data / "particle_amplitudes.csv",
+                {k: np.asarray(v, dtype=float) for k, v in series.items()})
+    summary: dict[str, list] = {k: [] for k in (
+        "K", "lam", "seeds", "mean", "std", "mean_late", "std_late", "theory",
+        "continuum_same_eps", "measurable")}
+    for lam in cfg["lams"]:
+        for K in cfg["modes"]:
+            sel = (rates_arr["K"] == K) & (rates_arr["lam"] == lam)
+            m, ml = rates_arr["measured"][sel], rates_arr["measured_late"][sel]
+            cont = measure_rate(K, lam, cfg["continuum_nodes"], t_end, 11,
+                                runs / "continuum-same-eps", R=R, eps=eps)["measured"]
+            ok = rates_arr["amplitude_end"][sel] > 3.0 * rates_arr["floor_end"][sel]
+            for k, v in (("K", K), ("lam", lam), ("seeds", int(sel.sum())), ("mean", m.mean()),
+                         ("std", m.std(ddof=1) if m.size > 1 else math.nan),
+                         ("mean_late", ml.mean()),
+                         ("std_late", ml.std(ddof=1) if ml.size > 1 else math.nan),
+                         ("theory", theory_rate(K, lam, t_end, 11, R=R)),
+                         ("continuum_same_eps", cont), ("measurable", ok.mean())):
+                summary[k].append(v)
+    A.write_csv(data / "particle_modes.csv",
+                {k: np.asarray(v, dtype=float) for k, v in summary.items()})
+    return data
+
+
 def compute(scale: str = "smoke", out: str | Path = "runs/case-stability-smoke",
             scheduler: str | None = None, n_workers: int = 2, runs: str | Path | None = None,
             engines: tuple[str, ...] = ("continuum",), finished_only: tuple[str, ...] = ()
             ) -> Path:
     """Measure every (K, lam, node count) of ``scale`` and write out/data/rates.csv, orders.csv.
 
-    The runs are short and run one after another in this process (``scheduler``,
-    ``n_workers``, ``engines`` and ``finished_only`` are accepted for the case interface and
-    not used: the study is continuum only; ``runs`` is the folder of the initial polygons,
-    default out/runs).
+    With "continuum" in ``engines``: the continuum runs, short, one after another in this
+    process. With "particles": the particle stage (:func:`particle_stage`, its runs through
+    ``scheduler`` / ``n_workers``). ``runs``: the folder of the initial polygons and the
+    particle runs, default out/runs. ``finished_only`` is accepted for the case interface and
+    not used (the particle runs here are short).
     """
     if scale not in SCALES:
         raise ValueError(f"scale must be one of {', '.join(SCALES)}, got {scale!r}")
+    bad = [e for e in engines if e not in ("continuum", "particles")]
+    if bad or not engines:
+        raise ValueError(f"engines must be a non-empty subset of ('continuum', 'particles'), "
+                         f"got {tuple(engines)!r}")
     cfg = SCALES[scale]
     out = Path(out)
     folder = Path(runs) if runs is not None else out / "runs"
+    data = out / "data"
+    if "particles" in engines:
+        particle_stage(scale, out, folder, scheduler=scheduler, n_workers=n_workers)
+    if "continuum" not in engines:
+        return data
     cols: dict[str, list] = {k: [] for k in ("K", "lam", "measured", "theory", "relative_error",
                                              "h", "h_over_R", "n_boundary", "nodes")}
     for lam in cfg["lams"]:
@@ -195,7 +336,6 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-stability-smoke",
                             h_over_R=row["h"] / RADIUS)
                 for k in cols:
                     cols[k].append(row[k])
-    data = out / "data"
     rates = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
     A.write_csv(data / "rates.csv", rates)
     A.write_csv(data / "orders.csv", observed_orders(rates))
