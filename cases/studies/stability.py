@@ -359,19 +359,94 @@ def markdown_table(data: str | Path) -> str:
             + A.markdown_rows(("K", "lam", "observed order", "error % (finest)"), orow) + "\n")
 
 
-def plot(data: str | Path, out: str | Path) -> list[Path]:
-    """Write results.md and the figure (stability.png, .pdf) from the CSVs in ``data``.
+def particle_table(data: str | Path) -> str:
+    """particle_modes.csv as a markdown table (the docs' table)."""
+    m = A.read_csv(Path(data) / "particle_modes.csv")
+    rows = [(int(k), f"{lam:g}", int(n), f"{mu:.3f} ± {sd:.3f}", f"{ml:.3f} ± {sl:.3f}",
+             f"{t:.3f}", f"{c:.3f}", f"{ok:.2f}")
+            for k, lam, n, mu, sd, ml, sl, t, c, ok in zip(
+                m["K"], m["lam"], m["seeds"], m["mean"], m["std"], m["mean_late"],
+                m["std_late"], m["theory"], m["continuum_same_eps"], m["measurable"],
+                strict=True)]
+    head = ("K", "lam", "seeds", "particles [0, t_end]", "particles late half", "theory",
+            "continuum same eps", "measurable")
+    return A.markdown_rows(head, rows) + "\n"
 
-    (A) rates vs K, measured (finest mesh) and theory, per lam; (B) the absolute relative
-    error vs h/R per K and lam, with an h^2 guide.
+
+def plot_particles(data: str | Path, out: str | Path) -> list[Path]:
+    """The particle figure particle_modes.png / .pdf.
+
+    (A) rates vs K: seed mean and spread (all frames and late half), theory, continuum from
+    the same star; (B) the amplitude against t of every seed at the first lam, with the floor.
     """
     import matplotlib.pyplot as plt
 
     from cases.figures.draw import save_figure
 
     data, out = Path(data), Path(out)
+    m = A.read_csv(data / "particle_modes.csv")
+    amp = A.read_csv(data / "particle_amplitudes.csv")
+    rates = A.read_csv(data / "particle_rates.csv")
+    fig, (ax, ts) = plt.subplots(1, 2, figsize=(11, 4.2))
+    lams = sorted(set(m["lam"]))
+    for i, lam in enumerate(lams):
+        c = plt.cm.viridis(i / max(1, len(lams)))
+        sel = m["lam"] == lam
+        ax.plot(m["K"][sel], m["theory"][sel], "-_", ms=14, color=c,
+                label=rf"theory $\lambda$ = {lam:g}")
+        ax.plot(m["K"][sel], m["continuum_same_eps"][sel], "s", color=c, mfc="none",
+                label="continuum, same star")
+        ax.errorbar(m["K"][sel] + 0.08 * (i - 0.5), m["mean"][sel], yerr=m["std"][sel],
+                    fmt="o", color=c, capsize=3, label="particles (seed mean ± std)")
+        ax.errorbar(m["K"][sel] + 0.08 * (i + 0.5), m["mean_late"][sel], yerr=m["std_late"][sel],
+                    fmt="^", color=c, capsize=3, mfc="none", label="particles, late half")
+    modes = sorted(set(amp["K"]))
+    for j, k in enumerate(modes):
+        c = plt.cm.plasma(j / max(1, len(modes)))
+        for seed in sorted(set(amp["seed"])):
+            s = (amp["K"] == k) & (amp["lam"] == lams[0]) & (amp["seed"] == seed)
+            ts.semilogy(amp["t"][s], amp["amplitude"][s], "-", color=c, lw=1,
+                        label=f"K = {k:g}" if seed == amp["seed"].min() else None)
+            ts.semilogy(amp["t"][s], amp["floor"][s], ":", color=c, lw=0.7)
+    R, eps = rates["radius"][0], rates["eps"][0]
+    ax.set(xlabel="mode K", ylabel=r"rate $d\,\ln\epsilon/dt$",
+           title=rf"(A) particle colonies from star R = {R:g}, $\epsilon$ = {eps:g}")
+    ts.set(xlabel="t", ylabel=r"mode amplitude $\epsilon_K$ (dotted: noise floor)",
+           title=rf"(B) every seed, $\lambda$ = {lams[0]:g}")
+    ax.legend(fontsize=6)
+    ts.legend(fontsize=7, ncol=2)
+    return save_figure(fig, out / "particle_modes")
+
+
+def plot(data: str | Path, out: str | Path) -> list[Path]:
+    """Write results.md and the figures from the CSVs in ``data`` (those present).
+
+    stability.png, .pdf (from rates.csv): (A) rates vs K, measured (finest mesh) and theory,
+    per lam; (B) the absolute relative error vs h/R per K and lam, with an h^2 guide.
+    particle_modes.png, .pdf (from particle_modes.csv): :func:`plot_particles`.
+    """
+    data, out = Path(data), Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "results.md").write_text(markdown_table(data))
+    has_continuum = (data / "rates.csv").is_file()
+    has_particles = (data / "particle_modes.csv").is_file()
+    if not (has_continuum or has_particles):
+        raise FileNotFoundError(f"no rates.csv or particle_modes.csv in {data}")
+    md = markdown_table(data) if has_continuum else ""
+    paths = plot_particles(data, out) if has_particles else []
+    if has_particles:
+        md += ("\n" if md else "") + particle_table(data)
+    (out / "results.md").write_text(md)
+    if has_continuum:
+        paths = plot_continuum(data, out) + paths
+    return paths
+
+
+def plot_continuum(data: Path, out: Path) -> list[Path]:
+    """stability.png / .pdf from rates.csv (see :func:`plot`)."""
+    import matplotlib.pyplot as plt
+
+    from cases.figures.draw import save_figure
+
     rates = A.read_csv(data / "rates.csv")
     fig, (ax, conv) = plt.subplots(1, 2, figsize=(11, 4.2))
     lams = sorted(set(rates["lam"]))
