@@ -50,6 +50,7 @@ from continuum import stability
 from continuum.mesh import boundary_spacing, polygon_area
 from continuum.simulation import Config, Simulation
 from particles.output import read_trajectory
+from particles.packings import FILL_ORIENTATIONS
 
 __all__ = [
     "SCALES",
@@ -76,14 +77,18 @@ SCALES = {
 }
 PARTICLE_SCALES = {
     "smoke": dict(modes=(3,), lams=(0.0,), seeds=(1, 2), radius=5.0, eps=0.2, t_end=0.5,
-                  output_every=10, continuum_nodes=300),
+                  output_every=10, continuum_nodes=300, orientations=("tangent",)),
     "medium": dict(modes=(2, 3, 4, 5, 6, 8), lams=(0.0, 1e-2), seeds=(1, 2, 3), radius=8.0,
-                   eps=0.15, t_end=1.0, output_every=10, continuum_nodes=600),
+                   eps=0.15, t_end=1.0, output_every=10, continuum_nodes=600,
+                   orientations=("tangent", "rows")),
     "paper": dict(modes=tuple(range(2, 9)), lams=(0.0, 1e-3, 1e-2), seeds=tuple(range(1, 9)),
-                  radius=10.0, eps=0.15, t_end=1.0, output_every=10, continuum_nodes=2000),
+                  radius=10.0, eps=0.15, t_end=1.0, output_every=10, continuum_nodes=2000,
+                  orientations=("tangent", "rows")),
 }
 """The particle stage per scale: modes K, lams, seeds, the star's R and EPS, t_end, frames every
-``output_every`` steps, and the node count of the continuum run from the same star."""
+``output_every`` steps, the node count of the continuum run from the same star, and the rods'
+orientations of the fill (particles.packings.FILL_ORIENTATIONS; in the CSVs the column
+``orientation`` is the index in it: 0 tangent, 1 rows)."""
 RADIUS = 10.0
 """Initial disc radius of the study."""
 EPS = 0.01
@@ -230,6 +235,18 @@ def particle_mode_series(folder: Path, K: int) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
 
 
+def _seed_summary(rates: dict[str, np.ndarray], sel: np.ndarray) -> dict:
+    """Seed count, mean and sample standard deviation of the rates of the rows ``sel``.
+
+    Also the fraction of seeds whose end amplitude is above 3 noise floors (``measurable``).
+    """
+    m, ml = rates["measured"][sel], rates["measured_late"][sel]
+    ok = rates["amplitude_end"][sel] > 3.0 * rates["floor_end"][sel]
+    return dict(seeds=int(sel.sum()), mean=m.mean(),
+                std=m.std(ddof=1) if m.size > 1 else math.nan, mean_late=ml.mean(),
+                std_late=ml.std(ddof=1) if ml.size > 1 else math.nan, measurable=ok.mean())
+
+
 def particle_stage(scale: str, out: Path, runs: Path, scheduler: str | None = None,
                    n_workers: int = 2) -> Path:
     """The particle colonies of PARTICLE_SCALES[scale]: particle_rates.csv, particle_modes.csv.
@@ -244,22 +261,24 @@ def particle_stage(scale: str, out: Path, runs: Path, scheduler: str | None = No
     R, eps, t_end = cfg["radius"], cfg["eps"], cfg["t_end"]
     params = [dict(engine="particles", lam=float(lam), time=t_end, seed=int(seed),
                    shape=f"star:{K},{eps:g},{R:g}", fill_lengths="stable",
-                   output_every=cfg["output_every"])
-              for lam in cfg["lams"] for K in cfg["modes"] for seed in cfg["seeds"]]
+                   fill_orientation=orientation, output_every=cfg["output_every"])
+              for orientation in cfg["orientations"] for lam in cfg["lams"]
+              for K in cfg["modes"] for seed in cfg["seeds"]]
     folders = sweep(run_engine, params, runs / "particles", scheduler=scheduler,
                     n_workers=n_workers, progress=False)
-    rate_cols = ("K", "lam", "seed", "radius", "eps", "measured", "measured_late",
+    rate_cols = ("orientation", "K", "lam", "seed", "radius", "eps", "measured", "measured_late",
                  "amplitude_start", "amplitude_end", "floor_end", "particles_start",
                  "particles_end")
     rates: dict[str, list] = {k: [] for k in rate_cols}
-    series: dict[str, list] = {k: [] for k in ("K", "lam", "seed", "t", "amplitude", "floor",
-                                                "particles")}
+    series: dict[str, list] = {k: [] for k in ("orientation", "K", "lam", "seed", "t",
+                                                "amplitude", "floor", "particles")}
     for p, folder in zip(params, folders, strict=True):
         K = int(p["shape"].split(":")[1].split(",")[0])
         s = particle_mode_series(folder, K)
         log_amp = np.log(s["amplitude"])
         late = s["t"] >= 0.5 * t_end
-        row = dict(K=K, lam=p["lam"], seed=p["seed"], radius=R, eps=eps,
+        code = FILL_ORIENTATIONS.index(p["fill_orientation"])
+        row = dict(orientation=code, K=K, lam=p["lam"], seed=p["seed"], radius=R, eps=eps,
                    measured=_slope(s["t"], log_amp),
                    measured_late=_slope(s["t"][late], log_amp[late]),
                    amplitude_start=s["amplitude"][0], amplitude_end=s["amplitude"][-1],
@@ -268,7 +287,7 @@ def particle_stage(scale: str, out: Path, runs: Path, scheduler: str | None = No
         for k in rate_cols:
             rates[k].append(row[k])
         n = len(s["t"])
-        for k, v in (("K", K), ("lam", p["lam"]), ("seed", p["seed"])):
+        for k, v in (("orientation", code), ("K", K), ("lam", p["lam"]), ("seed", p["seed"])):
             series[k].extend([v] * n)
         for k in ("t", "amplitude", "floor", "particles"):
             series[k].extend(s[k])
@@ -278,22 +297,23 @@ def particle_stage(scale: str, out: Path, runs: Path, scheduler: str | None = No
     A.write_csv(data / "particle_amplitudes.csv",
                 {k: np.asarray(v, dtype=float) for k, v in series.items()})
     summary: dict[str, list] = {k: [] for k in (
-        "K", "lam", "seeds", "mean", "std", "mean_late", "std_late", "theory",
+        "orientation", "K", "lam", "seeds", "mean", "std", "mean_late", "std_late", "theory",
         "continuum_same_eps", "measurable")}
-    for lam in cfg["lams"]:
-        for K in cfg["modes"]:
-            sel = (rates_arr["K"] == K) & (rates_arr["lam"] == lam)
-            m, ml = rates_arr["measured"][sel], rates_arr["measured_late"][sel]
-            cont = measure_rate(K, lam, cfg["continuum_nodes"], t_end, 11,
-                                runs / "continuum-same-eps", R=R, eps=eps)["measured"]
-            ok = rates_arr["amplitude_end"][sel] > 3.0 * rates_arr["floor_end"][sel]
-            for k, v in (("K", K), ("lam", lam), ("seeds", int(sel.sum())), ("mean", m.mean()),
-                         ("std", m.std(ddof=1) if m.size > 1 else math.nan),
-                         ("mean_late", ml.mean()),
-                         ("std_late", ml.std(ddof=1) if ml.size > 1 else math.nan),
-                         ("theory", theory_rate(K, lam, t_end, 11, R=R)),
-                         ("continuum_same_eps", cont), ("measurable", ok.mean())):
-                summary[k].append(v)
+    continuum = {(K, lam): measure_rate(K, lam, cfg["continuum_nodes"], t_end, 11,
+                                        runs / "continuum-same-eps", R=R, eps=eps)["measured"]
+                 for lam in cfg["lams"] for K in cfg["modes"]}
+    for orientation in cfg["orientations"]:
+        code = FILL_ORIENTATIONS.index(orientation)
+        for lam in cfg["lams"]:
+            for K in cfg["modes"]:
+                sel = ((rates_arr["orientation"] == code) & (rates_arr["K"] == K)
+                       & (rates_arr["lam"] == lam))
+                row = _seed_summary(rates_arr, sel)
+                row |= dict(orientation=code, K=K, lam=lam,
+                            theory=theory_rate(K, lam, t_end, 11, R=R),
+                            continuum_same_eps=continuum[K, lam])
+                for k in summary:
+                    summary[k].append(row[k])
     A.write_csv(data / "particle_modes.csv",
                 {k: np.asarray(v, dtype=float) for k, v in summary.items()})
     return data
@@ -362,13 +382,13 @@ def markdown_table(data: str | Path) -> str:
 def particle_table(data: str | Path) -> str:
     """particle_modes.csv as a markdown table (the docs' table)."""
     m = A.read_csv(Path(data) / "particle_modes.csv")
-    rows = [(int(k), f"{lam:g}", int(n), f"{mu:.3f} ± {sd:.3f}", f"{ml:.3f} ± {sl:.3f}",
-             f"{t:.3f}", f"{c:.3f}", f"{ok:.2f}")
-            for k, lam, n, mu, sd, ml, sl, t, c, ok in zip(
-                m["K"], m["lam"], m["seeds"], m["mean"], m["std"], m["mean_late"],
-                m["std_late"], m["theory"], m["continuum_same_eps"], m["measurable"],
-                strict=True)]
-    head = ("K", "lam", "seeds", "particles [0, t_end]", "particles late half", "theory",
+    rows = [(FILL_ORIENTATIONS[int(o)], int(k), f"{lam:g}", int(n), f"{mu:.3f} ± {sd:.3f}",
+             f"{ml:.3f} ± {sl:.3f}", f"{t:.3f}", f"{c:.3f}", f"{ok:.2f}")
+            for o, k, lam, n, mu, sd, ml, sl, t, c, ok in zip(
+                m["orientation"], m["K"], m["lam"], m["seeds"], m["mean"], m["std"],
+                m["mean_late"], m["std_late"], m["theory"], m["continuum_same_eps"],
+                m["measurable"], strict=True)]
+    head = ("fill", "K", "lam", "seeds", "particles [0, t_end]", "particles late half", "theory",
             "continuum same eps", "measurable")
     return A.markdown_rows(head, rows) + "\n"
 
@@ -376,8 +396,9 @@ def particle_table(data: str | Path) -> str:
 def plot_particles(data: str | Path, out: str | Path) -> list[Path]:
     """The particle figure particle_modes.png / .pdf.
 
-    (A) rates vs K: seed mean and spread (all frames and late half), theory, continuum from
-    the same star; (B) the amplitude against t of every seed at the first lam, with the floor.
+    (A) rates vs K: seed mean and spread per fill orientation and lam, theory, continuum from
+    the same star; (B) the amplitude against t of every seed at the first lam (solid: the
+    first orientation, dashed: the second), with the noise floor of the first (dotted).
     """
     import matplotlib.pyplot as plt
 
@@ -389,30 +410,36 @@ def plot_particles(data: str | Path, out: str | Path) -> list[Path]:
     rates = A.read_csv(data / "particle_rates.csv")
     fig, (ax, ts) = plt.subplots(1, 2, figsize=(11, 4.2))
     lams = sorted(set(m["lam"]))
+    codes = sorted(set(m["orientation"]))
     for i, lam in enumerate(lams):
         c = plt.cm.viridis(i / max(1, len(lams)))
-        sel = m["lam"] == lam
+        sel = (m["lam"] == lam) & (m["orientation"] == codes[0])
         ax.plot(m["K"][sel], m["theory"][sel], "-_", ms=14, color=c,
                 label=rf"theory $\lambda$ = {lam:g}")
         ax.plot(m["K"][sel], m["continuum_same_eps"][sel], "s", color=c, mfc="none",
                 label="continuum, same star")
-        ax.errorbar(m["K"][sel] + 0.08 * (i - 0.5), m["mean"][sel], yerr=m["std"][sel],
-                    fmt="o", color=c, capsize=3, label="particles (seed mean ± std)")
-        ax.errorbar(m["K"][sel] + 0.08 * (i + 0.5), m["mean_late"][sel], yerr=m["std_late"][sel],
-                    fmt="^", color=c, capsize=3, mfc="none", label="particles, late half")
+        for j, code in enumerate(codes):
+            sel = (m["lam"] == lam) & (m["orientation"] == code)
+            ax.errorbar(m["K"][sel] + 0.1 * (2 * i + j - 1), m["mean"][sel], yerr=m["std"][sel],
+                        fmt="oD"[j % 2], color=c, capsize=3, mfc=c if j == 0 else "none",
+                        label=f"particles, {FILL_ORIENTATIONS[int(code)]} fill")
     modes = sorted(set(amp["K"]))
-    for j, k in enumerate(modes):
-        c = plt.cm.plasma(j / max(1, len(modes)))
-        for seed in sorted(set(amp["seed"])):
-            s = (amp["K"] == k) & (amp["lam"] == lams[0]) & (amp["seed"] == seed)
-            ts.semilogy(amp["t"][s], amp["amplitude"][s], "-", color=c, lw=1,
-                        label=f"K = {k:g}" if seed == amp["seed"].min() else None)
-            ts.semilogy(amp["t"][s], amp["floor"][s], ":", color=c, lw=0.7)
+    for n, k in enumerate(modes):
+        c = plt.cm.plasma(n / max(1, len(modes)))
+        for j, code in enumerate(codes):
+            for seed in sorted(set(amp["seed"])):
+                s = ((amp["K"] == k) & (amp["lam"] == lams[0]) & (amp["seed"] == seed)
+                     & (amp["orientation"] == code))
+                first = seed == amp["seed"].min() and j == 0
+                ts.semilogy(amp["t"][s], amp["amplitude"][s], "-" if j == 0 else "--", color=c,
+                            lw=1, label=f"K = {k:g}" if first else None)
+                if j == 0:
+                    ts.semilogy(amp["t"][s], amp["floor"][s], ":", color=c, lw=0.7)
     R, eps = rates["radius"][0], rates["eps"][0]
     ax.set(xlabel="mode K", ylabel=r"rate $d\,\ln\epsilon/dt$",
            title=rf"(A) particle colonies from star R = {R:g}, $\epsilon$ = {eps:g}")
-    ts.set(xlabel="t", ylabel=r"mode amplitude $\epsilon_K$ (dotted: noise floor)",
-           title=rf"(B) every seed, $\lambda$ = {lams[0]:g}")
+    ts.set(xlabel="t", ylabel=r"mode amplitude $\epsilon_K$",
+           title=rf"(B) every seed, $\lambda$ = {lams[0]:g} (dotted: noise floor)")
     ax.legend(fontsize=6)
     ts.legend(fontsize=7, ncol=2)
     return save_figure(fig, out / "particle_modes")

@@ -46,7 +46,7 @@ def test_particle_smoke(tmp_path):
     """
     data = stability.compute(scale="smoke", out=tmp_path, engines=("particles",), n_workers=1)
     r = A.read_csv(data / "particle_rates.csv")
-    assert list(r) == ["K", "lam", "seed", "radius", "eps", "measured", "measured_late",
+    assert list(r) == ["orientation", "K", "lam", "seed", "radius", "eps", "measured", "measured_late",
                        "amplitude_start", "amplitude_end", "floor_end", "particles_start",
                        "particles_end"]
     assert sorted(r["seed"]) == [1, 2] and np.all(r["K"] == 3)
