@@ -35,6 +35,15 @@ def test_plot_from_committed_data(tmp_path):
     assert (DATA / "README.md").is_file()
     paths = stability.plot(DATA, tmp_path)
     assert paths and all(p.stat().st_size > 1000 for p in paths)
+    assert {p.name for p in paths} >= {"stability.png", "particle_modes.png"}
+
+
+def test_committed_particle_modes():
+    """The committed medium particle data: every mode decays in every run (72 runs)."""
+    r = A.read_csv(DATA / "particle_rates.csv")
+    assert r["measured"].size == 72 and np.all(r["measured"] < 0)
+    m = A.read_csv(DATA / "particle_modes.csv")
+    assert set(m["K"]) == {2, 3, 4, 5, 6, 8} and set(m["orientation"]) == {0, 1}
 
 
 def test_particle_smoke(tmp_path):
@@ -46,9 +55,9 @@ def test_particle_smoke(tmp_path):
     """
     data = stability.compute(scale="smoke", out=tmp_path, engines=("particles",), n_workers=1)
     r = A.read_csv(data / "particle_rates.csv")
-    assert list(r) == ["orientation", "K", "lam", "seed", "radius", "eps", "measured", "measured_late",
-                       "amplitude_start", "amplitude_end", "floor_end", "particles_start",
-                       "particles_end"]
+    assert list(r) == ["orientation", "K", "lam", "seed", "radius", "eps", "measured",
+                       "measured_late", "amplitude_start", "amplitude_end", "floor_end",
+                       "particles_start", "particles_end"]
     assert sorted(r["seed"]) == [1, 2] and np.all(r["K"] == 3)
     assert np.all(r["measured"] < 0), r["measured"]
     assert np.all(r["amplitude_end"] < r["amplitude_start"])
