@@ -19,6 +19,22 @@ Scales: "smoke" (K = 3; lam = 0, 1e-2; 300 and 600 nodes; t_end = 0.4: seconds),
 (2000, 8000, 32000 nodes: an hour). Output: ``out/data/rates.csv`` (K, lam, measured, theory,
 relative error, h, nodes), ``out/data/orders.csv`` (observed order of the rate error per K,
 lam) and, from ``plot``, ``stability.png`` / ``.pdf`` and ``results.md``.
+
+Particle colonies (when ``"particles"`` is in ``engines``; :func:`particle_stage`). A colony
+filled into ``star:K,EPS,R`` (cases.shapes.initial_particles; lengths "stable", the
+asynchronous length distribution, so that no synchronous division burst falls in the window, as
+a "birth" fill would at t = ln 2) grows over [0, t_end] for several seeds (one seed drives both
+the fill's lengths and the division noise). Per trajectory frame the outline is the alpha shape
+of the rods (cases.handoff.particle_outline) and its mode-K amplitude about the area centroid is
+:func:`mode_amplitude`; the rate per seed is the least-squares slope of ln amplitude against t
+(all frames; ``measured_late``: the frames of the second half of the window). A particle
+boundary is rough at the rod scale, so EPS is large (0.15-0.2) and nonlinear terms O(EPS) are
+not negligible: the continuum is run from the same EPS for comparison (``continuum_same_eps``).
+The noise floor of a frame is the median amplitude of the modes 2..16 that are not multiples of
+K; a mode counts as measurable at the end when its amplitude is above 3 floors. Output:
+``out/data/particle_rates.csv`` (one row per K, lam, seed), ``particle_amplitudes.csv`` (the
+time series), ``particle_modes.csv`` (mean and seed spread per K, lam against the theory and the
+continuum) and, from ``plot``, ``particle_modes.png`` / ``.pdf``.
 """
 
 from __future__ import annotations
@@ -33,6 +49,8 @@ from cases import analysis as A
 from continuum import stability
 from continuum.mesh import boundary_spacing, polygon_area
 from continuum.simulation import Config, Simulation
+from particles.output import read_trajectory
+from particles.packings import FILL_ORIENTATIONS
 
 __all__ = [
     "SCALES",
@@ -42,6 +60,10 @@ __all__ = [
     "measure_rate",
     "theory_rate",
     "observed_orders",
+    "PARTICLE_SCALES",
+    "noise_floor",
+    "particle_mode_series",
+    "particle_stage",
     "compute",
     "plot",
 ]
@@ -53,6 +75,20 @@ SCALES = {
     "paper": dict(modes=tuple(range(2, 9)), lams=(0.0, 1e-3, 1e-2),
                   n_nodes=(2000, 8000, 32000), t_end=1.0, samples=11),
 }
+PARTICLE_SCALES = {
+    "smoke": dict(modes=(3,), lams=(0.0,), seeds=(1, 2), radius=5.0, eps=0.2, t_end=0.5,
+                  output_every=10, continuum_nodes=300, orientations=("tangent",)),
+    "medium": dict(modes=(2, 3, 4, 5, 6, 8), lams=(0.0, 1e-2), seeds=(1, 2, 3), radius=8.0,
+                   eps=0.15, t_end=1.0, output_every=10, continuum_nodes=600,
+                   orientations=("tangent", "rows")),
+    "paper": dict(modes=tuple(range(2, 9)), lams=(0.0, 1e-3, 1e-2), seeds=tuple(range(1, 9)),
+                  radius=10.0, eps=0.15, t_end=1.0, output_every=10, continuum_nodes=2000,
+                  orientations=("tangent", "rows")),
+}
+"""The particle stage per scale: modes K, lams, seeds, the star's R and EPS, t_end, frames every
+``output_every`` steps, the node count of the continuum run from the same star, and the rods'
+orientations of the fill (particles.packings.FILL_ORIENTATIONS; in the CSVs the column
+``orientation`` is the index in it: 0 tangent, 1 rows)."""
 RADIUS = 10.0
 """Initial disc radius of the study."""
 EPS = 0.01
@@ -168,22 +204,147 @@ def observed_orders(rates: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
+FLOOR_MODES = 16
+"""Highest mode of the noise floor (:func:`noise_floor`)."""
+
+
+def noise_floor(boundary: np.ndarray, K: int, k_max: int = FLOOR_MODES) -> float:
+    """Median relative amplitude of the modes k = 2..k_max that are not multiples of K.
+
+    A circle's outline of rods has amplitudes of order (roughness / R) / sqrt(boundary rods) in
+    every mode; the multiples of K are left out as the mode's nonlinear harmonics.
+    """
+    ks = [k for k in range(2, k_max + 1) if k % K]
+    return float(np.median([mode_amplitude(boundary, k) for k in ks]))
+
+
+def particle_mode_series(folder: Path, K: int) -> dict[str, np.ndarray]:
+    """t, the mode-K amplitude, its noise floor and N per frame of a particle run's trajectory.
+
+    The outline of a frame is cases.handoff.particle_outline of its rods.
+    """
+    from cases.handoff import particle_outline
+
+    cols: dict[str, list] = {"t": [], "amplitude": [], "floor": [], "particles": []}
+    for fr in read_trajectory(Path(folder) / "trajectory.gsd"):
+        outline = particle_outline(fr.x, fr.y, fr.theta, fr.length)
+        cols["t"].append(fr.t)
+        cols["amplitude"].append(mode_amplitude(outline, K))
+        cols["floor"].append(noise_floor(outline, K))
+        cols["particles"].append(len(fr.x))
+    return {k: np.asarray(v, dtype=float) for k, v in cols.items()}
+
+
+def _seed_summary(rates: dict[str, np.ndarray], sel: np.ndarray) -> dict:
+    """Seed count, mean and sample standard deviation of the rates of the rows ``sel``.
+
+    Also the fraction of seeds whose end amplitude is above 3 noise floors (``measurable``).
+    """
+    m, ml = rates["measured"][sel], rates["measured_late"][sel]
+    ok = rates["amplitude_end"][sel] > 3.0 * rates["floor_end"][sel]
+    return dict(seeds=int(sel.sum()), mean=m.mean(),
+                std=m.std(ddof=1) if m.size > 1 else math.nan, mean_late=ml.mean(),
+                std_late=ml.std(ddof=1) if ml.size > 1 else math.nan, measurable=ok.mean())
+
+
+def particle_stage(scale: str, out: Path, runs: Path, scheduler: str | None = None,
+                   n_workers: int = 2) -> Path:
+    """The particle colonies of PARTICLE_SCALES[scale]: particle_rates.csv, particle_modes.csv.
+
+    The runs (cases.sweep.run_engine, one folder per K, lam, seed under ``runs/particles``,
+    reused when finished) go through cases.sweep.sweep; the continuum from the same star
+    (``continuum_nodes`` nodes) runs here. Returns the data folder ``out/data``.
+    """
+    from cases.sweep import run_engine, sweep
+
+    cfg = PARTICLE_SCALES[scale]
+    R, eps, t_end = cfg["radius"], cfg["eps"], cfg["t_end"]
+    params = [dict(engine="particles", lam=float(lam), time=t_end, seed=int(seed),
+                   shape=f"star:{K},{eps:g},{R:g}", fill_lengths="stable",
+                   fill_orientation=orientation, output_every=cfg["output_every"])
+              for orientation in cfg["orientations"] for lam in cfg["lams"]
+              for K in cfg["modes"] for seed in cfg["seeds"]]
+    folders = sweep(run_engine, params, runs / "particles", scheduler=scheduler,
+                    n_workers=n_workers, progress=False)
+    rate_cols = ("orientation", "K", "lam", "seed", "radius", "eps", "measured", "measured_late",
+                 "amplitude_start", "amplitude_end", "floor_end", "particles_start",
+                 "particles_end")
+    rates: dict[str, list] = {k: [] for k in rate_cols}
+    series: dict[str, list] = {k: [] for k in ("orientation", "K", "lam", "seed", "t",
+                                                "amplitude", "floor", "particles")}
+    for p, folder in zip(params, folders, strict=True):
+        K = int(p["shape"].split(":")[1].split(",")[0])
+        s = particle_mode_series(folder, K)
+        log_amp = np.log(s["amplitude"])
+        late = s["t"] >= 0.5 * t_end
+        code = FILL_ORIENTATIONS.index(p["fill_orientation"])
+        row = dict(orientation=code, K=K, lam=p["lam"], seed=p["seed"], radius=R, eps=eps,
+                   measured=_slope(s["t"], log_amp),
+                   measured_late=_slope(s["t"][late], log_amp[late]),
+                   amplitude_start=s["amplitude"][0], amplitude_end=s["amplitude"][-1],
+                   floor_end=s["floor"][-1], particles_start=s["particles"][0],
+                   particles_end=s["particles"][-1])
+        for k in rate_cols:
+            rates[k].append(row[k])
+        n = len(s["t"])
+        for k, v in (("orientation", code), ("K", K), ("lam", p["lam"]), ("seed", p["seed"])):
+            series[k].extend([v] * n)
+        for k in ("t", "amplitude", "floor", "particles"):
+            series[k].extend(s[k])
+    data = out / "data"
+    rates_arr = {k: np.asarray(v, dtype=float) for k, v in rates.items()}
+    A.write_csv(data / "particle_rates.csv", rates_arr)
+    A.write_csv(data / "particle_amplitudes.csv",
+                {k: np.asarray(v, dtype=float) for k, v in series.items()})
+    summary: dict[str, list] = {k: [] for k in (
+        "orientation", "K", "lam", "seeds", "mean", "std", "mean_late", "std_late", "theory",
+        "continuum_same_eps", "measurable")}
+    continuum = {(K, lam): measure_rate(K, lam, cfg["continuum_nodes"], t_end, 11,
+                                        runs / "continuum-same-eps", R=R, eps=eps)["measured"]
+                 for lam in cfg["lams"] for K in cfg["modes"]}
+    for orientation in cfg["orientations"]:
+        code = FILL_ORIENTATIONS.index(orientation)
+        for lam in cfg["lams"]:
+            for K in cfg["modes"]:
+                sel = ((rates_arr["orientation"] == code) & (rates_arr["K"] == K)
+                       & (rates_arr["lam"] == lam))
+                row = _seed_summary(rates_arr, sel)
+                row |= dict(orientation=code, K=K, lam=lam,
+                            theory=theory_rate(K, lam, t_end, 11, R=R),
+                            continuum_same_eps=continuum[K, lam])
+                for k in summary:
+                    summary[k].append(row[k])
+    A.write_csv(data / "particle_modes.csv",
+                {k: np.asarray(v, dtype=float) for k, v in summary.items()})
+    return data
+
+
 def compute(scale: str = "smoke", out: str | Path = "runs/case-stability-smoke",
             scheduler: str | None = None, n_workers: int = 2, runs: str | Path | None = None,
             engines: tuple[str, ...] = ("continuum",), finished_only: tuple[str, ...] = ()
             ) -> Path:
     """Measure every (K, lam, node count) of ``scale`` and write out/data/rates.csv, orders.csv.
 
-    The runs are short and run one after another in this process (``scheduler``,
-    ``n_workers``, ``engines`` and ``finished_only`` are accepted for the case interface and
-    not used: the study is continuum only; ``runs`` is the folder of the initial polygons,
-    default out/runs).
+    With "continuum" in ``engines``: the continuum runs, short, one after another in this
+    process. With "particles": the particle stage (:func:`particle_stage`, its runs through
+    ``scheduler`` / ``n_workers``). ``runs``: the folder of the initial polygons and the
+    particle runs, default out/runs. ``finished_only`` is accepted for the case interface and
+    not used (the particle runs here are short).
     """
     if scale not in SCALES:
         raise ValueError(f"scale must be one of {', '.join(SCALES)}, got {scale!r}")
+    bad = [e for e in engines if e not in ("continuum", "particles")]
+    if bad or not engines:
+        raise ValueError(f"engines must be a non-empty subset of ('continuum', 'particles'), "
+                         f"got {tuple(engines)!r}")
     cfg = SCALES[scale]
     out = Path(out)
     folder = Path(runs) if runs is not None else out / "runs"
+    data = out / "data"
+    if "particles" in engines:
+        particle_stage(scale, out, folder, scheduler=scheduler, n_workers=n_workers)
+    if "continuum" not in engines:
+        return data
     cols: dict[str, list] = {k: [] for k in ("K", "lam", "measured", "theory", "relative_error",
                                              "h", "h_over_R", "n_boundary", "nodes")}
     for lam in cfg["lams"]:
@@ -195,7 +356,6 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-stability-smoke",
                             h_over_R=row["h"] / RADIUS)
                 for k in cols:
                     cols[k].append(row[k])
-    data = out / "data"
     rates = {k: np.asarray(v, dtype=float) for k, v in cols.items()}
     A.write_csv(data / "rates.csv", rates)
     A.write_csv(data / "orders.csv", observed_orders(rates))
@@ -219,19 +379,101 @@ def markdown_table(data: str | Path) -> str:
             + A.markdown_rows(("K", "lam", "observed order", "error % (finest)"), orow) + "\n")
 
 
-def plot(data: str | Path, out: str | Path) -> list[Path]:
-    """Write results.md and the figure (stability.png, .pdf) from the CSVs in ``data``.
+def particle_table(data: str | Path) -> str:
+    """particle_modes.csv as a markdown table (the docs' table)."""
+    m = A.read_csv(Path(data) / "particle_modes.csv")
+    rows = [(FILL_ORIENTATIONS[int(o)], int(k), f"{lam:g}", int(n), f"{mu:.3f} ± {sd:.3f}",
+             f"{ml:.3f} ± {sl:.3f}", f"{t:.3f}", f"{c:.3f}", f"{ok:.2f}")
+            for o, k, lam, n, mu, sd, ml, sl, t, c, ok in zip(
+                m["orientation"], m["K"], m["lam"], m["seeds"], m["mean"], m["std"],
+                m["mean_late"], m["std_late"], m["theory"], m["continuum_same_eps"],
+                m["measurable"], strict=True)]
+    head = ("fill", "K", "lam", "seeds", "particles [0, t_end]", "particles late half", "theory",
+            "continuum same eps", "measurable")
+    return A.markdown_rows(head, rows) + "\n"
 
-    (A) rates vs K, measured (finest mesh) and theory, per lam; (B) the absolute relative
-    error vs h/R per K and lam, with an h^2 guide.
+
+def plot_particles(data: str | Path, out: str | Path) -> list[Path]:
+    """The particle figure particle_modes.png / .pdf.
+
+    (A) rates vs K: seed mean and spread per fill orientation and lam, theory, continuum from
+    the same star; (B) the amplitude against t of every seed at the first lam (solid: the
+    first orientation, dashed: the second), with the noise floor of the first (dotted).
     """
     import matplotlib.pyplot as plt
 
     from cases.figures.draw import save_figure
 
     data, out = Path(data), Path(out)
+    m = A.read_csv(data / "particle_modes.csv")
+    amp = A.read_csv(data / "particle_amplitudes.csv")
+    rates = A.read_csv(data / "particle_rates.csv")
+    fig, (ax, ts) = plt.subplots(1, 2, figsize=(11, 4.2))
+    lams = sorted(set(m["lam"]))
+    codes = sorted(set(m["orientation"]))
+    for i, lam in enumerate(lams):
+        c = plt.cm.viridis(i / max(1, len(lams)))
+        sel = (m["lam"] == lam) & (m["orientation"] == codes[0])
+        ax.plot(m["K"][sel], m["theory"][sel], "-_", ms=14, color=c,
+                label=rf"theory $\lambda$ = {lam:g}")
+        ax.plot(m["K"][sel], m["continuum_same_eps"][sel], "s", color=c, mfc="none",
+                label="continuum, same star")
+        for j, code in enumerate(codes):
+            sel = (m["lam"] == lam) & (m["orientation"] == code)
+            ax.errorbar(m["K"][sel] + 0.1 * (2 * i + j - 1), m["mean"][sel], yerr=m["std"][sel],
+                        fmt="oD"[j % 2], color=c, capsize=3, mfc=c if j == 0 else "none",
+                        label=f"particles, {FILL_ORIENTATIONS[int(code)]} fill")
+    modes = sorted(set(amp["K"]))
+    for n, k in enumerate(modes):
+        c = plt.cm.plasma(n / max(1, len(modes)))
+        for j, code in enumerate(codes):
+            for seed in sorted(set(amp["seed"])):
+                s = ((amp["K"] == k) & (amp["lam"] == lams[0]) & (amp["seed"] == seed)
+                     & (amp["orientation"] == code))
+                first = seed == amp["seed"].min() and j == 0
+                ts.semilogy(amp["t"][s], amp["amplitude"][s], "-" if j == 0 else "--", color=c,
+                            lw=1, label=f"K = {k:g}" if first else None)
+                if j == 0:
+                    ts.semilogy(amp["t"][s], amp["floor"][s], ":", color=c, lw=0.7)
+    R, eps = rates["radius"][0], rates["eps"][0]
+    ax.set(xlabel="mode K", ylabel=r"rate $d\,\ln\epsilon/dt$",
+           title=rf"(A) particle colonies from star R = {R:g}, $\epsilon$ = {eps:g}")
+    ts.set(xlabel="t", ylabel=r"mode amplitude $\epsilon_K$",
+           title=rf"(B) every seed, $\lambda$ = {lams[0]:g} (dotted: noise floor)")
+    ax.legend(fontsize=6)
+    ts.legend(fontsize=7, ncol=2)
+    return save_figure(fig, out / "particle_modes")
+
+
+def plot(data: str | Path, out: str | Path) -> list[Path]:
+    """Write results.md and the figures from the CSVs in ``data`` (those present).
+
+    stability.png, .pdf (from rates.csv): (A) rates vs K, measured (finest mesh) and theory,
+    per lam; (B) the absolute relative error vs h/R per K and lam, with an h^2 guide.
+    particle_modes.png, .pdf (from particle_modes.csv): :func:`plot_particles`.
+    """
+    data, out = Path(data), Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "results.md").write_text(markdown_table(data))
+    has_continuum = (data / "rates.csv").is_file()
+    has_particles = (data / "particle_modes.csv").is_file()
+    if not (has_continuum or has_particles):
+        raise FileNotFoundError(f"no rates.csv or particle_modes.csv in {data}")
+    md = markdown_table(data) if has_continuum else ""
+    paths = plot_particles(data, out) if has_particles else []
+    if has_particles:
+        md += ("\n" if md else "") + particle_table(data)
+    (out / "results.md").write_text(md)
+    if has_continuum:
+        paths = plot_continuum(data, out) + paths
+    return paths
+
+
+def plot_continuum(data: Path, out: Path) -> list[Path]:
+    """stability.png / .pdf from rates.csv (see :func:`plot`)."""
+    import matplotlib.pyplot as plt
+
+    from cases.figures.draw import save_figure
+
     rates = A.read_csv(data / "rates.csv")
     fig, (ax, conv) = plt.subplots(1, 2, figsize=(11, 4.2))
     lams = sorted(set(rates["lam"]))
