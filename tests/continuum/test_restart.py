@@ -220,11 +220,17 @@ def test_sigint_finishes_the_step_checkpoints_and_resumes(reference, tmp_path, m
     history = reference[1].history
     step = {"remesh": next(i for i, r in enumerate(history) if r["remesh"]),
             "last": len(history) - 1}[where]
-    interrupt_at(monkeypatch, step)
-    with pytest.raises(KeyboardInterrupt):
-        run(small_config(), out=tmp_path)
-    monkeypatch.undo()
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    # Python's own SIGINT handler before the run, also where the test process inherited SIG_IGN
+    # (started in the background by a shell); the run must put it back.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        interrupt_at(monkeypatch, step)
+        with pytest.raises(KeyboardInterrupt):
+            run(small_config(), out=tmp_path)
+        monkeypatch.undo()
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    finally:
+        signal.signal(signal.SIGINT, previous)
     meta = json.loads(str(np.load(tmp_path / CHECKPOINT)["meta"]))
     assert len(meta["history"]) == step + 1 and meta["done"] == (where == "last")
     assert_same_run(reference, tmp_path, run(small_config(), out=tmp_path))
