@@ -64,6 +64,11 @@ def load_state(path: Path):
         return st, float(z["t"]), warm, rng
 
 
+FIXED_DT = 0.01
+"""The step of these measurements (fixed; the engine's default before the "overlap" step
+control), with which the tables of docs/benchmarks.md were measured."""
+
+
 def grow_states(config: Config, sizes: list[int], folder: Path) -> list[Path]:
     """Saved states of one colony at the first step where N >= each size (reusing saved ones)."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -187,7 +192,7 @@ def main(argv: list[str] | None = None) -> dict[str, list[dict]]:
     for path in a.state:
         if not path.is_file():
             ap.error(f"state file not found: {path}")
-    base = Config(lam=a.lam, time=1e9)
+    base = Config(lam=a.lam, time=1e9, dt=FIXED_DT, step_control="fixed")
     if a.dt is not None:
         base.dt = a.dt
     base.validate()
