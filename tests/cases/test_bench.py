@@ -32,8 +32,9 @@ def test_bench_particles_both_solvers_same_states(tmp_path):
     """cases.bench.particles (issue 4): both solvers on the same grown and CSV states."""
     from cases.bench import particles as bench_particles
 
-    grown = bench_particles.grow_states(particles.Config(lam=1e-2, time=1e9), [60],
-                                        tmp_path)
+    config = particles.Config(lam=1e-2, time=1e9, dt=bench_particles.FIXED_DT,
+                              step_control="fixed")
+    grown = bench_particles.grow_states(config, [60], tmp_path)
     state, *_ = bench_particles.load_state(grown[0])
     csv = tmp_path / "colony.csv"
     np.savetxt(csv, np.c_[state.x, state.y, state.theta, state.length], delimiter=",",
