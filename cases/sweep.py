@@ -253,15 +253,13 @@ SCALES: dict[str, dict[str, Any]] = {
         "radius": 150.0,
         "lams": (1e-4, 1e-3, 1e-2),
         "scaling_lams": (1e-4, 3e-4, 1e-3, 3e-3, 1e-2, 3e-2, 5e-2, 1e-1),
-        # frames every 0.5 time units (particles: 50 steps of the default dt = 0.01); at
-        # lam = 1e-1 the run lasts t ~ 45, i.e. ~90 frames (continuum ~20 MB each at R = 150)
+        # continuum frames every 0.5 time units; particle frames every 50 steps (their step is
+        # set by the default overlap control, at most 0.02: particles.stepping.next_dt).  At
+        # lam = 1e-1 the continuum run lasts t ~ 45, i.e. ~90 frames (~20 MB each at R = 150).
+        # Until issue 18 the particle runs below lam = 1e-2 took fixed steps of 0.005 (frames
+        # every 100 steps), set here; the overlap control made that unnecessary.
         "continuum": {"output_every": 0.5},
         "particles": {"output_every": 50},
-        # below lam = 1e-2 the colony's speeds (dR/dt -> sqrt(2 / lam)) make dt = 0.01 costly in
-        # re-solve passes and halved steps: measured at lam = 1e-3 near 1.4e4 particles (engine
-        # before the pass cap), dt = 0.01 took median 6,761 solver iterations per step with 8.4
-        # passes, dt = 0.005 2,289 with 2.6
-        "particles_small_lam": {"below": 1e-2, "dt": 0.005, "output_every": 100},
     },
 }
 
@@ -276,16 +274,11 @@ def scale_config(scale: str) -> dict[str, Any]:
 def _engine_params(engine: str, lam: float, cfg: Mapping[str, Any]) -> dict[str, Any]:
     """The sweep parameters of run (engine, lam) at the run sizes ``cfg`` of SCALES.
 
-    These are the engine's settings, overridden for lam < below by those of
-    ``ENGINE_small_lam`` where present.
+    These are lam, the radius and the engine's settings (the same at every lam).
     """
     if engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
-    settings = dict(cfg[engine])
-    small = dict(cfg.get(f"{engine}_small_lam", {}))
-    if small and lam < small.pop("below"):
-        settings.update(small)
-    return {"engine": engine, "lam": float(lam), "radius": cfg["radius"], **settings}
+    return {"engine": engine, "lam": float(lam), "radius": cfg["radius"], **cfg[engine]}
 
 
 def engine_runs(

@@ -142,9 +142,9 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
 def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
     """Per step-policy segment of the run folder ``run`` (module docstring), its statistics.
 
-    These are: first and last step, N range, dt range, steps, halved steps, iterations per unit
-    time (main, passes and failed attempts; failed counted 0 where the history predates the
-    column) and the failed share.
+    These are: first and last step, N range, t range, dt range, steps, halved steps, iterations
+    per unit time (main, passes and failed attempts; failed counted 0 where the history predates
+    the column), the failed share and the largest overlap after a step.
     """
     run = Path(run)
     h = A.read_csv(run / "history.csv")
@@ -161,10 +161,12 @@ def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
                      "last_step": int(h["step"][m][-1]),
                      "n_first": int(h["n_particles"][m][0]),
                      "n_last": int(h["n_particles"][m][-1]),
+                     "t_first": float(h["t"][m][0]), "t_last": float(h["t"][m][-1]),
                      "dt_min": float(h["dt"][m].min()), "dt_max": float(h["dt"][m].max()),
                      "steps": int(m.sum()), "halved": int((h["substeps"][m] > 1).sum()),
                      "per_time": float(work.sum() / h["dt"][m].sum()),
-                     "failed_share": float(failed[m].sum() / work.sum())})
+                     "failed_share": float(failed[m].sum() / work.sum()),
+                     "max_overlap": float(h["max_overlap"][m].max())})
     return rows
 
 

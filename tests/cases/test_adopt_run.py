@@ -17,9 +17,14 @@ def fake_run(folder, **config):
     (folder / "config.json").write_text(json.dumps({"lam": 0.1, "radius": 15.0, "dt": 0.01,
                                                     "output_every": 20, **config}))
     n = 5000
-    A.write_csv(folder / "history.csv", {"step": np.arange(n), "t": 0.01 * np.arange(n),
+    A.write_csv(folder / "history.csv", {"step": np.arange(n) + 1, "t": 0.01 * np.arange(n),
+                                         "dt": np.full(n, 0.01),
                                          "radius": np.linspace(0.5, 15, n),
-                                         "n_particles": np.arange(n) + 1.0})
+                                         "n_particles": 20.0 * np.arange(n) + 1.0,
+                                         "iterations": np.full(n, 100.0),
+                                         "failed_iterations": np.where(np.arange(n) < 100, 50, 0),
+                                         "substeps": np.where(np.arange(n) < 100, 2, 1),
+                                         "max_overlap": np.full(n, 5e-4)})
     A.write_csv(folder / "profile.csv", {"r": [1.0, 2.0], "mean_length": [1.5, 1.4]})
     return folder
 
@@ -39,6 +44,12 @@ def test_adopt_moves_to_the_sweep_name_and_records_small_data(tmp_path):
     assert 1 < h["t"].size < 5000 and h["t"][-1] == pytest.approx(49.99)
     assert (dest / "profile.csv").read_text() == (target / "profile.csv").read_text()
     assert (dest / "time.txt").read_text().count("Command being timed") == 2
+    work = A.read_csv(dest / "work.csv")  # all steps, then N >= 6e4 (steps from 3000 on)
+    np.testing.assert_array_equal(work["min_particles"], [0, 6e4])
+    np.testing.assert_array_equal(work["steps"], [5000, 2000])
+    np.testing.assert_array_equal(work["halved"], [100, 0])
+    np.testing.assert_allclose(work["per_time"], [(5e5 + 5e3) / 50, 1e4])
+    np.testing.assert_allclose(work["failed_share"], [5e3 / 5.05e5, 0])
     # adopting the adopted folder again is a no-op
     assert adopt_run.adopt(target, tmp_path / "runs", scale="smoke") == target
 
@@ -60,9 +71,10 @@ def test_adopt_refuses_mismatch_and_existing_target_without_touching_anything(tm
 def test_adopt_checks_the_configuration_the_run_started_with(tmp_path):
     """A run resumed with another step is checked against the sweep with its starting step.
 
-    The changes are config.json's step_policy_changes; paper scale, lam = 1e-3: dt = 0.005.
+    The changes are config.json's step_policy_changes (here of dt and of the former
+    adaptive_dt); the paper scale's particle runs set only lam, radius and output_every.
     """
-    paper = {"lam": 1e-3, "radius": 150.0, "output_every": 100}
+    paper = {"lam": 1e-3, "radius": 150.0, "output_every": 50}
     changes = [{"step": 100, "adaptive_dt": [False, True]},
                {"step": 150, "dt": [0.005, 0.0025], "adaptive_dt": [True, False]}]
     run = fake_run(tmp_path / "resumed", **paper, dt=0.0025, adaptive_dt=False,
@@ -70,7 +82,7 @@ def test_adopt_checks_the_configuration_the_run_started_with(tmp_path):
     assert adopt_run.initial_config(json.loads((run / "config.json").read_text())) == {
         **paper, "dt": 0.005, "adaptive_dt": False}
     assert is_done(adopt_run.adopt(run, tmp_path / "runs", scale="paper"))
-    changes[1]["dt"] = [0.01, 0.0025]
-    wrong = fake_run(tmp_path / "wrong", **paper, dt=0.0025, step_policy_changes=changes)
-    with pytest.raises(ValueError, match=r"dt = 0.01 .sweep: 0.005"):
+    wrong = fake_run(tmp_path / "wrong", **{**paper, "output_every": 100}, dt=0.0025,
+                     step_policy_changes=changes)
+    with pytest.raises(ValueError, match=r"output_every = 100 .sweep: 50"):
         adopt_run.adopt(wrong, tmp_path / "runs2", scale="paper")

@@ -104,17 +104,14 @@ def test_case_runs_finished_only_reuses_and_never_starts(tmp_path):
                   needs_continuum=False)
 
 
-def test_paper_scale_particles_at_small_lam_take_the_smaller_step():
-    """SCALES["paper"]: particle runs below lam = 1e-2 use dt = 0.005.
+def test_paper_scale_particles_take_the_default_step_at_every_lam():
+    """SCALES["paper"]: every particle run takes the default step control (issue 18).
 
-    Frames every 100 steps, i.e. every 0.5 time units as above; the continuum and larger lam
-    keep the defaults.
+    Until then the runs below lam = 1e-2 took dt = 0.005; now only the frames are set.
     """
     from cases.sweep import _engine_params, scale_config
     cfg = scale_config("paper")
-    assert _engine_params("particles", 1e-3, cfg) == {
-        "engine": "particles", "lam": 1e-3, "radius": 150.0, "dt": 0.005, "output_every": 100}
-    assert _engine_params("particles", 1e-2, cfg) == {
-        "engine": "particles", "lam": 1e-2, "radius": 150.0, "output_every": 50}
+    for lam in (0.0, 1e-4, 1e-3, 1e-2):
+        assert _engine_params("particles", lam, cfg) == {
+            "engine": "particles", "lam": lam, "radius": 150.0, "output_every": 50}
     assert _engine_params("continuum", 1e-3, cfg)["output_every"] == 0.5
-    assert "particles_small_lam" in cfg and "below" in cfg["particles_small_lam"]  # not popped
