@@ -4,17 +4,19 @@ The main contact solve costs about the same in total whatever dt (its iterations
 dt), while the re-detection passes that remove the overlaps left by the linearised step grow
 from a few percent of it to more than all of it once dt is too long for the colony's speeds,
 which grow as lam falls.  For each lam of ``--lams`` and each policy of ``--policies``
-(``CONTROL:DT`` with CONTROL = fixed, overlap or cost, DT the largest step; see
-particles.stepping.next_dt) one colony is grown from
-one cell to ``--radius`` and the table reports CPU seconds, steps, the solver iterations of
-the main solves, of the passes and of failed attempts (redone as half steps), and t at the
-radius (the result, which the step must not change beyond its first-order error).
+(``CONTROL:DT[:TARGET]`` with CONTROL = fixed, overlap or cost, DT the largest step, TARGET
+the overlap control's target in place of stepping.MAIN_OVERLAP; see particles.stepping.next_dt)
+one colony is grown from one cell to ``--radius`` and the table reports CPU seconds, steps, the
+solver iterations of the main solves, of the passes and of failed attempts (redone as half
+steps), and t at the radius (the result, which the step must not change beyond its first-order
+error).
 ``--uncapped`` lifts the cap on a pass's iterations (PASS_ITERATION_FLOOR = max_iterations),
 which is how the engine ran before the cap, to measure what the cap saves.
 
 ``--checkpoint FILE`` measures the policies on a saved state instead (a run's checkpoint.npz,
 e.g. a paper-scale colony): from it, each policy advances the colony by ``--duration`` time
-units (divisions included, the run's other settings kept) and the table reports the solver
+units (divisions included, the run's other settings kept; an adaptive policy starts from the
+run's last step) and the table reports the solver
 iterations per unit time (main, passes, failed attempts), the halved steps and the rotation of
 the particles in one step (largest and 99.9 % quantile: beyond ~0.1 rad the linearised contacts
 no longer hold and the passes meet crossed rods).
@@ -40,6 +42,7 @@ machine is often shared; wall time is in the CSV too.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import csv
 import json
 import math
@@ -62,22 +65,41 @@ CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "duration", "cpu_s", "wall_
                       "max_rotation", "rotation_q999", "n_particles")
 
 
-def parse_policy(text: str) -> tuple[str, float]:
-    """'CONTROL:DT' -> (CONTROL, DT), CONTROL one of stepping.STEP_CONTROLS."""
-    kind, _, value = text.partition(":")
-    message = f"policy must be CONTROL:DT with CONTROL in {', '.join(stepping.STEP_CONTROLS)}"
-    if kind not in stepping.STEP_CONTROLS:
+def parse_policy(text: str) -> tuple[str, float, float | None]:
+    """'CONTROL:DT[:TARGET]' -> (CONTROL, DT, TARGET or None), CONTROL in stepping.STEP_CONTROLS.
+
+    TARGET (control "overlap" only) replaces stepping.MAIN_OVERLAP for this policy.
+    """
+    kind, _, rest = text.partition(":")
+    dt, *target = rest.split(":")
+    message = (f"policy must be CONTROL:DT[:TARGET] with CONTROL in "
+               f"{', '.join(stepping.STEP_CONTROLS)} (TARGET: overlap only)")
+    if kind not in stepping.STEP_CONTROLS or len(target) > 1 or (target and kind != "overlap"):
         raise ValueError(f"{message}, got {text!r}")
     try:
-        dt = float(value)
+        values = [float(v) for v in (dt, *target)]
     except ValueError:
         raise ValueError(f"{message}, got {text!r}") from None
-    return kind, dt
+    if not all(v > 0 for v in values):
+        raise ValueError(f"{message}, positive numbers, got {text!r}")
+    return kind, values[0], (values[1] if target else None)
+
+
+@contextlib.contextmanager
+def main_overlap(value: float | None):
+    """stepping.MAIN_OVERLAP set to ``value`` (None: unchanged) inside the block."""
+    saved = stepping.MAIN_OVERLAP
+    if value is not None:
+        stepping.MAIN_OVERLAP = value
+    try:
+        yield
+    finally:
+        stepping.MAIN_OVERLAP = saved
 
 
 def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> dict:
     """One colony from one cell to ``radius`` under ``policy``; its costs and result."""
-    control, dt = parse_policy(policy)
+    control, dt, target = parse_policy(policy)
     config = Config(lam=lam, radius=radius, dt=dt, step_control=control)
     config.validate()
     floor = stepping.PASS_ITERATION_FLOOR
@@ -85,7 +107,8 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
         stepping.PASS_ITERATION_FLOOR = config.max_iterations
     try:
         w0, c0 = time.perf_counter(), time.process_time()
-        colony = run(config)
+        with main_overlap(target):
+            colony = run(config)
         cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     finally:
         stepping.PASS_ITERATION_FLOOR = floor
@@ -106,23 +129,26 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
     """Advance the state of checkpoint ``path`` by ``duration`` under ``policy``.
 
     See the module docstring; the run's configuration otherwise. Iterations are per unit time.
+    An adaptive policy starts from the run's last step (at most DT), a fixed one with DT.
     """
     config = checkpoint_config(Path(path))
-    state, *_ = load_checkpoint(Path(path), config)
+    state, history, _ = load_checkpoint(Path(path), config)
     t0, rng, warm = state.t, state.rng, state.warm
-    control, dt_max = parse_policy(policy)
+    control, dt_max, target = parse_policy(policy)
     config = replace(config, dt=dt_max, step_control=control)
-    t, dt, rows, turns = t0, dt_max, [], []
+    dt = dt_max if control == "fixed" or not history else min(dt_max, history[-1]["dt"])
+    t, rows, turns = t0, [], []
     w0, c0 = time.perf_counter(), time.process_time()
-    while t < t0 + duration * (1 - 1e-9):
-        dt = min(dt, t0 + duration - t)
-        theta = state.theta.copy()
-        info, warm = stepping.robust_step(state, config, dt, warm)
-        turns.append(np.abs(state.theta - theta))
-        divide(state, rng, config.division_noise)
-        rows.append(info)
-        t += dt
-        dt = stepping.next_dt(dt, info, dt_max, control)
+    with main_overlap(target):
+        while t < t0 + duration * (1 - 1e-9):
+            dt = min(dt, t0 + duration - t)
+            theta = state.theta.copy()
+            info, warm = stepping.robust_step(state, config, dt, warm)
+            turns.append(np.abs(state.theta - theta))
+            divide(state, rng, config.division_noise)
+            rows.append(info)
+            t += dt
+            dt = stepping.next_dt(dt, info, dt_max, control)
     cpu, wall = time.process_time() - c0, time.perf_counter() - w0
     turns = np.concatenate(turns)
 

@@ -109,6 +109,25 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     assert "| fixed:0.01 | 20 |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench_timestep.main(["--checkpoint", str(tmp_path / "none.npz")])
+    # the overlap control continues from the run's own last step: the run's next steps exactly;
+    # a lower target (third field) takes shorter steps
+    ocfg = replace(cfg, step_control="overlap", seed=4)
+    ofull, opart = tmp_path / "ofull", tmp_path / "opart"
+    ofull.mkdir()
+    opart.mkdir()
+    b = run(ocfg, ofull)
+    run(ocfg, opart, stop_after=100)
+    nxt = b.history[100:110]
+    span = nxt[-1]["t"] - b.history[99]["t"]
+    same, low = bench_timestep.main(["--checkpoint", str(opart / "checkpoint.npz"), "--duration",
+                                     str(span), "--policies", "overlap:0.02",
+                                     "overlap:0.02:1e-5", "--out", str(tmp_path / "o.csv")])
+    assert same["steps"] == 10 and same["main_per_time"] * span == pytest.approx(
+        sum(r["iterations"] - r["pass_iterations"] for r in nxt))
+    assert low["steps"] > same["steps"]
+    for bad in ("fixed:0.01:0.1", "overlap:0.02:0", "overlap:0.02:x", "overlap:0.02:0.1:2"):
+        with pytest.raises(ValueError, match="CONTROL:DT"):
+            bench_timestep.parse_policy(bad)
     # --history: the segments of a run resumed with another dt add up to its history
     run(replace(cfg, dt=0.01), part, change_step_policy=True)
     seg = bench_timestep.main(["--history", str(part)])
