@@ -60,7 +60,8 @@ from particles.growth import divide
 
 COLUMNS = ("lam", "policy", "uncapped", "cpu_s", "wall_s", "steps", "halved", "main_iterations",
            "pass_iterations", "failed_iterations", "t_at_radius", "n_particles")
-CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "duration", "cpu_s", "wall_s", "steps",
+CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "threads", "duration", "cpu_s", "wall_s",
+                      "steps",
                       "halved", "main_per_time", "pass_per_time", "failed_per_time",
                       "max_rotation", "rotation_q999", "n_particles")
 
@@ -125,17 +126,20 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
             "n_particles": colony.state.n}
 
 
-def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
+def measure_checkpoint(path: str | Path, policy: str, duration: float,
+                       threads: int | None = None) -> dict:
     """Advance the state of checkpoint ``path`` by ``duration`` under ``policy``.
 
     See the module docstring; the run's configuration otherwise. Iterations are per unit time.
     An adaptive policy starts from the run's last step (at most DT), a fixed one with DT.
+    ``threads``: the contact solver's threads (None: the run's).
     """
     config = checkpoint_config(Path(path))
     state, history, _ = load_checkpoint(Path(path), config)
     t0, rng, warm = state.t, state.rng, state.warm
     control, dt_max, target = parse_policy(policy)
-    config = replace(config, dt=dt_max, step_control=control)
+    config = replace(config, dt=dt_max, step_control=control,
+                     threads=config.threads if threads is None else threads)
     dt = dt_max if control == "fixed" or not history else min(dt_max, history[-1]["dt"])
     t, rows, turns = t0, [], []
     w0, c0 = time.perf_counter(), time.process_time()
@@ -155,7 +159,8 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float) -> dict:
     def per_time(key):
         return sum(r[key] for r in rows) / (t - t0)
 
-    return {"checkpoint": str(path), "lam": config.lam, "policy": policy, "duration": t - t0,
+    return {"checkpoint": str(path), "lam": config.lam, "policy": policy,
+            "threads": config.threads, "duration": t - t0,
             "cpu_s": cpu, "wall_s": wall, "steps": len(rows),
             "halved": sum(r["substeps"] > 1 for r in rows),
             "main_per_time": per_time("iterations") - per_time("pass_iterations"),
@@ -247,6 +252,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     help="measure the policies from this saved state (module docstring)")
     ap.add_argument("--duration", type=float, default=0.02,
                     help="with --checkpoint: time advanced per policy")
+    ap.add_argument("--threads", type=int, default=None,
+                    help="with --checkpoint: contact solver threads (default: the run's)")
     ap.add_argument("--history", type=Path, nargs="+",
                     help="report the step-policy segments of these run folders (no runs)")
     ap.add_argument("--min-particles", type=float, default=0.0,
@@ -273,7 +280,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     rows = []
     if a.checkpoint is not None:
         for policy in a.policies:
-            rows.append(measure_checkpoint(a.checkpoint, policy, a.duration))
+            rows.append(measure_checkpoint(a.checkpoint, policy, a.duration, a.threads))
             _write(rows, CHECKPOINT_COLUMNS, a.out)
         _checkpoint_table(rows)
         return rows
