@@ -83,6 +83,16 @@ class UsageError(ValueError):
 # --------------------------------------------------------------------------- configuration
 
 
+def _threads(text: str) -> int | str:
+    """--threads: "auto" or an integer (Config.validate checks its range)."""
+    if text == "auto":
+        return text
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected auto or an integer, got {text!r}") from None
+
+
 def _coerce(value: str, like):
     """Parse a ``--set`` string into the type of the dataclass field's default ``like``."""
     if isinstance(like, bool):
@@ -96,6 +106,8 @@ def _coerce(value: str, like):
             return int(value)
         except ValueError:
             raise UsageError(f"expected an integer, got {value!r}") from None
+    if isinstance(like, str) and value.isdigit():  # threads: "auto" or a number
+        return int(value)
     if isinstance(like, float) or like is None:
         try:
             return float(value)
@@ -297,8 +309,10 @@ def parser() -> argparse.ArgumentParser:
                    "fixed: every step --dt; cost: follow the cost of the re-solve passes")
     p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
-    p.add_argument("--threads", type=int,
-                   help="threads of the contact solver (default 1; same result for any number)")
+    p.add_argument("--threads", type=_threads,
+                   help="threads of the contact solver: a number or auto (the default: one "
+                   "thread below 2e4 particles, every core above; give 1 when runs share the "
+                   "cores); the same result for any number")
     p.add_argument("--change-step-policy", action="store_true",
                    help="resume a checkpoint written with another --dt or --step-control")
 

@@ -207,7 +207,9 @@ def run_engine(params: dict, folder: Path) -> None:
 
     The remaining keys are the fields of ``continuum.Config`` / ``particles.Config``
     (docs/DESIGN.md); the engine writes its output contract into ``folder``. A particle run
-    with a ``shape`` starts from the particles of cases.shapes.initial_state.
+    with a ``shape`` starts from the particles of cases.shapes.initial_state. A sweep's runs
+    share the cores, so a particle run takes one solver thread unless ``params`` say otherwise
+    (``threads`` changes no result).
     """
     params = dict(params)
     engine = params.pop("engine", None)
@@ -215,6 +217,7 @@ def run_engine(params: dict, folder: Path) -> None:
         from continuum import Config, run
     elif engine == "particles":
         from particles import Config, run
+        params.setdefault("threads", 1)
     else:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     config = Config(**params)

@@ -85,10 +85,13 @@ class Config:
         Re-detection and re-solve passes allowed per step.
     max_iterations : int
         Iteration cap of one solve (ContactSolveError beyond).
-    threads : int
-        Numba threads of the contact solver (its loops over particles and contacts).  The
-        iterates do not depend on it (sums by fixed blocks, contact_solver.BLOCK), so a run
-        may resume with another value and give the same result.
+    threads : int or "auto"
+        Numba threads of the contact solver (its loops over particles and contacts); "auto"
+        (the default): one thread below stepping.THREADS_MIN_PARTICLES particles, every usable
+        core from there on (stepping.solver_threads).  Give 1 when several runs share the
+        cores.  The iterates do not depend on it (sums by fixed blocks,
+        contact_solver.BLOCK), so a run may resume with another value and give the same
+        result.
     """
 
     lam: float
@@ -111,7 +114,7 @@ class Config:
     max_passes: int = 20
     max_iterations: int = 200_000
     step_control: str = "overlap"
-    threads: int = 1
+    threads: int | str = "auto"
 
     def validate(self, require_stop: bool = True) -> None:
         """Raise ValueError with a one-line message on an inconsistent configuration.
@@ -177,8 +180,10 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"max_iterations must be a positive integer, got {v}"),
     ("step_control", lambda v: v in STEP_CONTROLS,
      lambda v: f"step_control must be one of {', '.join(STEP_CONTROLS)}, got {v!r}"),
-    ("threads", lambda v: isinstance(v, int) and 1 <= v <= numba.config.NUMBA_NUM_THREADS,
-     lambda v: f"threads must be an integer in [1, {numba.config.NUMBA_NUM_THREADS}], got {v}"),
+    ("threads", lambda v: v == "auto" or (isinstance(v, int) and not isinstance(v, bool)
+                                          and 1 <= v <= numba.config.NUMBA_NUM_THREADS),
+     lambda v: f"threads must be auto or an integer in [1, {numba.config.NUMBA_NUM_THREADS}], "
+               f"got {v!r}"),
     ("init", lambda v: v is None or Path(v).is_file(),
      lambda v: f"init file not found: {v}"),
     ("shape", lambda v: v is None or (isinstance(v, str) and v.strip() != ""),

@@ -30,6 +30,7 @@ solver iterations of steps 2 and 4 together (``iterations``), those of step 4 al
 from __future__ import annotations
 
 import math
+import os
 import time as _time
 from typing import TYPE_CHECKING
 
@@ -54,6 +55,27 @@ SOLVERS = {
 }
 """Contact solvers by name: callables (contacts, length, dt, lam, gamma0, tol, maxiter, growth)
 -> (gamma, residual history)."""
+
+
+THREADS_MIN_PARTICLES = 20_000
+"""``Config.threads = "auto"``: more than one thread from this many particles on.  Measured on
+this project's 2-core machine, one run alone (docs/benchmarks.md, "Threads"): two threads
+1.34x faster at 32,768 particles (lam = 0), 0.94-1.6x at 1e4, 1.1-1.2x at 1e3."""
+
+
+def solver_threads(threads: int | str, n: int) -> int:
+    """Numba threads of a step of ``n`` particles.
+
+    ``threads`` itself when it is a number; for "auto" one thread below
+    THREADS_MIN_PARTICLES and every core the process may use (at most NUMBA_NUM_THREADS)
+    from there on.  The iterates do not depend on it (contact_solver.BLOCK).
+    """
+    if threads != "auto":
+        return threads
+    if n < THREADS_MIN_PARTICLES:
+        return 1
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    return max(1, min(numba.config.NUMBA_NUM_THREADS, cores or 1))
 
 
 class OverlapError(RuntimeError):
@@ -153,7 +175,7 @@ def step(state: ParticleState, config: Config, dt: float,
     accumulates the solver iterations, also of a step that raises.
     """
     solver = SOLVERS[config.solver]
-    numba.set_num_threads(config.threads)
+    numba.set_num_threads(solver_threads(config.threads, state.n))
     stol = config.effective_solver_tol
     margin = config.contact_margin
     spent = [0] if spent is None else spent

@@ -72,6 +72,8 @@ def test_bad_arguments_one_line_exit_2(args, tmp_path):
 def test_argparse_errors_exit_2():
     res = _colony("continuum", "--lam", "0.1")  # neither --radius nor --time
     assert res.returncode == 2 and "Traceback" not in res.stderr
+    res = _colony("particles", "--lam", "0.1", "--radius", "2", "--threads", "two")
+    assert res.returncode == 2 and "expected auto or an integer, got 'two'" in res.stderr
 
 
 def _header(path):

@@ -276,6 +276,8 @@ def test_init_file(tmp_path):
         dict(lam=0.0, time=1.0, init="/nonexistent.csv"),
         dict(lam=0.0, time=1.0, threads=0),
         dict(lam=0.0, time=1.0, threads=10_000),
+        dict(lam=0.0, time=1.0, threads="two"),
+        dict(lam=0.0, time=1.0, threads=True),
         dict(lam=float("nan"), time=1.0),
         dict(lam=0.0, time=1.0, output_every=0),
     ],
@@ -283,6 +285,24 @@ def test_init_file(tmp_path):
 def test_validate(kw):
     with pytest.raises(ValueError):
         Config(**kw).validate()
+
+
+def test_auto_threads_follow_the_colony_size(monkeypatch):
+    """The default threads = "auto" follows the colony's size.
+
+    One thread below THREADS_MIN_PARTICLES, every usable core (at most NUMBA_NUM_THREADS) from
+    there on; a number is kept.
+    """
+    from particles.stepping import THREADS_MIN_PARTICLES, solver_threads
+    Config(lam=0.0, time=1.0, threads="auto").validate()
+    assert Config(lam=0.0).threads == "auto"
+    monkeypatch.setattr("os.sched_getaffinity", lambda pid: {0, 1, 2}, raising=False)
+    monkeypatch.setattr("numba.config.NUMBA_NUM_THREADS", 2)
+    assert solver_threads("auto", THREADS_MIN_PARTICLES - 1) == 1
+    assert solver_threads("auto", THREADS_MIN_PARTICLES) == 2  # capped by Numba's threads
+    monkeypatch.setattr("os.sched_getaffinity", lambda pid: {5}, raising=False)
+    assert solver_threads("auto", 10**6) == 1  # one usable core
+    assert solver_threads(2, 10) == 2
 
 
 def test_radius_of_single_particle():
