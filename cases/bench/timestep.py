@@ -60,10 +60,10 @@ from particles.growth import divide
 
 COLUMNS = ("lam", "policy", "uncapped", "cpu_s", "wall_s", "steps", "halved", "main_iterations",
            "pass_iterations", "failed_iterations", "t_at_radius", "n_particles")
-CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "threads", "duration", "cpu_s", "wall_s",
-                      "steps",
-                      "halved", "main_per_time", "pass_per_time", "failed_per_time",
-                      "max_rotation", "rotation_q999", "n_particles")
+CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "solver", "solver_tol", "threads",
+                      "duration", "cpu_s", "wall_s", "steps", "halved", "main_per_time",
+                      "pass_per_time", "failed_per_time", "max_rotation", "rotation_q999",
+                      "n_particles")
 
 
 def parse_policy(text: str) -> tuple[str, float, float | None]:
@@ -127,19 +127,23 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
 
 
 def measure_checkpoint(path: str | Path, policy: str, duration: float,
-                       threads: int | None = None) -> dict:
+                       threads: int | None = None, solver: str | None = None,
+                       solver_tol: float | None = None) -> dict:
     """Advance the state of checkpoint ``path`` by ``duration`` under ``policy``.
 
     See the module docstring; the run's configuration otherwise. Iterations are per unit time.
     An adaptive policy starts from the run's last step (at most DT), a fixed one with DT.
-    ``threads``: the contact solver's threads (None: the run's).
+    ``threads``, ``solver``, ``solver_tol``: the contact solver's threads, name and residual
+    tolerance (None: the run's).
     """
     config = checkpoint_config(Path(path))
     state, history, _ = load_checkpoint(Path(path), config)
     t0, rng, warm = state.t, state.rng, state.warm
     control, dt_max, target = parse_policy(policy)
     config = replace(config, dt=dt_max, step_control=control,
-                     threads=config.threads if threads is None else threads)
+                     threads=config.threads if threads is None else threads,
+                     solver=config.solver if solver is None else solver,
+                     solver_tol=config.solver_tol if solver_tol is None else solver_tol)
     dt = dt_max if control == "fixed" or not history else min(dt_max, history[-1]["dt"])
     t, rows, turns = t0, [], []
     w0, c0 = time.perf_counter(), time.process_time()
@@ -160,6 +164,7 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,
         return sum(r[key] for r in rows) / (t - t0)
 
     return {"checkpoint": str(path), "lam": config.lam, "policy": policy,
+            "solver": config.solver, "solver_tol": config.effective_solver_tol,
             "threads": config.threads, "duration": t - t0,
             "cpu_s": cpu, "wall_s": wall, "steps": len(rows),
             "halved": sum(r["substeps"] > 1 for r in rows),
@@ -254,6 +259,10 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     help="with --checkpoint: time advanced per policy")
     ap.add_argument("--threads", type=int, default=None,
                     help="with --checkpoint: contact solver threads (default: the run's)")
+    ap.add_argument("--solver", choices=sorted(stepping.SOLVERS), default=None,
+                    help="with --checkpoint: contact solver (default: the run's)")
+    ap.add_argument("--solver-tol", type=float, default=None,
+                    help="with --checkpoint: the solver's residual tolerance (default: the run's)")
     ap.add_argument("--history", type=Path, nargs="+",
                     help="report the step-policy segments of these run folders (no runs)")
     ap.add_argument("--min-particles", type=float, default=0.0,
@@ -280,7 +289,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
     rows = []
     if a.checkpoint is not None:
         for policy in a.policies:
-            rows.append(measure_checkpoint(a.checkpoint, policy, a.duration, a.threads))
+            rows.append(measure_checkpoint(a.checkpoint, policy, a.duration, a.threads,
+                                           a.solver, a.solver_tol))
             _write(rows, CHECKPOINT_COLUMNS, a.out)
         _checkpoint_table(rows)
         return rows
