@@ -137,6 +137,7 @@ def test_smoke_ensemble_end_to_end(tmp_path):
     num = A.read_csv(data / "numerics.csv")
     assert sorted(zip(num["dt"], num["tol"], strict=True)) == [
         (0.005, 0.001), (0.01, 0.0005), (0.01, 0.001)]
+    assert sorted(num["solver_tol"]) == [0.00025, 0.0005, 0.0005]  # tol / 2 unless set
     growth = A.read_csv(data / "growth_lam=0.1.csv")
     assert growth["radius"][-1] == pytest.approx(8.0)
     assert np.isfinite(growth["rel_t_mean"]).all()
