@@ -78,7 +78,15 @@ class Config:
     max_particles : int
         Guard: a run whose colony exceeds this raises ParticleLimitError.
     solver_tol : float or None
-        Residual tolerance of each solve (a gap, see contact_solver); default tol / 2.
+        Residual tolerance of each solve (a gap, see contact_solver); None (the default):
+        ``solver_tol_factor`` times tol.
+    solver_tol_factor : float
+        The solver's residual tolerance in units of tol when ``solver_tol`` is None: 1 since
+        issue 18, 1/2 before (the value of older runs' configurations, LEGACY_CONFIG).  The
+        passes hold the real overlap within tol either way.  Measured: at paper scale (lam = 0,
+        32,768 particles) 1 takes 0.64x the solver iterations of 1/2; at radius 40 it moves
+        the results by 0.6-1.2 seed spreads (docs/validation.md, "Particles";
+        docs/benchmarks.md, "Step control at paper scale").
     contact_margin : float
         Pairs with gap <= margin enter the solve.
     max_passes : int
@@ -110,6 +118,7 @@ class Config:
     checkpoint_seconds: float = 300.0
     max_particles: int = 500_000
     solver_tol: float | None = None
+    solver_tol_factor: float = 1.0
     contact_margin: float = 0.1
     max_passes: int = 20
     max_iterations: int = 200_000
@@ -137,8 +146,8 @@ class Config:
 
     @property
     def effective_solver_tol(self) -> float:
-        """Residual tolerance of each solve: ``solver_tol``, or tol / 2 when None."""
-        return self.tol / 2 if self.solver_tol is None else self.solver_tol
+        """Residual tolerance of each solve: ``solver_tol``, or solver_tol_factor tol if None."""
+        return self.solver_tol_factor * self.tol if self.solver_tol is None else self.solver_tol
 
 
 def _finite(v) -> bool:
@@ -160,6 +169,8 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"tol must be in (0, b = {B}), got {v}"),
     ("solver_tol", lambda v: v is None or (_finite(v) and v > 0),
      lambda v: f"solver_tol must be positive, got {v}"),
+    ("solver_tol_factor", lambda v: _finite(v) and v > 0,
+     lambda v: f"solver_tol_factor must be positive, got {v}"),
     ("seed", lambda v: _count(v, 0),
      lambda v: f"seed must be a non-negative integer, got {v}"),
     ("division_noise", lambda v: _finite(v) and 0 <= v <= 0.5,
@@ -196,7 +207,7 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
 
 
 LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",
-                 "fill_lengths": "stable"}
+                 "fill_lengths": "stable", "solver_tol_factor": 0.5}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
 
 RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}

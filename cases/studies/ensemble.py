@@ -20,7 +20,8 @@ from R/4 to R, the central stress, outermost ring and wavelength against the 1D 
 the same radius (``growth_lam=*.csv``, relative differences; ``growth_rates.csv`` fits
 abs(difference) ~ R^a). ``numerics.csv``: the first seed of ``numerics_lam`` again with the time
 step halved, with the overlap tolerance halved (the solver tolerance follows it) and, at medium
-scale, with the solver's tolerance doubled (tol / 2 -> tol), against the seed spread.
+scale, with the solver's tolerance doubled (tol / 2 -> tol, the engine's default since issue
+18), against the seed spread.
 
 Scales (:data:`ENSEMBLES`): "smoke" (radius 8, lam = 0.1, 2 seeds; about 40 s of CPU) and "medium"
 (radius 40, the lam of the medium figure cases, 8 seeds each; about 50 particle runs of 30-80 s
@@ -39,6 +40,7 @@ import numpy as np
 from cases import analysis as A
 from cases.sweep import ENGINES, _engine_params, is_done, run_engine, run_name, scale_config, sweep
 from continuum import radial
+from particles.config import upgrade
 from particles.geometry import B
 from particles.measures import centroid, enclosing_radius
 
@@ -73,10 +75,11 @@ GRID_POINTS = 200
 GROWTH_FRACTIONS = np.geomspace(0.25, 1.0, 7)
 
 
-#: The step policy of every particle run of the ensemble: fixed steps of 0.01, with which its
-#: committed data were made (the engine's default before the "overlap" step control), so that
-#: the numerics runs' dt = 0.005 is the halved step.
-STEP = {"step_control": "fixed", "dt": 0.01}
+#: The step policy and solver tolerance of every particle run of the ensemble: fixed steps of
+#: 0.01 and the solver's residual tolerance tol / 2, with which its committed data were made
+#: (the engine's defaults before issue 18: the "overlap" step control, tolerance tol), so that
+#: the numerics runs' dt = 0.005 is the halved step and tol = 5e-4 takes the solver along.
+STEP = {"step_control": "fixed", "dt": 0.01, "solver_tol_factor": 0.5}
 
 
 def _ensemble(scale: str) -> dict[str, Any]:
@@ -490,7 +493,8 @@ def _write_numerics(data: Path, numerics: dict[str, Path],
     for folder in ([base] if base is not None else []) + [numerics[k] for k in sorted(numerics)]:
         config = json.loads((folder / "config.json").read_text())
         row, *_ = _seed_numbers(folder)
-        solver_tol = config.get("solver_tol") or config["tol"] / 2  # None: tol / 2
+        config = upgrade(config)
+        solver_tol = config["solver_tol"] or config["solver_tol_factor"] * config["tol"]
         _append(rows, {"lam": lam, "seed": 0, "dt": config["dt"], "tol": config["tol"],
                        "solver_tol": solver_tol} | row)
     A.write_csv(data / "numerics.csv", rows)

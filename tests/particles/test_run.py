@@ -305,6 +305,20 @@ def test_auto_threads_follow_the_colony_size(monkeypatch):
     assert solver_threads(2, 10) == 2
 
 
+def test_solver_tolerance_is_tol_and_older_runs_keep_half_of_it():
+    """The solver's residual tolerance: tol by default (issue 18), tol / 2 in older runs.
+
+    An older configuration (no solver_tol_factor) reads back with the factor it ran with.
+    """
+    from particles.config import upgrade
+    assert Config(lam=0.0, tol=2e-3).effective_solver_tol == 2e-3
+    assert Config(lam=0.0, tol=2e-3, solver_tol=1e-4).effective_solver_tol == 1e-4
+    old = upgrade({"lam": 0.0, "tol": 2e-3, "solver_tol": None})
+    assert Config(**old).effective_solver_tol == 1e-3
+    with pytest.raises(ValueError, match="solver_tol_factor must be positive"):
+        Config(lam=0.0, time=1.0, solver_tol_factor=0.0).validate()
+
+
 def test_radius_of_single_particle():
     st = initial_state(Config(lam=0.0, time=1.0))
     assert st.enclosing_radius() == pytest.approx(0.5)
