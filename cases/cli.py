@@ -447,23 +447,34 @@ def _dispatch(args) -> int:
     else:
         module = importlib.import_module(CASES[args.name])
         out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
+        created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
-        if args.from_data:
-            suffix = "" if args.data_set == "medium" else f"_{args.data_set}"
-            data = Path(__file__).parent / "data" / f"{args.name}{suffix}"
-            if not data.is_dir():
-                raise UsageError(f"no committed data for case {args.name} in {data}")
-        else:
-            if args.workers < 1:
-                raise UsageError(f"--workers must be >= 1, got {args.workers}")
-            engines = ("continuum",) if args.engines == "continuum" else ("continuum", "particles")
-            finished_only = ("particles",) if args.engines == "finished" else ()
-            data = module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
-                                  n_workers=args.workers, runs=args.runs, engines=engines,
-                                  finished_only=finished_only)
+        try:
+            data = _case_data(module, args, out)
+        except BaseException:
+            if created and not any(out.iterdir()):  # bad input: leave nothing behind
+                out.rmdir()
+            raise
         module.plot(data, out)
         print(f"case {args.name} written to {out}")
     return 0
+
+
+def _case_data(module, args, out: Path) -> Path:
+    """The data folder a case draws from: committed (--from-data) or computed into ``out``."""
+    if args.from_data:
+        suffix = "" if args.data_set == "medium" else f"_{args.data_set}"
+        data = Path(__file__).parent / "data" / f"{args.name}{suffix}"
+        if not data.is_dir():
+            raise UsageError(f"no committed data for case {args.name} in {data}")
+        return data
+    if args.workers < 1:
+        raise UsageError(f"--workers must be >= 1, got {args.workers}")
+    engines = ("continuum",) if args.engines == "continuum" else ("continuum", "particles")
+    finished_only = ("particles",) if args.engines == "finished" else ()
+    return module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
+                          n_workers=args.workers, runs=args.runs, engines=engines,
+                          finished_only=finished_only)
 
 
 def _terminate(signum, frame):
