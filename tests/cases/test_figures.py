@@ -292,7 +292,10 @@ def test_smoke_case(case, smoke_runs, tmp_path):
     if name == "crosscheck":
         t = A.read_csv(data / "table.csv")
         assert np.all(t["max_rel_diff_R_hull_late"] < 0.15)
-        np.testing.assert_allclose(t["slope_particles"], t["slope_continuum"], rtol=0.25)
+        # one colony of a few hundred cells: its late dR/dt scatters by ~8 % (std) about a mean
+        # ~15 % below the continuum's (lam = 3e-2, radius 15, seeds 0-5: 2.98-3.86, mean 3.55,
+        # continuum 4.19; measured 2026-12-01), so a gross error, not a seed, must exceed 40 %
+        np.testing.assert_allclose(t["slope_particles"], t["slope_continuum"], rtol=0.4)
     for col, expected in SMOKE.get(name, {}).items():
         s = A.read_csv(data / "summary.csv")
         rtol = RTOL["particles" if col.endswith("particles") else "continuum"]
