@@ -14,7 +14,7 @@ several sessions, not by the sweep; once finished it is adopted:
 2. :func:`record`: its small data (history thinned by ``cases.analysis.thin_rows``, the final
    profile, the configuration and the ``/usr/bin/time -v`` reports of its segments) are copied
    to ``DATA/lam=LAM/``, with ``work.csv``: the solver work of every step-policy segment, over
-   all steps and over those with N >= 6e4 (``cases.bench.timestep.history_segments``; the
+   all steps and over those with N >= 6e4 (``cases.analysis.history_segments``; the
    sums the thinned history cannot give).
 
 Command line::
@@ -34,7 +34,6 @@ import sys
 from pathlib import Path
 
 from cases import analysis as A
-from cases.bench.timestep import history_segments
 from cases.sweep import DONE, _engine_params, run_name, scale_config
 
 __all__ = ["adopt", "initial_config", "record", "time_reports"]
@@ -113,7 +112,7 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
     dest.mkdir(parents=True, exist_ok=True)
     A.write_csv(dest / "history.csv", A.thin_rows(A.read_csv(run / "history.csv")))
     work = [{"min_particles": n, **row} for n in WORK_MIN_PARTICLES
-            for row in history_segments(run, n)]
+            for row in A.history_segments(run, n)]
     if work:
         A.write_csv(dest / "work.csv",
                     {k: [row[k] for row in work] for k in work[0] if k != "run"})

@@ -84,13 +84,17 @@ class UsageError(ValueError):
 
 
 def _threads(text: str) -> int | str:
-    """--threads: "auto" or an integer (Config.validate checks its range)."""
+    """Threads (``--threads``, ``--set threads=``): "auto" or an integer (validate: its range)."""
     if text == "auto":
         return text
     try:
         return int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected auto or an integer, got {text!r}") from None
+
+
+FIELD_PARSERS = {"threads": _threads}
+"""``--set`` values of fields whose type is not that of their default (else ``_coerce``)."""
 
 
 def _coerce(value: str, like):
@@ -106,8 +110,6 @@ def _coerce(value: str, like):
             return int(value)
         except ValueError:
             raise UsageError(f"expected an integer, got {value!r}") from None
-    if isinstance(like, str) and value.isdigit():  # threads: "auto" or a number
-        return int(value)
     if isinstance(like, float) or like is None:
         try:
             return float(value)
@@ -141,8 +143,9 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
         if default is dataclasses.MISSING:
             default = getattr(defaults, key, None)
         try:
-            values[key] = _coerce(raw, default)
-        except UsageError as err:
+            values[key] = (FIELD_PARSERS[key](raw) if key in FIELD_PARSERS
+                           else _coerce(raw, default))
+        except (UsageError, argparse.ArgumentTypeError) as err:
             raise UsageError(f"--set {key}: {err}") from None
     given = {k: v for k, v in flags.items() if v is not None}
     if "lam" in names:

@@ -13,14 +13,16 @@ every particle) and profiles are taken about that centroid (:mod:`particles.meas
 
 from __future__ import annotations
 
+import json
 import math
 import os
+from pathlib import Path
 
 import numpy as np
 
 from particles.measures import centroid, enclosing_radius
 
-from .io import particle_frames
+from .io import particle_frames, read_csv
 from .profiles import equal_area_annuli, particle_profile
 from .rings import profile_wavelength, ring_coherence, ring_peaks
 from .statistics import central_value, max_value
@@ -31,6 +33,7 @@ __all__ = [
     "final_ring_coherence",
     "particle_growth_series",
     "profile_central_stress",
+    "history_segments",
 ]
 
 
@@ -156,3 +159,37 @@ def particle_growth_series(folder: str | os.PathLike, edge_width: float = 0.5,
         for k in names:
             out[k].append(row[k])
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
+
+
+def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
+    """Per step-policy segment of the run folder ``run``, its solver work.
+
+    The segments are those of config.json's ``step_policy_changes`` (a run resumed with another
+    step), restricted to N >= ``min_particles``.
+
+    These are: first and last step, N range, t range, dt range, steps, halved steps, iterations
+    per unit time (main, passes and failed attempts; failed counted 0 where the history predates
+    the column), the failed share and the largest overlap after a step.
+    """
+    run = Path(run)
+    h = read_csv(run / "history.csv")
+    changes = json.loads((run / "config.json").read_text()).get("step_policy_changes", [])
+    bounds = [0, *(c["step"] for c in changes), math.inf]
+    failed = np.nan_to_num(h["failed_iterations"])
+    rows = []
+    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
+        m = (h["step"] > a) & (h["step"] <= b) & (h["n_particles"] >= min_particles)
+        if not m.any():
+            continue
+        work = h["iterations"][m] + failed[m]
+        rows.append({"run": run.name, "first_step": int(h["step"][m][0]),
+                     "last_step": int(h["step"][m][-1]),
+                     "n_first": int(h["n_particles"][m][0]),
+                     "n_last": int(h["n_particles"][m][-1]),
+                     "t_first": float(h["t"][m][0]), "t_last": float(h["t"][m][-1]),
+                     "dt_min": float(h["dt"][m].min()), "dt_max": float(h["dt"][m].max()),
+                     "steps": int(m.sum()), "halved": int((h["substeps"][m] > 1).sum()),
+                     "per_time": float(work.sum() / h["dt"][m].sum()),
+                     "failed_share": float(failed[m].sum() / work.sum()),
+                     "max_overlap": float(h["max_overlap"][m].max())})
+    return rows

@@ -44,8 +44,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
-import json
-import math
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -140,10 +138,9 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,
     state, history, _ = load_checkpoint(Path(path), config)
     t0, rng, warm = state.t, state.rng, state.warm
     control, dt_max, target = parse_policy(policy)
+    given = {"threads": threads, "solver": solver, "solver_tol": solver_tol}
     config = replace(config, dt=dt_max, step_control=control,
-                     threads=config.threads if threads is None else threads,
-                     solver=config.solver if solver is None else solver,
-                     solver_tol=config.solver_tol if solver_tol is None else solver_tol)
+                     **{k: v for k, v in given.items() if v is not None})
     dt = dt_max if control == "fixed" or not history else min(dt_max, history[-1]["dt"])
     t, rows, turns = t0, [], []
     w0, c0 = time.perf_counter(), time.process_time()
@@ -173,37 +170,6 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,
             "failed_per_time": per_time("failed_iterations"),
             "max_rotation": float(turns.max()), "rotation_q999": float(np.quantile(turns, 0.999)),
             "n_particles": state.n}
-
-
-def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
-    """Per step-policy segment of the run folder ``run`` (module docstring), its statistics.
-
-    These are: first and last step, N range, t range, dt range, steps, halved steps, iterations
-    per unit time (main, passes and failed attempts; failed counted 0 where the history predates
-    the column), the failed share and the largest overlap after a step.
-    """
-    run = Path(run)
-    h = A.read_csv(run / "history.csv")
-    changes = json.loads((run / "config.json").read_text()).get("step_policy_changes", [])
-    bounds = [0, *(c["step"] for c in changes), math.inf]
-    failed = np.nan_to_num(h["failed_iterations"])
-    rows = []
-    for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        m = (h["step"] > a) & (h["step"] <= b) & (h["n_particles"] >= min_particles)
-        if not m.any():
-            continue
-        work = h["iterations"][m] + failed[m]
-        rows.append({"run": run.name, "first_step": int(h["step"][m][0]),
-                     "last_step": int(h["step"][m][-1]),
-                     "n_first": int(h["n_particles"][m][0]),
-                     "n_last": int(h["n_particles"][m][-1]),
-                     "t_first": float(h["t"][m][0]), "t_last": float(h["t"][m][-1]),
-                     "dt_min": float(h["dt"][m].min()), "dt_max": float(h["dt"][m].max()),
-                     "steps": int(m.sum()), "halved": int((h["substeps"][m] > 1).sum()),
-                     "per_time": float(work.sum() / h["dt"][m].sum()),
-                     "failed_share": float(failed[m].sum() / work.sum()),
-                     "max_overlap": float(h["max_overlap"][m].max())})
-    return rows
 
 
 def _segments_table(rows: list[dict]) -> None:
@@ -272,7 +238,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         missing = [str(r) for r in a.history if not (r / "history.csv").is_file()]
         if missing:
             ap.error(f"no history.csv in {', '.join(missing)}")
-        rows = [row for r in a.history for row in history_segments(r, a.min_particles)]
+        rows = [row for r in a.history for row in A.history_segments(r, a.min_particles)]
         _segments_table(rows)
         return rows
     try:

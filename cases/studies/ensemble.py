@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import json
 import math
+from dataclasses import fields
 from pathlib import Path
 from typing import Any
 
@@ -40,7 +41,7 @@ import numpy as np
 from cases import analysis as A
 from cases.sweep import ENGINES, _engine_params, is_done, run_engine, run_name, scale_config, sweep
 from continuum import radial
-from particles.config import upgrade
+from particles.config import Config, upgrade
 from particles.geometry import B
 from particles.measures import centroid, enclosing_radius
 
@@ -491,12 +492,11 @@ def _write_numerics(data: Path, numerics: dict[str, Path],
     base = particles.get((lam, 0))
     rows: dict[str, list] = {}
     for folder in ([base] if base is not None else []) + [numerics[k] for k in sorted(numerics)]:
-        config = json.loads((folder / "config.json").read_text())
+        saved = upgrade(json.loads((folder / "config.json").read_text()))
+        config = Config(**{f.name: saved[f.name] for f in fields(Config) if f.name in saved})
         row, *_ = _seed_numbers(folder)
-        config = upgrade(config)
-        solver_tol = config["solver_tol"] or config["solver_tol_factor"] * config["tol"]
-        _append(rows, {"lam": lam, "seed": 0, "dt": config["dt"], "tol": config["tol"],
-                       "solver_tol": solver_tol} | row)
+        _append(rows, {"lam": lam, "seed": 0, "dt": config.dt, "tol": config.tol,
+                       "solver_tol": config.effective_solver_tol} | row)
     A.write_csv(data / "numerics.csv", rows)
 
 

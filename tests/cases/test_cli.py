@@ -60,6 +60,7 @@ def _colony(*args):
         ["continuum", "--lam", "0.01", "--radius", "-1"],
         ["continuum", "--lam", "0.01", "--radius", "2", "--config", "missing.toml"],
         ["case", "ensemble", "--scale", "paper"],  # a scale the case does not define
+        ["particles", "--lam", "0.01", "--radius", "2", "--set", "threads=two"],
     ],
 )
 def test_bad_arguments_one_line_exit_2(args, tmp_path):
