@@ -65,21 +65,20 @@ NAME = "apgd"
 
 
 @njit(cache=True)
-def hessian_apply(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, vx, vy, om,
-                  sig, out):
-    """Hessian product: out = (dt D^T M D + G^T diag(cmax) G) v."""
+def hessian_apply(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, pw, out):
+    """Hessian product: out = (dt D^T M D + G^T diag(cmax) G) v (pw: (N, 4) work array)."""
     n = mt.shape[0]
-    particle_sums(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
+    particle_sums(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, pw)
     for p in range(n):
-        vx[p] *= dt * mt[p]
-        vy[p] *= dt * mt[p]
-        om[p] *= dt * mr[p]
-        sig[p] *= cmax[p]
+        pw[p, 0] *= dt * mt[p]
+        pw[p, 1] *= dt * mt[p]
+        pw[p, 2] *= dt * mr[p]
+        pw[p, 3] *= cmax[p]
     for k in range(v.shape[0]):
         i = ci[k]
         j = cj[k]
-        out[k] = (nx[k] * (vx[j] - vx[i]) + ny[k] * (vy[j] - vy[i]) + om[j] * tj[k]
-                  - om[i] * ti[k] + gi[k] * sig[i] + gj[k] * sig[j])
+        out[k] = (nx[k] * (pw[j, 0] - pw[i, 0]) + ny[k] * (pw[j, 1] - pw[i, 1]) + pw[j, 2] * tj[k]
+                  - pw[i, 2] * ti[k] + gi[k] * pw[i, 3] + gj[k] * pw[j, 3])
 
 
 @njit(cache=True)
@@ -98,10 +97,7 @@ def lipschitz_kernel(start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, c
         v[k] = 1.0 + 0.5 * np.sin(1.0 + k * 0.7548776662 + seed)
     w = np.empty(m)
     u = np.empty(m)
-    vx = np.empty(n)
-    vy = np.empty(n)
-    om = np.empty(n)
-    sig = np.empty(n)
+    pw = np.empty((n, 4))
     sq = np.sqrt(akk)
     est = 0.0
     for it in range(iters):
@@ -110,7 +106,7 @@ def lipschitz_kernel(start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, c
             v[k] /= nv
             u[k] = v[k] / sq[k]
         hessian_apply(u, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt,
-                      vx, vy, om, sig, w)
+                      pw, w)
         prev = est
         est = 0.0
         for k in range(m):
@@ -137,10 +133,7 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
     """
     n = mt.shape[0]
     m = gam.shape[0]
-    vx = np.empty(n)
-    vy = np.empty(n)
-    om = np.empty(n)
-    sig = np.empty(n)
+    pw = np.empty((n, 4))
     x0 = np.empty(m)
     x1 = np.empty(m)
     y = np.empty(m)
@@ -159,7 +152,7 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
     for it in range(0, maxiter + 1):
         gap_kernel(y, start, idx, coef,
                    ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
-                   growth, vx, vy, om, sig, qy)
+                   growth, pw, qy)
         # one pass: residual, feasibility, curvature (q(y) - q(yp)).(y - yp) / |y - yp|_P^-1
         res = 0.0
         feasible = True
@@ -183,7 +176,7 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
                 x1[k] = y[k] if y[k] > 0.0 else 0.0
             gap_kernel(x1, start, idx, coef,
                        ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
-                       growth, vx, vy, om, sig, qp)
+                       growth, pw, qp)
             rp = residual(x1, qp, akk)
             if rp <= tol:
                 hist[it] = rp

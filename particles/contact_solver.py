@@ -108,42 +108,38 @@ def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int 
 
 
 @njit(cache=True)
-def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
+def scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, pw):
     """Serial :func:`particle_sums`, contact by contact.
 
     Adds each contact's force, torque and load to its two particles, contacts in increasing
     order.
     """
-    for p in range(vx.shape[0]):
-        vx[p] = 0.0
-        vy[p] = 0.0
-        om[p] = 0.0
-        sig[p] = 0.0
+    pw[:] = 0.0
     for k in range(gam.shape[0]):
         g = gam[k]
         if g == 0.0:
             continue
         i = ci[k]
         j = cj[k]
-        vx[j] += g * nx[k]
-        vy[j] += g * ny[k]
-        om[j] += g * tj[k]
-        vx[i] -= g * nx[k]
-        vy[i] -= g * ny[k]
-        om[i] -= g * ti[k]
-        sig[i] += gi[k] * g
-        sig[j] += gj[k] * g
+        pw[j, 0] += g * nx[k]
+        pw[j, 1] += g * ny[k]
+        pw[j, 2] += g * tj[k]
+        pw[i, 0] -= g * nx[k]
+        pw[i, 1] -= g * ny[k]
+        pw[i, 2] -= g * ti[k]
+        pw[i, 3] += gi[k] * g
+        pw[j, 3] += gj[k] * g
 
 
 @njit(cache=True, parallel=True)
-def gather(gam, start, idx, coef, vx, vy, om, sig):
+def gather(gam, start, idx, coef, pw):
     """Parallel :func:`particle_sums`, particle by particle.
 
     Each particle sums its contacts from the incidence lists (:func:`incidence`) in
     increasing order, so no two threads write one entry and the
     sums equal those of :func:`scatter` bit for bit (x - y = x + (-y) exactly).
     """
-    for p in prange(vx.shape[0]):
+    for p in prange(pw.shape[0]):
         fx = 0.0
         fy = 0.0
         tq = 0.0
@@ -156,44 +152,67 @@ def gather(gam, start, idx, coef, vx, vy, om, sig):
             fy += g * coef[e, 1]
             tq += g * coef[e, 2]
             s += coef[e, 3] * g
-        vx[p] = fx
-        vy[p] = fy
-        om[p] = tq
-        sig[p] = s
+        pw[p, 0] = fx
+        pw[p, 1] = fy
+        pw[p, 2] = tq
+        pw[p, 3] = s
 
 
 @njit(cache=True)
-def particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig):
+def particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, pw):
     """Per-particle force, torque and load of contact forces gam: D gam and G gam.
 
-    (vx, vy, om) = D gam and sig = G gam are written into the four work arrays of shape (N,);
-    :func:`gather` when the incidence lists are given, else :func:`scatter`.
+    pw (N, 4), one row per particle (the two rows a contact reads share cache lines): columns
+    (fx, fy, torque) = D gam and load = G gam; :func:`gather` when the incidence lists are
+    given, else :func:`scatter`.
     """
     if idx.shape[0] > 0:
-        gather(gam, start, idx, coef, vx, vy, om, sig)
+        gather(gam, start, idx, coef, pw)
     else:
-        scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
+        scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, pw)
+
+
+@njit(cache=True, parallel=True)
+def particle_moves(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, lam,
+                   growth, pw):
+    """The particles' velocities M D gam and length increments l (exp(dt exp(-lam G gam)) - 1).
+
+    Written into pw (N, 4): (vx, vy, omega, dl) per particle; dl = 0 without growth.  At
+    lam = 0 the increment l (exp(dt) - 1) does not depend on gam (the same bits as the general
+    formula, without two exponentials per particle and iteration).
+    """
+    particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, pw)
+    e0 = np.expm1(dt)
+    for p in prange(pw.shape[0]):
+        pw[p, 0] *= mt[p]
+        pw[p, 1] *= mt[p]
+        pw[p, 2] *= mr[p]
+        if not growth:
+            pw[p, 3] = 0.0
+        elif lam == 0.0:
+            pw[p, 3] = length[p] * e0
+        else:
+            pw[p, 3] = length[p] * np.expm1(dt * np.exp(-lam * pw[p, 3]))
+
+
+@njit(inline="always")
+def _gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw):
+    """q_k = Phi_k + dt (relative normal velocity) - (G_ik dl_i + G_jk dl_j), pw: particle_moves."""
+    i = ci[k]
+    j = cj[k]
+    rel = (nx[k] * (pw[j, 0] - pw[i, 0]) + ny[k] * (pw[j, 1] - pw[i, 1]) + pw[j, 2] * tj[k]
+           - pw[i, 2] * ti[k])
+    return phi[k] + dt * rel - (gi[k] * pw[i, 3] + gj[k] * pw[j, 3])
 
 
 @njit(cache=True, parallel=True)
 def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
-              growth, vx, vy, om, sig, out):
+              growth, pw, out):
     """Gradient q(gam): out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
-    n = mt.shape[0]
-    particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, vx, vy, om, sig)
-    for p in prange(n):
-        vx[p] *= mt[p]
-        vy[p] *= mt[p]
-        om[p] *= mr[p]
-        if growth:
-            sig[p] = length[p] * np.expm1(dt * np.exp(-lam * sig[p]))
-        else:
-            sig[p] = 0.0
+    particle_moves(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, lam,
+                   growth, pw)
     for k in prange(gam.shape[0]):
-        i = ci[k]
-        j = cj[k]
-        rel = (nx[k] * (vx[j] - vx[i]) + ny[k] * (vy[j] - vy[i]) + om[j] * tj[k] - om[i] * ti[k])
-        out[k] = phi[k] + dt * rel - (gi[k] * sig[i] + gj[k] * sig[j])
+        out[k] = _gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw)
 
 
 @njit(cache=True, parallel=True)
@@ -213,37 +232,47 @@ so the sums, hence the iterates, are the same for any number of threads."""
 
 
 @njit(cache=True, parallel=True)
-def _bb_update(gam, x1, g0, g1, part):
-    """Barzilai-Borwein update: gam <- x1, g0 <- g1; returns (s.s, s.y, y.y).
+def _bb_gradient(x1, gam, g0, g1, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr,
+                 length, dt, lam, growth, pw, akk, part):
+    """One BBPGD gradient: g1 = q(x1), with the residual of x1 and the Barzilai-Borwein sums.
 
-    s = x1 - gam, y = g1 - g0, the sums taken by blocks of BLOCK (part: work array of shape
-    (nblocks, 3)).
+    Returns (res, s.s, s.y, y.y): res = ``max_k |min(a_kk x1_k, g1_k)|``, s = x1 - gam,
+    y = g1 - g0; the sums taken by blocks of BLOCK (part: work array of shape (nblocks, 4)),
+    in the same pass over the contacts as the gradient.
     """
-    m = gam.shape[0]
+    particle_moves(x1, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, lam,
+                   growth, pw)
+    m = x1.shape[0]
     nb = part.shape[0]
     for b in prange(nb):
         ss = 0.0
         sy = 0.0
         yy = 0.0
+        r = 0.0
         for k in range(b * BLOCK, min(m, (b + 1) * BLOCK)):
+            q = _gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw)
+            g1[k] = q
+            a = akk[k] * x1[k]
+            r = max(r, abs(q if q < a else a))
             s = x1[k] - gam[k]
-            y = g1[k] - g0[k]
+            y = q - g0[k]
             ss += s * s
             sy += s * y
             yy += y * y
-            gam[k] = x1[k]
-            g0[k] = g1[k]
         part[b, 0] = ss
         part[b, 1] = sy
         part[b, 2] = yy
+        part[b, 3] = r
     ss = 0.0
     sy = 0.0
     yy = 0.0
+    r = 0.0
     for b in range(nb):
         ss += part[b, 0]
         sy += part[b, 1]
         yy += part[b, 2]
-    return ss, sy, yy
+        r = max(r, part[b, 3])
+    return r, ss, sy, yy
 
 
 @njit(cache=True, parallel=True)
@@ -270,36 +299,36 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
     and the BB alternation ``parity``.  Returns (iterations, alpha, parity); iterations = -1
     when tol is not reached.  hist[it] = residual after iteration it (hist[0]: start);
     qout = q(gam) on return.  (start, idx, coef): :func:`incidence` of the contacts.
+    An iteration is two passes over the contacts: the projected step and
+    :func:`_bb_gradient`; the iterate and its gradient then swap buffers with the previous.
     """
     n = mt.shape[0]
     m = gam.shape[0]
-    vx = np.empty(n)
-    vy = np.empty(n)
-    om = np.empty(n)
-    sig = np.empty(n)
+    pw = np.empty((n, 4))
     g0 = np.empty(m)
     g1 = np.empty(m)
     x1 = np.empty(m)
-    part = np.empty(((m + BLOCK - 1) // BLOCK, 3))
+    part = np.empty(((m + BLOCK - 1) // BLOCK, 4))
     args = (start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
-            vx, vy, om, sig)
-    _gradient(gam, *args, g0)
-    res = _residual(gam, g0, akk)
+            pw, akk, part)
+    res = _bb_gradient(gam, gam, g1, g0, *args)[0]
     hist[0] = res
-    qout[:] = g0
     if res <= tol:
+        qout[:] = g0
         return 0, alpha, parity
     if not (alpha > 0.0):
         alpha = 1.0 / _projected_step(gam, g0, 1.0, x1)
+    x0 = gam
+    done = -1
     for it in range(1, nu + 1):
-        _projected_step(gam, g0, alpha, x1)
-        _gradient(x1, *args, g1)
-        res = _residual(x1, g1, akk)
+        _projected_step(x0, g0, alpha, x1)
+        res, ss, sy, yy = _bb_gradient(x1, x0, g0, g1, *args)
         hist[it] = res
-        ss, sy, yy = _bb_update(gam, x1, g0, g1, part)
+        x0, x1 = x1, x0
+        g0, g1 = g1, g0
         if res <= tol:
-            qout[:] = g0
-            return it, alpha, parity
+            done = it
+            break
         parity = 1 - parity
         if parity == 0:
             a, bb = ss, sy
@@ -310,8 +339,9 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
         alpha = a / bb
         if not (alpha > 0.0):
             alpha = 1.0 / max(1e-300, np.max(akk))
+    gam[:] = x0  # x0 is gam's buffer or x1's, after an even or odd number of swaps
     qout[:] = g0
-    return -1, alpha, parity
+    return done, alpha, parity
 
 
 @njit(cache=True)
@@ -434,5 +464,5 @@ def linearised_gap(
     start, idx, coef = incidence(c, ti, tj, n)
     _gradient(np.ascontiguousarray(gamma, dtype=np.float64), start, idx, coef, c.i, c.j, c.nx, c.ny,
               ti, tj, c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt),
-              float(lam), bool(growth), np.empty(n), np.empty(n), np.empty(n), np.empty(n), out)
+              float(lam), bool(growth), np.empty((n, 4)), out)
     return out

@@ -209,3 +209,66 @@ def test_incidence_lists_every_contact_of_every_particle_in_order():
             np.testing.assert_array_equal(coef[start[p]:start[p + 1], col],
                                           dense[col * n + p, want])
     assert incidence(c, ti, tj, n, threads=1)[1].size == 0  # serial kernels scatter instead
+
+
+def dense_problem(c, length, dt):
+    """D^T M D (contacts x contacts) and G (particles x contacts), dense, from model.md."""
+    n, m = length.size, len(c)
+    _, _, ti, tj, _ = problem_arrays(c, length, dt)
+    d = np.zeros((3 * n, m))
+    g = np.zeros((n, m))
+    k = np.arange(m)
+    for col, (ai, aj) in enumerate(((-c.nx, c.nx), (-c.ny, c.ny), (-ti, tj))):
+        np.add.at(d, (col * n + c.i, k), ai)
+        np.add.at(d, (col * n + c.j, k), aj)
+    np.add.at(g, (c.i, k), c.gi)
+    np.add.at(g, (c.j, k), c.gj)
+    mob = np.concatenate([1 / length, 1 / length, 12 / length**3])
+    return d.T @ (mob[:, None] * d), g
+
+
+@pytest.mark.parametrize("lam", [0.0, 1e-2])
+@pytest.mark.parametrize("nu", [1, 2, 7, 8])
+def test_bbpgd_iterates_are_textbook_bbpgd(grown, lam, nu):
+    """bb_smooth's fused passes and swapped buffers against BBPGD written out in NumPy."""
+    from particles.contact_solver import bb_smooth
+
+    x, y, th, length = grown
+    c = detect_contacts(x, y, th, length, 0.1)
+    dt = 0.01
+    a_mat, g_mat = dense_problem(c, length, dt)
+    akk = diagonal(c, length, dt)
+
+    def q(gam):
+        growth = length * np.expm1(dt * np.exp(-lam * g_mat @ gam))
+        return c.gap + dt * a_mat @ gam - g_mat.T @ growth
+
+    rng = np.random.default_rng(1)
+    gam0 = np.maximum(0.0, rng.normal(0.0, 0.1, len(c)))
+    want, res = [gam0], [np.abs(np.minimum(akk * gam0, q(gam0))).max()]
+    alpha = 1 / np.abs(gam0 - np.maximum(0.0, gam0 - q(gam0))).max()
+    for it in range(nu):
+        g0 = want[-1]
+        g1 = np.maximum(0.0, g0 - alpha * q(g0))
+        s, yv = g1 - g0, q(g1) - q(g0)
+        alpha = (s @ yv) / (yv @ yv) if it % 2 == 0 else (s @ s) / (s @ yv)
+        want.append(g1)
+        res.append(np.abs(np.minimum(akk * g1, q(g1))).max())
+    _, _, ti, tj, _ = problem_arrays(c, length, dt)
+    gam, hist, qout = gam0.copy(), np.full(nu + 1, np.nan), np.empty(len(c))
+    it, _, _ = bb_smooth(gam, *incidence(c, ti, tj, length.size), c.i, c.j, c.nx, c.ny, ti, tj,
+                         c.gi, c.gj, c.gap, 1 / length, 12 / length**3, length, dt, lam, True, akk,
+                         0.0, nu, 0.0, 0, hist, qout)
+    assert it == -1  # tol 0: every iteration taken
+    np.testing.assert_allclose(gam, want[-1], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(qout, q(gam), rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(hist, res, rtol=1e-9)
+
+
+def test_gradient_at_lam_zero_is_the_general_formula_bit_for_bit(grown):
+    """The lam = 0 shortcut l (exp(dt) - 1) gives the bits of l (exp(dt exp(-lam s)) - 1)."""
+    x, y, th, length = grown
+    c = detect_contacts(x, y, th, length, 0.1)
+    gam = np.random.default_rng(2).uniform(0.0, 1.0, len(c))
+    np.testing.assert_array_equal(linearised_gap(c, length, 0.01, 0.0, gam),
+                                  linearised_gap(c, length, 0.01, 1e-300, gam))
