@@ -17,10 +17,14 @@ several sessions, not by the sweep; once finished it is adopted:
    all steps and over those with N >= 6e4 (``cases.analysis.history_segments``; the
    sums the thinned history cannot give).
 
+3. :func:`table`: the adopted one-command runs (those with ``work.csv``) as a Markdown table:
+   size, time, steps, wall and CPU time, memory, overlap, solver work (:func:`summary`).
+
 Command line::
 
     python -m cases.adopt_run RUN [--runs runs/paper] [--scale paper]
         [--data cases/data/particles_paper] [--time-log LOG]
+    python -m cases.adopt_run --table [--data cases/data/particles_paper]
 
 Nothing is moved or written when a check fails (a one-line error, exit status 2).
 """
@@ -29,6 +33,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -36,7 +41,7 @@ from pathlib import Path
 from cases import analysis as A
 from cases.sweep import DONE, _engine_params, run_name, scale_config
 
-__all__ = ["adopt", "initial_config", "record", "time_reports"]
+__all__ = ["adopt", "initial_config", "record", "summary", "table", "time_reports"]
 
 SMALL_FILES = ("profile.csv", "config.json")
 """Files copied as they are by :func:`record` (besides the thinned history)."""
@@ -124,9 +129,88 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
     return dest
 
 
+TIME_FIELDS = {"wall": r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)",
+               "user": r"User time \(seconds\): (\S+)",
+               "peak_kb": r"Maximum resident set size \(kbytes\): (\d+)"}
+"""What :func:`summary` reads from each ``/usr/bin/time -v`` report of ``time.txt``."""
+
+
+def _seconds(clock: str) -> float:
+    """Seconds of a ``time -v`` wall clock, ``h:mm:ss`` or ``m:ss.ss``."""
+    out = 0.0
+    for part in clock.split(":"):
+        out = 60 * out + float(part)
+    return out
+
+
+def summary(dest: str | Path) -> dict:
+    """The record ``dest = DATA/lam=LAM/`` of one adopted run, in one row.
+
+    lam, the final particles, t and step (history), halved steps, largest overlap, iterations
+    per unit time and failed share over all steps and over N >= 6e4 (``work.csv``; one segment
+    each: a run of one command), and the wall and user CPU seconds and peak memory of its
+    ``time -v`` reports (summed, summed and largest; ``reports``: how many).
+
+    Raises
+    ------
+    ValueError
+        No ``work.csv``, or one with several segments per size threshold.
+    """
+    dest = Path(dest)
+    if not (dest / "work.csv").is_file():
+        raise ValueError(f"{dest}: no work.csv (not adopted with cases.adopt_run)")
+    work = A.read_csv(dest / "work.csv")
+    n_min = list(work["min_particles"])
+    if len(set(n_min)) != len(n_min):
+        raise ValueError(f"{dest}/work.csv: several step-policy segments (not one command)")
+    h = A.read_csv(dest / "history.csv")
+    row = {"lam": float(json.loads((dest / "config.json").read_text())["lam"]),
+           "particles": int(h["n_particles"][-1]), "t": float(h["t"][-1]),
+           "steps": int(h["step"][-1])}
+    for k, n in zip(("all", "large"), WORK_MIN_PARTICLES, strict=True):
+        i = n_min.index(n) if n in n_min else None
+        for col in ("per_time", "failed_share"):
+            row[f"{col}_{k}"] = float(work[col][i]) if i is not None else float("nan")
+        if k == "all":
+            row |= {"halved": int(work["halved"][i]), "max_overlap": float(work["max_overlap"][i])}
+    text = (dest / "time.txt").read_text() if (dest / "time.txt").is_file() else ""
+    found = {k: re.findall(pattern, text) for k, pattern in TIME_FIELDS.items()}
+    row |= {"reports": len(found["wall"]),
+            "wall_s": sum(_seconds(v) for v in found["wall"]),
+            "user_s": sum(float(v) for v in found["user"]),
+            "peak_mb": max((int(v) for v in found["peak_kb"]), default=0) / 1000}
+    return row
+
+
+def _clock(seconds: float) -> str:
+    """h:mm:ss of a number of seconds."""
+    s = round(seconds)
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
+
+
+def table(data: str | Path) -> str:
+    """Markdown table of :func:`summary` for every ``lam=LAM/`` of ``data`` with a work.csv."""
+    rows = sorted((summary(d) for d in Path(data).glob("lam=*") if (d / "work.csv").is_file()),
+                  key=lambda r: r["lam"])
+    lines = ["| lam | particles at R = 150 | t | steps | halved | wall (time -v) | user CPU | "
+             "peak memory | max overlap | iterations per unit time: all / N >= 6e4 | "
+             "failed share: all / N >= 6e4 |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        wall = _clock(r["wall_s"]) + (f" ({r['reports']} reports)" if r["reports"] > 1 else "")
+        lines.append(
+            f"| {r['lam']:g} | {r['particles']:,} | {r['t']:.2f} | {r['steps']} | {r['halved']} "
+            f"| {wall} | {r['user_s'] / 60:.0f} min | {r['peak_mb']:.0f} MB "
+            f"| {r['max_overlap']:.4g} | {r['per_time_all']:.2g} / {r['per_time_large']:.2g} "
+            f"| {100 * r['failed_share_all']:.1f} % / {100 * r['failed_share_large']:.1f} % |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    p.add_argument("run", type=Path, help="finished run folder (colony particles --out)")
+    p.add_argument("run", type=Path, nargs="?",
+                   help="finished run folder (colony particles --out)")
+    p.add_argument("--table", action="store_true",
+                   help="print the table of the adopted one-command runs in --data, adopt nothing")
     p.add_argument("--runs", type=Path, default=Path("runs/paper"),
                    help="the sweep's runs folder the run is moved into (default runs/paper)")
     p.add_argument("--scale", default="paper", help="sweep scale to check against (default paper)")
@@ -136,6 +220,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--time-log", type=Path, default=None,
                    help="the run's /usr/bin/time -v -a -o log")
     args = p.parse_args(argv)
+    if args.table:
+        print(table(args.data), end="")
+        return 0
+    if args.run is None:
+        p.error("give a RUN folder or --table")
     try:
         if args.time_log is not None and not args.time_log.is_file():
             raise ValueError(f"no time log {args.time_log}")

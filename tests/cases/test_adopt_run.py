@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -86,3 +87,36 @@ def test_adopt_checks_the_configuration_the_run_started_with(tmp_path):
                      step_policy_changes=changes)
     with pytest.raises(ValueError, match=r"output_every = 100 .sweep: 50"):
         adopt_run.adopt(wrong, tmp_path / "runs2", scale="paper")
+
+
+def test_summary_and_table_of_adopted_runs(tmp_path):
+    target = adopt_run.adopt(fake_run(tmp_path / "by_hand"), tmp_path / "runs", scale="smoke")
+    log = tmp_path / "time.log"
+    report = ("\tCommand being timed: \"colony\"\n\tUser time (seconds): {u}\n"
+              "\tElapsed (wall clock) time (h:mm:ss or m:ss): {w}\n"
+              "\tMaximum resident set size (kbytes): {m}\n")
+    log.write_text(report.format(u=100.5, w="1:02:03", m=400000)
+                   + report.format(u=10.0, w="0:59.50", m=500000))
+    dest = adopt_run.record(target, tmp_path / "data", log)
+    row = adopt_run.summary(dest)
+    assert row["lam"] == 0.1 and row["particles"] == 99981 and row["steps"] == 5000
+    assert row["halved"] == 100 and row["max_overlap"] == 5e-4 and row["reports"] == 2
+    assert row["wall_s"] == pytest.approx(3723 + 59.5) and row["user_s"] == 110.5
+    assert row["peak_mb"] == 500
+    assert row["per_time_large"] == pytest.approx(1e4) and row["failed_share_large"] == 0
+    lines = adopt_run.table(tmp_path / "data").splitlines()
+    assert len(lines) == 3
+    assert lines[2].startswith("| 0.1 | 99,981 | 49.99 | 5000 | 100 | 1:03:02 (2")
+    (dest / "work.csv").unlink()
+    with pytest.raises(ValueError, match="no work.csv"):
+        adopt_run.summary(dest)
+
+
+def test_packaged_readme_holds_the_table_of_its_adopted_runs():
+    """cases/data/particles_paper/README.md quotes `python -m cases.adopt_run --table`."""
+    data = Path(adopt_run.__file__).parent / "data" / "particles_paper"
+    readme = (data / "README.md").read_text()
+    rows = adopt_run.table(data).splitlines()[2:]
+    assert rows
+    for row in rows:
+        assert row in readme
