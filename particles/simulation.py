@@ -342,7 +342,8 @@ class Simulation:
             Goal for t; takes precedence over ``radius``.  Both None: ``Config.radius`` /
             ``Config.time``.
         progress : bool
-            tqdm progress bar (only when stderr is a terminal).
+            A tqdm progress bar when stderr is a terminal, else a log line every
+            PROGRESS_SECONDS.
 
         Returns
         -------
@@ -361,17 +362,34 @@ class Simulation:
         return self.state
 
 
+PROGRESS_SECONDS = 60.0
+"""With ``progress`` and stderr not a terminal (a batch job's log), :func:`run` logs one line
+of progress at most this often (wall seconds)."""
+
+
 class _ProgressBar:
-    """tqdm bar of the colony radius or the time (only when stderr is a terminal)."""
+    """Progress of a run: a tqdm bar of the radius or the time when stderr is a terminal,
+    else (a log file) one INFO line every PROGRESS_SECONDS."""
 
     def __init__(self, lam: float, radius: float | None, time: float | None, progress: bool):
         self.by_time = time is not None
         self.total = time if self.by_time else radius
         self.bar = tqdm(total=self.total, disable=not (progress and sys.stderr.isatty()),
                         unit="", desc=f"particles lam={lam:g}", leave=False)
+        self.log_lines = progress and self.bar.disable
+        self.started = self.last = _time.monotonic()
 
     def show(self, record: StepRecord) -> None:
         """The time or the radius after the step of ``record``."""
+        if self.log_lines:
+            now = _time.monotonic()
+            if now - self.last >= PROGRESS_SECONDS:
+                self.last = now
+                reached = record.t if self.by_time else record.radius
+                log.info("%s %.4g of %.4g, t = %.4f, radius %.2f, %d particles, step %d, "
+                         "dt %.3g, %.0f s", "t" if self.by_time else "radius", reached,
+                         self.total, record.t, record.radius, record.n_particles, record.step,
+                         record.dt, now - self.started)
         if self.bar.disable:
             return
         self.bar.n = min(self.total, record.t if self.by_time else record.radius)
@@ -418,7 +436,7 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         checkpoint.npz.  If it holds a checkpoint of the same configuration the run resumes from
         it, with the same result as an uninterrupted run.
     progress : bool
-        tqdm progress bar (only when stderr is a terminal).
+        A tqdm progress bar when stderr is a terminal, else a log line every PROGRESS_SECONDS.
     stop_after : int, optional
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
         the returned simulation has ``finished = False``.

@@ -372,3 +372,18 @@ def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
     with pytest.raises(ContactSolveError, match="in 2 iterations"):
         step(state.copy(), cfg, cfg.dt, warm, spent=spent)
     assert spent[0] >= 2
+
+
+def test_progress_lines_in_a_log(monkeypatch, caplog, tmp_path):
+    """With progress on and stderr not a terminal (pytest captures it), run() logs progress."""
+    import particles.simulation as simulation
+
+    monkeypatch.setattr(simulation, "PROGRESS_SECONDS", 0.0)
+    with caplog.at_level("INFO", logger="particles.simulation"):
+        run(Config(lam=1e-2, radius=1.5, seed=0), out=tmp_path, progress=True)
+    lines = [r.getMessage() for r in caplog.records if r.name == "particles.simulation"]
+    assert lines and all(m.startswith("radius ") and " of 1.5, t = " in m for m in lines)
+    caplog.clear()
+    with caplog.at_level("INFO", logger="particles.simulation"):
+        Simulation(Config(lam=1e-2, seed=0)).advance(radius=1.5)  # progress off by default
+    assert not [r for r in caplog.records if r.name == "particles.simulation"]
