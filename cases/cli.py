@@ -55,6 +55,7 @@ from cases.rundir import (
     publish,
     record,
 )
+from cases.sweep import select_lams
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
 CONTINUUM_EDGE_WIDTH = 0.05
@@ -72,6 +73,8 @@ CASES = {
     "ensemble": "cases.studies.ensemble",
     "shapes": "cases.studies.shapes",
 }
+#: The figure cases: their runs are one per (engine, lam), so ``--lams`` may select some.
+FIGURE_CASES = ("fig2", "fig3", "fig4", "crosscheck")
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
 
@@ -346,12 +349,28 @@ def parser() -> argparse.ArgumentParser:
     k.add_argument("--engines", choices=("both", "continuum", "finished"), default="both",
                    help="compute both engines (default), the continuum only, or the continuum "
                    "plus the particle runs already finished under --runs (none started)")
+    k.add_argument("--lams", type=_lam_list, default=None, metavar="L[,L...]",
+                   help=f"only these lam of the figure ({', '.join(FIGURE_CASES)}; default "
+                   "all), e.g. a new paper colony, to merge into the committed data with "
+                   "python -m cases.figures.merge")
     k.add_argument("--runs", help="folder of the engine runs, shared between cases "
                    "(default OUT/runs); finished runs in it are reused")
     k.add_argument("--scheduler", help="address of an existing dask scheduler for sweeps")
     k.add_argument("--workers", type=int, default=2,
                    help="local dask workers when no --scheduler is given (default 2)")
     return top
+
+
+def _lam_list(text: str) -> list[float]:
+    """``--lams``: comma-separated lam >= 0."""
+    try:
+        lams = [float(v) for v in text.split(",")]
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"not a comma-separated list of numbers: {text!r}") from None
+    if not all(math.isfinite(v) and v >= 0 for v in lams):
+        raise argparse.ArgumentTypeError(f"every lam must be finite and >= 0, got {text!r}")
+    return lams
 
 
 def _finite(name: str, value):
@@ -475,9 +494,16 @@ def _case_data(module, args, out: Path) -> Path:
         raise UsageError(f"--workers must be >= 1, got {args.workers}")
     engines = ("continuum",) if args.engines == "continuum" else ("continuum", "particles")
     finished_only = ("particles",) if args.engines == "finished" else ()
+    lams = {}
+    if args.lams is not None:
+        if args.name not in FIGURE_CASES:
+            raise UsageError(f"--lams applies to the figure cases ({', '.join(FIGURE_CASES)}), "
+                             f"not to {args.name}")
+        select_lams(module.runs_needed(args.scale, engines)[1], args.lams, args.name)
+        lams = {"lams": args.lams}
     return module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
                           n_workers=args.workers, runs=args.runs, engines=engines,
-                          finished_only=finished_only)
+                          finished_only=finished_only, **lams)
 
 
 def _terminate(signum, frame):

@@ -43,8 +43,8 @@ from pathlib import Path
 from typing import Any
 
 __all__ = ["SweepError", "run_name", "is_done", "run_one", "sweep", "DONE", "run_engine",
-           "engine_runs", "finished_runs", "case_runs", "engine_pairs", "ENGINES", "SCALES",
-           "scale_config"]
+           "engine_runs", "finished_runs", "case_runs", "engine_pairs", "select_lams", "ENGINES",
+           "SCALES", "scale_config"]
 
 DONE = "DONE"
 
@@ -311,11 +311,29 @@ def finished_runs(runs: Sequence[tuple[str, float]], scale: str, root: str | Pat
     return {k: f for k, f in folders.items() if is_done(f)}
 
 
+def select_lams(needed: Sequence[tuple[str, float]], lams: Sequence[float] | None,
+                case: str = "the case") -> list[tuple[str, float]]:
+    """The runs (engine, lam) of ``needed`` whose lam is one of ``lams`` (None: all of them).
+
+    Raises ValueError for an empty ``lams`` or a lam that no run of ``needed`` has.
+    """
+    if lams is None:
+        return list(needed)
+    have = sorted({lam for _, lam in needed})
+    want = {float(lam) for lam in lams}
+    bad = sorted(want - set(have))
+    if bad or not want:
+        listed = ", ".join(f"{lam:g}" for lam in bad) or "none"
+        raise ValueError(f"lam {listed} not among the lam of {case} at this scale: "
+                         f"{', '.join(f'{lam:g}' for lam in have)}")
+    return [r for r in needed if r[1] in want]
+
+
 def case_runs(  # noqa: PLR0913 (the run options of every figure case, as the CLI's)
     case: str, needed: Sequence[tuple[str, float]], scale: str, out: str | Path,
     runs: str | Path | None = None, scheduler: str | None = None, n_workers: int = 2,
     engines: Sequence[str] = ENGINES, needs_continuum: bool = True,
-    finished_only: Sequence[str] = (),
+    finished_only: Sequence[str] = (), lams: Sequence[float] | None = None,
 ) -> dict[tuple[str, float], Path]:
     """The engine runs of a figure case (run or reused under ``runs``, default ``out/runs``).
 
@@ -327,7 +345,10 @@ def case_runs(  # noqa: PLR0913 (the run options of every figure case, as the CL
     so ``engines`` must include it. ``finished_only``: engines whose runs are taken only where
     already finished under ``runs`` and never started (e.g. the paper-scale particle colonies,
     hours each, made one by one with ``colony particles``); the others are run as needed.
+    ``lams``: only the runs of these lam (:func:`select_lams`; default all), e.g. to reduce a
+    new paper colony and merge it into the committed data (``cases.figures.merge``).
     """
+    needed = select_lams(needed, lams, case)
     if needs_continuum and "continuum" not in engines:
         raise ValueError(f"{case} needs the continuum runs (engines must include 'continuum')")
     bad = [e for e in finished_only if e not in ENGINES]

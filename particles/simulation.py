@@ -368,8 +368,10 @@ of progress at most this often (wall seconds)."""
 
 
 class _ProgressBar:
-    """Progress of a run: a tqdm bar of the radius or the time when stderr is a terminal,
-    else (a log file) one INFO line every PROGRESS_SECONDS."""
+    """Progress of a run: a tqdm bar of the radius or the time on a terminal.
+
+    When stderr is not a terminal (a log file): one INFO line every PROGRESS_SECONDS.
+    """
 
     def __init__(self, lam: float, radius: float | None, time: float | None, progress: bool):
         self.by_time = time is not None

@@ -59,15 +59,16 @@ def snapshot_indices(times: np.ndarray, n: int = N_SNAPSHOTS) -> list[int]:
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig2-smoke",
             scheduler: str | None = None, n_workers: int = 2,
             runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES,
-            finished_only: tuple[str, ...] = ()) -> Path:
+            finished_only: tuple[str, ...] = (), lams: list[float] | None = None) -> Path:
     """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
 
     ``engines``: the engines whose rows are made (a subset of ENGINES).
-    ``finished_only``: engines whose runs are only reused where finished (sweep.case_runs).
+    ``finished_only``: engines whose runs are only reused where finished; ``lams``: only
+    these lam of the figure (default all; sweep.case_runs).
     """
     _, needed = runs_needed(scale, engines)
     folders = case_runs("fig2", needed, scale, out, runs, scheduler, n_workers, engines,
-                        needs_continuum=False, finished_only=finished_only)
+                        needs_continuum=False, finished_only=finished_only, lams=lams)
     return reduce(folders, Path(out) / "data")
 
 

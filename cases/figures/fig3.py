@@ -49,15 +49,16 @@ def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig3-smoke",
             scheduler: str | None = None, n_workers: int = 2,
             runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES,
-            finished_only: tuple[str, ...] = ()) -> Path:
+            finished_only: tuple[str, ...] = (), lams: list[float] | None = None) -> Path:
     """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
 
     ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
-    ``finished_only``: engines whose runs are only reused where finished (sweep.case_runs).
+    ``finished_only``: engines whose runs are only reused where finished; ``lams``: only
+    these lam of the figure (default all; sweep.case_runs).
     """
     lams, needed = runs_needed(scale, engines)
     folders = case_runs("fig3", needed, scale, out, runs, scheduler, n_workers, engines,
-                        needs_continuum=True, finished_only=finished_only)
+                        needs_continuum=True, finished_only=finished_only, lams=lams)
     cfg = scale_config(scale)
     profile_lams = sorted({0.0, *cfg["lams"]})
     return reduce(folders, Path(out) / "data", profile_lams)

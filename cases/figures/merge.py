@@ -6,13 +6,17 @@ finished`` takes the continuum runs and the particle runs on disk): its data the
 continuum of every lam and the particles of the new runs, with nan in the particle columns of
 the others. :func:`merge` completes them from the earlier data set, lam by lam:
 
-- files: every file of NEW; the particle files of OLD (names with ``particles`` or
-  ``radius_diff``) that NEW has not;
+- files: every file of NEW; the files of OLD that NEW has not, if they are particle files
+  (names with ``particles`` or ``radius_diff``) or belong to a lam that NEW has no row of;
 - the summary table (fig3, fig4: ``summary.csv``; crosscheck: ``table.csv``): each particle
   column (:data:`TABLES`) that is nan in NEW takes OLD's value of the
-  same lam; crosscheck's ``exponents.csv`` is fitted again from the merged table;
-- fig2's ``snapshots.csv``: the continuum rows of NEW, the particle rows of NEW for its lam and
-  of OLD for the other lam.
+  same lam, and OLD's rows of the lam NEW has not are added (rows ordered by lam);
+  crosscheck's ``exponents.csv`` is fitted again from the merged table;
+- fig2's ``snapshots.csv``: every row of NEW, and OLD's rows of each (engine, lam) that NEW has
+  no row of.
+
+So NEW may also hold only some lam (``colony case CASE --lams L,...``): a new particle colony
+is then reduced with its continuum run alone, and the other lam keep their earlier data.
 
 Command line::
 
@@ -25,6 +29,7 @@ copied (to be edited).
 from __future__ import annotations
 
 import argparse
+import re
 import shutil
 import sys
 from pathlib import Path
@@ -50,31 +55,58 @@ def is_particle_file(name: str) -> bool:
     return "particles" in name or name.startswith("radius_diff")
 
 
+_LAM = re.compile(r"lam=([0-9.eE+-]+?)(?:_|\.csv)")
+
+
+def lam_of(name: str) -> float | None:
+    """The lam a case's file belongs to (``..._lam=L.csv``, ``..._lam=L_k=K.csv.gz``), or None."""
+    m = _LAM.search(name)
+    return float(m.group(1)) if m else None
+
+
 def merge_table(new: dict, old: dict, columns) -> dict:
-    """``new`` with its nan particle ``columns`` taken from ``old``'s row of the same lam."""
+    """``new`` with its nan particle ``columns`` taken from ``old``'s row of the same lam.
+
+    ``old``'s rows of the lam that ``new`` has not are added; the rows are ordered by lam.
+    """
     if list(new) != list(old):
         raise ValueError(f"the tables' columns differ: {list(new)} and {list(old)}")
     merged = {k: np.array(v, dtype=float) for k, v in new.items()}
+    old = {k: np.array(v, dtype=float) for k, v in old.items()}
     for i, lam in enumerate(merged["lam"]):
-        j = np.flatnonzero(np.asarray(old["lam"]) == lam)
+        j = np.flatnonzero(old["lam"] == lam)
         if j.size != 1:
             continue
         for c in columns:
             if np.isnan(merged[c][i]):
                 merged[c][i] = old[c][j[0]]
-    return merged
+    extra = ~np.isin(old["lam"], merged["lam"])
+    merged = {k: np.concatenate([v, old[k][extra]]) for k, v in merged.items()}
+    order = np.argsort(merged["lam"], kind="stable")
+    return {k: v[order] for k, v in merged.items()}
 
 
 def merge_snapshots(new: dict, old: dict) -> dict:
-    """fig2's snapshot rows from ``new`` and ``old``.
+    """fig2's snapshot rows: every row of ``new`` and the other rows of ``old``.
 
-    These are NEW's continuum (engine 0) and particle rows, and OLD's particle rows of the lam
-    that NEW has no particle row for.
+    Those are ``old``'s rows of each (engine, lam) that ``new`` has no row of; the rows are
+    ordered by (engine, lam, k), as ``fig2.reduce`` writes them.
     """
-    particles_new = set(np.asarray(new["lam"])[np.asarray(new["engine"]) == 1].tolist())
-    keep = (np.asarray(old["engine"]) == 1) & ~np.isin(old["lam"], list(particles_new))
-    return {k: np.concatenate([np.asarray(new[k], dtype=float),
+    pairs = set(zip(np.asarray(new["engine"]).tolist(), np.asarray(new["lam"]).tolist(),
+                    strict=True))
+    keep = np.array([(e, lam) not in pairs for e, lam in
+                     zip(np.asarray(old["engine"]).tolist(), np.asarray(old["lam"]).tolist(),
+                         strict=True)], dtype=bool)
+    rows = {k: np.concatenate([np.asarray(new[k], dtype=float),
                                np.asarray(old[k], dtype=float)[keep]]) for k in new}
+    order = np.lexsort((rows["k"], rows["lam"], rows["engine"]))
+    return {k: v[order] for k, v in rows.items()}
+
+
+def new_lams(case: str, new: Path) -> set[float]:
+    """The lam that NEW's table (fig2: snapshot index) has rows of."""
+    name = "snapshots.csv" if case == "fig2" else TABLES[case][0]
+    return set(np.asarray(A.read_csv(new / name)["lam"], dtype=float).tolist())
 
 
 def merge(case: str, new: str | Path, old: str | Path, out: str | Path) -> Path:
@@ -91,8 +123,12 @@ def merge(case: str, new: str | Path, old: str | Path, out: str | Path) -> Path:
     if stage.exists():
         shutil.rmtree(stage)
     shutil.copytree(new, stage)
+    lams = new_lams(case, new)
     for p in sorted(old.iterdir()):
-        if is_particle_file(p.name) and not (stage / p.name).exists():
+        lam = lam_of(p.name)
+        if lam is None or (stage / p.name).exists():
+            continue
+        if is_particle_file(p.name) or lam not in lams:
             shutil.copy2(p, stage / p.name)
     if (old / "README.md").is_file():
         shutil.copy2(old / "README.md", stage / "README.md")

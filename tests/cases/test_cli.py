@@ -207,3 +207,20 @@ def test_continuum_element_flag(colony, tmp_path):
     assert colony("continuum", "--lam", "1e-2", "--radius", "0.8", "--element", "P2",
                   "--out", str(out), "--quiet", "--set", "n_nodes=100")[0] == 0
     assert json.loads((out / "config.json").read_text())["element"] == "P2"
+
+
+def test_case_lams_select_some_lam_or_are_refused_before_any_work(tmp_path, capsys):
+    from cases.sweep import select_lams
+
+    needed = [("continuum", 0.0), ("particles", 0.0), ("continuum", 0.01)]
+    assert select_lams(needed, [0]) == [("continuum", 0.0), ("particles", 0.0)]
+    assert select_lams(needed, None) == needed
+    out = tmp_path / "case"
+    assert cli.main(["case", "fig3", "--scale", "smoke", "--lams", "0.5", "--out", str(out)]) == 2
+    assert "lam 0.5 not among the lam of fig3 at this scale: 0, " in capsys.readouterr().err
+    assert not out.exists()
+    assert cli.main(["case", "ensemble", "--lams", "0", "--out", str(out)]) == 2
+    assert "--lams applies to the figure cases" in capsys.readouterr().err
+    with pytest.raises(SystemExit):
+        cli.main(["case", "fig3", "--lams", "x"])
+    assert not out.exists()

@@ -25,7 +25,7 @@ import pytest
 
 import cases
 from cases import analysis as A
-from cases.figures import crosscheck, fig2, fig3, fig4
+from cases.figures import crosscheck, fig2, fig3, fig4, merge
 from continuum import growth, radial
 from particles import B, enclosing_radius
 from particles.measures import centroid
@@ -296,6 +296,14 @@ def test_smoke_case(case, smoke_runs, tmp_path):
         # ~15 % below the continuum's (lam = 3e-2, radius 15, seeds 0-5: 2.98-3.86, mean 3.55,
         # continuum 4.19; measured 2026-12-01), so a gross error, not a seed, must exceed 40 %
         np.testing.assert_allclose(t["slope_particles"], t["slope_continuum"], rtol=0.4)
+    # one lam reduced again from the same runs (--lams), merged into the whole: the same files
+    lam = case.runs_needed("smoke")[0][-1]
+    part = case.compute(scale="smoke", out=tmp_path / "one", runs=smoke_runs, n_workers=2,
+                        lams=[lam])
+    merged = merge.merge(name, part, data, tmp_path / "merged")
+    assert sorted(p.name for p in merged.iterdir()) == sorted(p.name for p in data.iterdir())
+    for p in data.iterdir():
+        assert (merged / p.name).read_bytes() == p.read_bytes(), p.name
     for col, expected in SMOKE.get(name, {}).items():
         s = A.read_csv(data / "summary.csv")
         rtol = RTOL["particles" if col.endswith("particles") else "continuum"]
