@@ -32,7 +32,7 @@ load that slows growth (growth.py).  ``B`` is the particle diameter b of the who
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 from .neighbours import candidate_pairs
 
@@ -166,62 +166,99 @@ def _pair_candidates(x, y, theta, length, i, j, b, out):
 
 
 @njit(cache=True)
-def _contacts_kernel(x, y, theta, length, pi, pj, b, margin, count_only, res, ires):
-    cand = np.empty((4, 11))
-    m = 0
+def _pair_contacts(x, y, theta, length, i, j, b, margin, cand, res, ires, slot):
+    """The (at most two) contacts of the pair (i, j) written to rows slot, slot + 1.
+
+    res rows: gap, nx, ny, rix, riy, rjx, rjy, gi, gj; ires rows: i, j, code.  Returns how
+    many were written (module docstring: the closest endpoint candidate within ``margin``, and
+    the next one whose contact points differ from it by more than b/4).
+    """
+    _pair_candidates(x, y, theta, length, i, j, b, cand)
+    # order the four candidates by gap (insertion sort on 4 items)
+    idx = np.arange(4)
+    for a in range(1, 4):
+        k = a
+        while k > 0 and cand[idx[k], 0] < cand[idx[k - 1], 0]:
+            t = idx[k]
+            idx[k] = idx[k - 1]
+            idx[k - 1] = t
+            k -= 1
+    first = idx[0]
+    if cand[first, 0] > margin:
+        return 0
     dup = 0.25 * b
-    for q in range(pi.shape[0]):
-        i = pi[q]
-        j = pj[q]
-        _pair_candidates(x, y, theta, length, i, j, b, cand)
-        # order the four candidates by gap (insertion sort on 4 items)
-        idx = np.arange(4)
-        for a in range(1, 4):
-            k = a
-            while k > 0 and cand[idx[k], 0] < cand[idx[k - 1], 0]:
-                t = idx[k]
-                idx[k] = idx[k - 1]
-                idx[k - 1] = t
-                k -= 1
-        first = idx[0]
-        if cand[first, 0] > margin:
+    chosen1 = -1
+    for a in range(1, 4):
+        e = idx[a]
+        if cand[e, 0] > margin:
+            break
+        dci = np.hypot(cand[e, 3] - cand[first, 3], cand[e, 4] - cand[first, 4])
+        dcj = np.hypot(cand[e, 5] - cand[first, 5], cand[e, 6] - cand[first, 6])
+        if dci > dup or dcj > dup:
+            chosen1 = e
+            break
+    m = 0
+    for w in range(2):
+        e = first if w == 0 else chosen1
+        if e < 0:
             continue
-        chosen0 = first
-        chosen1 = -1
-        for a in range(1, 4):
-            e = idx[a]
-            if cand[e, 0] > margin:
-                break
-            dci = np.hypot(cand[e, 3] - cand[first, 3], cand[e, 4] - cand[first, 4])
-            dcj = np.hypot(cand[e, 5] - cand[first, 5], cand[e, 6] - cand[first, 6])
-            if dci > dup or dcj > dup:
-                chosen1 = e
-                break
-        for w in range(2):
-            e = chosen0 if w == 0 else chosen1
-            if e < 0:
-                continue
-            if not count_only:
-                Li = length[i] - b
-                Lj = length[j] - b
-                nx = cand[e, 1]
-                ny = cand[e, 2]
-                pin = np.cos(theta[i]) * nx + np.sin(theta[i]) * ny
-                pjn = np.cos(theta[j]) * nx + np.sin(theta[j]) * ny
-                ires[m, 0] = i
-                ires[m, 1] = j
-                ires[m, 2] = e
-                res[m, 0] = cand[e, 0]
-                res[m, 1] = nx
-                res[m, 2] = ny
-                res[m, 3] = cand[e, 3] - x[i]
-                res[m, 4] = cand[e, 4] - y[i]
-                res[m, 5] = cand[e, 5] - x[j]
-                res[m, 6] = cand[e, 6] - y[j]
-                res[m, 7] = cand[e, 7] / Li * pin
-                res[m, 8] = -cand[e, 8] / Lj * pjn
-            m += 1
+        Li = length[i] - b
+        Lj = length[j] - b
+        nx = cand[e, 1]
+        ny = cand[e, 2]
+        pin = np.cos(theta[i]) * nx + np.sin(theta[i]) * ny
+        pjn = np.cos(theta[j]) * nx + np.sin(theta[j]) * ny
+        r = slot + m
+        ires[r, 0] = i
+        ires[r, 1] = j
+        ires[r, 2] = e
+        res[r, 0] = cand[e, 0]
+        res[r, 1] = nx
+        res[r, 2] = ny
+        res[r, 3] = cand[e, 3] - x[i]
+        res[r, 4] = cand[e, 4] - y[i]
+        res[r, 5] = cand[e, 5] - x[j]
+        res[r, 6] = cand[e, 6] - y[j]
+        res[r, 7] = cand[e, 7] / Li * pin
+        res[r, 8] = -cand[e, 8] / Lj * pjn
+        m += 1
     return m
+
+
+PAIR_BLOCK = 2048
+"""Candidate pairs per parallel task of the contact search."""
+
+
+@njit(cache=True, parallel=True)
+def _contacts_kernel(x, y, theta, length, pi, pj, b, margin):
+    """Contacts of the candidate pairs (pi, pj), in pair order: (ires (3, m), res (9, m)).
+
+    Each pair writes its contacts into its own two rows of a work array (tasks of PAIR_BLOCK
+    pairs in parallel), which are then gathered in pair order, so the result is the same for
+    any number of threads; the columns of the result are the rows of ``ires`` and ``res``.
+    """
+    npairs = pi.shape[0]
+    work = np.empty((2 * npairs, 9))
+    iwork = np.empty((2 * npairs, 3), dtype=np.int64)
+    count = np.zeros(npairs + 1, dtype=np.int64)
+    for blk in prange((npairs + PAIR_BLOCK - 1) // PAIR_BLOCK):
+        cand = np.empty((4, 11))
+        for q in range(blk * PAIR_BLOCK, min(npairs, (blk + 1) * PAIR_BLOCK)):
+            count[q + 1] = _pair_contacts(x, y, theta, length, pi[q], pj[q], b, margin, cand,
+                                          work, iwork, 2 * q)
+    for q in range(npairs):
+        count[q + 1] += count[q]
+    m = count[npairs]
+    res = np.empty((9, m))
+    ires = np.empty((3, m), dtype=np.int64)
+    for q in prange(npairs):
+        for w in range(count[q + 1] - count[q]):
+            k = count[q] + w
+            for c in range(9):
+                res[c, k] = work[2 * q + w, c]
+            for c in range(3):
+                ires[c, k] = iwork[2 * q + w, c]
+    return ires, res
 
 
 class Contacts:
@@ -247,11 +284,14 @@ class Contacts:
     __slots__ = ("i", "j", "code", "gap", "nx", "ny", "rix", "riy", "rjx", "rjy", "gi", "gj")
 
     def __init__(self, ires: np.ndarray, res: np.ndarray):
-        self.i = np.ascontiguousarray(ires[:, 0])
-        self.j = np.ascontiguousarray(ires[:, 1])
-        self.code = np.ascontiguousarray(ires[:, 2])
+        """Contacts from the rows of ``ires`` (3, m) and ``res`` (9, m).
+
+        ``ires``: i, j, code; ``res``: gap, nx, ny, rix, riy, rjx, rjy, gi, gj (rows of
+        C-contiguous arrays, so each attribute is a contiguous view).
+        """
+        self.i, self.j, self.code = ires
         (self.gap, self.nx, self.ny, self.rix, self.riy, self.rjx, self.rjy, self.gi,
-         self.gj) = (np.ascontiguousarray(res[:, c]) for c in range(9))
+         self.gj) = res
 
     def __len__(self) -> int:
         return int(self.i.shape[0])
@@ -276,10 +316,11 @@ def find_contacts(
     pj = np.ascontiguousarray(pj, dtype=np.int64)
     if pi.size and np.any(np.asarray(length)[np.concatenate([pi, pj])] <= b):
         raise ValueError("every particle length must exceed the diameter b")
-    res = np.empty((2 * pi.size, 9))
-    ires = np.empty((2 * pi.size, 3), dtype=np.int64)
-    m = _contacts_kernel(x, y, theta, length, pi, pj, b, margin, False, res, ires)
-    return Contacts(ires[:m], res[:m])
+    return Contacts(*_contacts_kernel(np.ascontiguousarray(x, dtype=np.float64),
+                                      np.ascontiguousarray(y, dtype=np.float64),
+                                      np.ascontiguousarray(theta, dtype=np.float64),
+                                      np.ascontiguousarray(length, dtype=np.float64),
+                                      pi, pj, b, margin))
 
 
 def detect_contacts(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray,

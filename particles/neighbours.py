@@ -12,7 +12,7 @@ every candidate pair lies in the same or in adjacent cells.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, prange
 
 
 @njit(cache=True)
@@ -41,36 +41,68 @@ def _cell_sort(x, y, h):
 
 
 @njit(cache=True)
-def _cell_pairs(x, y, length, margin, h, count_only, out_i, out_j):
+def _neighbours_of(i, cell, start, order, nx, ny, x, y, length, margin, out, offset):
+    """Candidates j > i of particle i in its and the adjacent cells, in cell order.
+
+    Written to out[offset:] when ``out`` is not empty; returns how many.
+    """
+    c = cell[i]
+    cx = c % nx
+    cy = c // nx
+    m = 0
+    for dy in range(-1, 2):
+        yy = cy + dy
+        if yy < 0 or yy >= ny:
+            continue
+        for dx in range(-1, 2):
+            xx = cx + dx
+            if xx < 0 or xx >= nx:
+                continue
+            cc = yy * nx + xx
+            for q in range(start[cc], start[cc + 1]):
+                j = order[q]
+                if j <= i:
+                    continue
+                rx = x[j] - x[i]
+                ry = y[j] - y[i]
+                cut = 0.5 * (length[i] + length[j]) + margin
+                if rx * rx + ry * ry <= cut * cut:
+                    if out.shape[0] > 0:
+                        out[offset + m] = j
+                    m += 1
+    return m
+
+
+@njit(cache=True, parallel=True)
+def _cell_pairs(x, y, length, margin, h):
+    """Every candidate pair (i, j), i < j, sorted lexicographically: particles in parallel.
+
+    Each particle counts, then writes and sorts (insertion sort of its few j) its own slice,
+    so the result does not depend on the number of threads.
+    """
     cell, start, order, nx, ny = _cell_sort(x, y, h)
     n = x.shape[0]
-    m = 0
+    none = np.zeros(0, dtype=np.int64)
+    count = np.zeros(n + 1, dtype=np.int64)
+    for i in prange(n):
+        count[i + 1] = _neighbours_of(i, cell, start, order, nx, ny, x, y, length, margin,
+                                      none, 0)
     for i in range(n):
-        c = cell[i]
-        cx = c % nx
-        cy = c // nx
-        for dy in range(-1, 2):
-            yy = cy + dy
-            if yy < 0 or yy >= ny:
-                continue
-            for dx in range(-1, 2):
-                xx = cx + dx
-                if xx < 0 or xx >= nx:
-                    continue
-                cc = yy * nx + xx
-                for q in range(start[cc], start[cc + 1]):
-                    j = order[q]
-                    if j <= i:
-                        continue
-                    rx = x[j] - x[i]
-                    ry = y[j] - y[i]
-                    cut = 0.5 * (length[i] + length[j]) + margin
-                    if rx * rx + ry * ry <= cut * cut:
-                        if not count_only:
-                            out_i[m] = i
-                            out_j[m] = j
-                        m += 1
-    return m
+        count[i + 1] += count[i]
+    out_i = np.empty(count[n], dtype=np.int64)
+    out_j = np.empty(count[n], dtype=np.int64)
+    for i in prange(n):
+        a = count[i]
+        _neighbours_of(i, cell, start, order, nx, ny, x, y, length, margin, out_j, a)
+        for p in range(a, count[i + 1]):
+            out_i[p] = i
+            v = out_j[p]
+            q = p - 1
+            while q >= a and out_j[q] > v:
+                out_j[q + 1] = out_j[q]
+                q -= 1
+            out_j[q + 1] = v
+    return out_i, out_j
 
 
 def candidate_pairs(
@@ -102,14 +134,7 @@ def candidate_pairs(
         return e, e.copy()
     if not (np.all(np.isfinite(x)) and np.all(np.isfinite(y))):
         raise ValueError("particle positions must be finite")
-    h = float(length.max()) + margin
-    dummy = np.zeros(0, dtype=np.int64)
-    m = _cell_pairs(x, y, length, margin, h, True, dummy, dummy)
-    out_i = np.empty(m, dtype=np.int64)
-    out_j = np.empty(m, dtype=np.int64)
-    _cell_pairs(x, y, length, margin, h, False, out_i, out_j)
-    key = np.lexsort((out_j, out_i))
-    return out_i[key], out_j[key]
+    return _cell_pairs(x, y, length, margin, float(length.max()) + margin)
 
 
 def brute_force_pairs(

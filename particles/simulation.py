@@ -30,7 +30,7 @@ from .growth import divide
 from .output import RunOutput, write_config, write_history
 from .packings import from_csv, single_cell
 from .state import ParticleState
-from .stepping import detect, next_dt, robust_step
+from .stepping import Detections, detect, next_dt, robust_step
 
 log = logging.getLogger(__name__)
 
@@ -209,6 +209,7 @@ class Simulation:
         self.history: list[dict] = []
         self.finished = True
         self._frames = list(NO_FRAMES)
+        self._detections = Detections()  # the last step's final contacts, for the next step
         self.output = None
         checkpoint = None
         if out is not None:
@@ -302,7 +303,7 @@ class Simulation:
         dt = st.dt_next
         if until is not None and until - st.t < dt * (1 + 1e-9):
             dt = until - st.t
-        info, st.warm = robust_step(st, config, dt, st.warm)
+        info, st.warm = robust_step(st, config, dt, st.warm, detections=self._detections)
         st.dt_next = next_dt(dt, info, config.dt, config.step_control)
         divisions = divide(st, st.rng, config.division_noise)
         st.t += dt

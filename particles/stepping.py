@@ -95,11 +95,49 @@ def warm_start(keys: np.ndarray, prev_keys: np.ndarray, prev_gamma: np.ndarray) 
     return g0
 
 
-def detect(state: ParticleState, margin: float, timers: dict | None = None) -> Contacts:
+class Detections:
+    """The contacts of the configuration last detected, kept while it stays the same.
+
+    A step ends with a detection of its final configuration (the overlap check), and the next
+    step begins with one of the same configuration unless a division (or the caller) changed
+    it; :func:`detect` then returns the kept contacts.  The configuration is compared bit for
+    bit (x, y, theta, length and the margin), so the contacts are those a new detection would
+    find, and a run is the same with or without the cache.
+    """
+
+    def __init__(self):
+        self.key: tuple | None = None
+        self.contacts: Contacts | None = None
+
+    @staticmethod
+    def _config(state: ParticleState) -> tuple[np.ndarray, ...]:
+        return tuple(np.ascontiguousarray(a, dtype=np.float64).view(np.int64)
+                     for a in (state.x, state.y, state.theta, state.length))
+
+    def get(self, state: ParticleState, margin: float) -> Contacts | None:
+        """The kept contacts if ``state`` and ``margin`` are those of the last detection."""
+        if self.key is None or self.key[0] != margin:
+            return None
+        same = all(np.array_equal(a, b) for a, b in zip(self.key[1:], self._config(state),
+                                                        strict=True))
+        return self.contacts if same else None
+
+    def put(self, state: ParticleState, margin: float, contacts: Contacts) -> None:
+        """Keep ``contacts`` as those of ``state`` (a copy of its configuration) at ``margin``."""
+        self.key = (margin, *(a.copy() for a in self._config(state)))
+        self.contacts = contacts
+
+
+def detect(state: ParticleState, margin: float, timers: dict | None = None,
+           detections: Detections | None = None) -> Contacts:
     """Contacts of the current configuration with gap <= margin (geometry.detect_contacts).
 
-    ``timers`` (optional) accumulates wall seconds under "neighbours" and "geometry".
+    ``timers`` (optional) accumulates wall seconds under "neighbours" and "geometry";
+    ``detections`` (optional): the contacts of the last detection, reused when the
+    configuration is the same (:class:`Detections`).
     """
+    if detections is not None and (kept := detections.get(state, margin)) is not None:
+        return kept
     t0 = _time.perf_counter()
     pairs = candidate_pairs(state.x, state.y, state.length, margin)
     t1 = _time.perf_counter()
@@ -107,6 +145,8 @@ def detect(state: ParticleState, margin: float, timers: dict | None = None) -> C
     if timers is not None:
         timers["neighbours"] = timers.get("neighbours", 0.0) + t1 - t0
         timers["geometry"] = timers.get("geometry", 0.0) + _time.perf_counter() - t1
+    if detections is not None:
+        detections.put(state, margin, c)
     return c
 
 
@@ -160,9 +200,10 @@ def _solve(solver, spent: list, *args):
     return gamma, hist
 
 
-def step(state: ParticleState, config: Config, dt: float,
+def step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
          warm: tuple[np.ndarray, np.ndarray], timers: dict | None = None,
-         spent: list | None = None) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
+         spent: list | None = None, detections: Detections | None = None
+         ) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
     """Advance the particles by one step of length dt in place (module docstring, items 1-4).
 
     No division, and t, step and the warm start of ``state`` are left to the caller
@@ -172,7 +213,8 @@ def step(state: ParticleState, config: Config, dt: float,
     max_overlap, and the contacts and forces of the main solve) and the (keys, gamma) of the
     solve for the next warm start.  ``timers`` (optional dict) accumulates wall seconds per
     phase: neighbours, geometry, solver, update; ``spent`` (optional one-element list)
-    accumulates the solver iterations, also of a step that raises.
+    accumulates the solver iterations, also of a step that raises; ``detections`` (optional)
+    keeps the last detection for the next (:class:`Detections`).
     """
     solver = SOLVERS[config.solver]
     numba.set_num_threads(solver_threads(config.threads, state.n))
@@ -181,7 +223,7 @@ def step(state: ParticleState, config: Config, dt: float,
     spent = [0] if spent is None else spent
     n = state.n
     start = (state.x.copy(), state.y.copy(), state.theta.copy())
-    c = detect(state, margin, timers)
+    c = detect(state, margin, timers, detections)
     t0 = _time.perf_counter()
     keys = c.keys(state.ids)
     gamma0 = warm_start(keys, *warm)
@@ -199,7 +241,7 @@ def step(state: ParticleState, config: Config, dt: float,
     passes = 0
     pass_iterations = 0
     while True:
-        c2 = detect(state, margin, timers)
+        c2 = detect(state, margin, timers, detections)
         overlap = max(0.0, -float(c2.gap.min())) if len(c2) else 0.0
         if passes == 0:
             main_overlap = overlap
@@ -231,19 +273,21 @@ MAX_HALVINGS = 4
 this many times nested (dt / 16), before the error is raised."""
 
 
-def robust_step(state: ParticleState, config: Config, dt: float,
+def robust_step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
                 warm: tuple[np.ndarray, np.ndarray], timers: dict | None = None,
-                depth: int = 0) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
+                depth: int = 0, detections: Detections | None = None
+                ) -> tuple[dict, tuple[np.ndarray, np.ndarray]]:
     """:func:`step`, retried from the same state as two steps of dt/2 when it fails.
 
     The returned info sums the iteration counts and passes over the sub-steps (the failed
     attempts' iterations under ``failed_iterations``), reports the largest overlap and residual,
-    and counts the sub-steps (``substeps``).  Deterministic.
+    and counts the sub-steps (``substeps``).  Deterministic.  ``detections``: as in
+    :func:`step`.
     """
     backup = {name: value.copy() for name, value in state.arrays().items()}
     spent = [0]
     try:
-        info, warm2 = step(state, config, dt, warm, timers, spent)
+        info, warm2 = step(state, config, dt, warm, timers, spent, detections)
         info["substeps"] = 1
         return info, warm2
     except (OverlapError, ContactSolveError):
@@ -251,8 +295,8 @@ def robust_step(state: ParticleState, config: Config, dt: float,
             raise
     for name, value in backup.items():
         setattr(state, name, value)
-    a, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1)
-    b, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1)
+    a, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1, detections)
+    b, warm = robust_step(state, config, dt / 2, warm, timers, depth + 1, detections)
     info = dict(b)
     for k in ("iterations", "pass_iterations", "failed_iterations", "passes", "substeps"):
         info[k] = a[k] + b[k]

@@ -40,3 +40,27 @@ def test_cell_lists_bad_input():
         candidate_pairs(np.zeros(3), np.zeros(3), np.ones(3), -0.1)
     with pytest.raises(ValueError):
         candidate_pairs(np.array([0.0, np.nan]), np.zeros(2), np.ones(2), 0.1)
+
+
+def test_contact_search_is_the_same_on_every_number_of_threads():
+    """Candidate pairs and contacts (computed in parallel) do not depend on the threads."""
+    import numba
+
+    from particles.geometry import find_contacts
+    from particles.packings import ring_packing
+
+    x, y, theta, length = ring_packing(3000, seed=4)[:4]
+    results = []
+    saved = numba.get_num_threads()
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            pairs = candidate_pairs(x, y, length, 0.1)
+            c = find_contacts(x, y, theta, length, pairs, 0.1)
+            results.append([*pairs, *(getattr(c, k) for k in c.__slots__)])
+    finally:
+        numba.set_num_threads(saved)
+    assert results[0][2].size > 3000  # i of the contacts: a dense packing
+    for a, b in zip(*results, strict=True):
+        assert a.tobytes() == b.tobytes()
+    np.testing.assert_array_equal(results[0][:2], brute_force_pairs(x, y, length, 0.1))

@@ -387,3 +387,25 @@ def test_progress_lines_in_a_log(monkeypatch, caplog, tmp_path):
     with caplog.at_level("INFO", logger="particles.simulation"):
         Simulation(Config(lam=1e-2, seed=0)).advance(radius=1.5)  # progress off by default
     assert not [r for r in caplog.records if r.name == "particles.simulation"]
+
+
+def test_kept_detections_change_nothing(monkeypatch):
+    """A step reuses the previous step's final contacts (stepping.Detections) when no division
+    changed the configuration; the run is the same bit for bit as one detecting every time."""
+    hits = []
+    get = stepping.Detections.get
+
+    def counted(self, state, margin):
+        kept = get(self, state, margin)
+        hits.append(kept is not None)
+        return kept
+
+    cfg = Config(lam=0.0, radius=6.0, seed=3)
+    monkeypatch.setattr(stepping.Detections, "get", counted)
+    a = run(cfg)
+    monkeypatch.setattr(stepping.Detections, "get", lambda self, state, margin: None)
+    b = run(cfg)
+    assert sum(hits) > len(a.history) / 2  # most steps at lam = 0 start from kept contacts
+    assert a.history == b.history
+    for name, value in a.state.arrays().items():
+        assert value.tobytes() == getattr(b.state, name).tobytes(), name
