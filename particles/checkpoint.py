@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .config import EXECUTION_FIELDS, STEP_POLICY_FIELDS, Config, upgrade
+from .geometry import canonical_keys
 from .state import ParticleState
 
 log = logging.getLogger(__name__)
@@ -100,7 +101,8 @@ def load_checkpoint(path: Path, config: Config, change_step_policy: bool = False
         rng.bit_generator.state = meta["rng"]
         state = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
                               int(meta["next_id"]), **lineage, t=meta["t"], step=meta["step"],
-                              rng=rng, warm_keys=z["warm_keys"], warm_gamma=z["warm_gamma"],
+                              rng=rng, warm_keys=canonical_keys(z["warm_keys"]),
+                              warm_gamma=z["warm_gamma"],
                               dt_next=meta.get("dt_next", config.dt))
     if change_step_policy:
         state.dt_next = (config.dt if config.step_control == "fixed"

@@ -165,13 +165,21 @@ def _pair_candidates(x, y, theta, length, i, j, b, out):
             out[e, 0] = -b
 
 
+SAME_GAP = 1e-10
+"""Two endpoint candidates of a pair whose gaps differ by at most this (and whose contact
+points are within b/4 on both rods) are one end-to-end contact found from both ends."""
+
+
 @njit(cache=True)
-def _pair_contacts(x, y, theta, length, i, j, b, margin, cand, res, ires, slot):
+def _pair_contacts(x, y, theta, length, i, j, b, margin, low_first, cand, res, ires, slot):
     """The (at most two) contacts of the pair (i, j) written to rows slot, slot + 1.
 
     res rows: gap, nx, ny, rix, riy, rjx, rjy, gi, gj; ires rows: i, j, code.  Returns how
     many were written (module docstring: the closest endpoint candidate within ``margin``, and
-    the next one whose contact points differ from it by more than b/4).
+    the next one whose contact points differ from it by more than b/4).  An end-to-end contact
+    is found from both rods' ends with gaps equal but for round-off (SAME_GAP); it is reported
+    as found from particle i's end if ``low_first`` (i has the lower id), else from j's, so
+    that its identity (code) does not depend on the particles' order in memory.
     """
     _pair_candidates(x, y, theta, length, i, j, b, cand)
     # order the four candidates by gap (insertion sort on 4 items)
@@ -187,11 +195,23 @@ def _pair_contacts(x, y, theta, length, i, j, b, margin, cand, res, ires, slot):
     if cand[first, 0] > margin:
         return 0
     dup = 0.25 * b
-    chosen1 = -1
-    for a in range(1, 4):
+    for a in range(1, 4):  # the same contact found from the other rod's end: the canonical side
         e = idx[a]
         if cand[e, 0] > margin:
             break
+        if ((e < 2) == low_first and (first < 2) != low_first
+                and abs(cand[e, 0] - cand[first, 0]) <= SAME_GAP
+                and np.hypot(cand[e, 3] - cand[first, 3], cand[e, 4] - cand[first, 4]) <= dup
+                and np.hypot(cand[e, 5] - cand[first, 5], cand[e, 6] - cand[first, 6]) <= dup):
+            first = e
+            break
+    chosen1 = -1
+    for a in range(4):
+        e = idx[a]
+        if cand[e, 0] > margin:
+            break
+        if e == first:
+            continue
         dci = np.hypot(cand[e, 3] - cand[first, 3], cand[e, 4] - cand[first, 4])
         dcj = np.hypot(cand[e, 5] - cand[first, 5], cand[e, 6] - cand[first, 6])
         if dci > dup or dcj > dup:
@@ -230,7 +250,7 @@ PAIR_BLOCK = 2048
 
 
 @njit(cache=True, parallel=True)
-def _contacts_kernel(x, y, theta, length, pi, pj, b, margin):
+def _contacts_kernel(x, y, theta, length, ids, pi, pj, b, margin):
     """Contacts of the candidate pairs (pi, pj), in pair order: (ires (3, m), res (9, m)).
 
     Each pair writes its contacts into its own two rows of a work array (tasks of PAIR_BLOCK
@@ -244,8 +264,10 @@ def _contacts_kernel(x, y, theta, length, pi, pj, b, margin):
     for blk in prange((npairs + PAIR_BLOCK - 1) // PAIR_BLOCK):
         cand = np.empty((4, 11))
         for q in range(blk * PAIR_BLOCK, min(npairs, (blk + 1) * PAIR_BLOCK)):
-            count[q + 1] = _pair_contacts(x, y, theta, length, pi[q], pj[q], b, margin, cand,
-                                          work, iwork, 2 * q)
+            i = pi[q]
+            j = pj[q]
+            count[q + 1] = _pair_contacts(x, y, theta, length, i, j, b, margin, ids[i] < ids[j],
+                                          cand, work, iwork, 2 * q)
     for q in range(npairs):
         count[q + 1] += count[q]
     m = count[npairs]
@@ -297,8 +319,25 @@ class Contacts:
         return int(self.i.shape[0])
 
     def keys(self, ids: np.ndarray) -> np.ndarray:
-        """Contact identities: (id_i, id_j, code) packed into one int64 (ids < 2**29)."""
-        return (ids[self.i] * (1 << 31) + ids[self.j] * 4 + self.code).astype(np.int64)
+        """Contact identities (:func:`canonical_keys` of (id_i, id_j, code); ids < 2**29)."""
+        return canonical_keys((ids[self.i] * (1 << 31) + ids[self.j] * 4
+                               + self.code).astype(np.int64))
+
+
+def canonical_keys(keys: np.ndarray) -> np.ndarray:
+    """Contact identities a * 2**31 + b * 4 + code written with the lower id first.
+
+    ``a``, ``b`` are the pair's ids, ``code`` its generating endpoint (0: a+, 1: a-, 2: b+,
+    3: b-); when a > b the pair is written (b, a) and the code seen from it (code ^ 2: a+ <->
+    b+, a- <-> b-).  So a contact keeps its identity when the particles are reordered in
+    memory (stepping.divide_in_order), and keys saved by earlier versions (index order) read
+    the same.
+    """
+    keys = np.asarray(keys, dtype=np.int64)
+    a = keys >> 31
+    b = (keys >> 2) & ((1 << 29) - 1)
+    code = keys & 3
+    return np.where(a > b, (b << 31) | (a << 2) | (code ^ 2), keys)
 
 
 def find_contacts(
@@ -309,8 +348,13 @@ def find_contacts(
     pairs: tuple[np.ndarray, np.ndarray],
     margin: float,
     b: float = B,
+    ids: np.ndarray | None = None,
 ) -> Contacts:
-    """Contacts with gap phi_k <= margin among candidate pairs (see module docstring)."""
+    """Contacts with gap phi_k <= margin among candidate pairs (see module docstring).
+
+    ``ids``: the particles' ids (default their indices), which decide the side an end-to-end
+    contact is reported from (:func:`_pair_contacts`).
+    """
     pi, pj = pairs
     pi = np.ascontiguousarray(pi, dtype=np.int64)
     pj = np.ascontiguousarray(pj, dtype=np.int64)
@@ -320,6 +364,8 @@ def find_contacts(
                                       np.ascontiguousarray(y, dtype=np.float64),
                                       np.ascontiguousarray(theta, dtype=np.float64),
                                       np.ascontiguousarray(length, dtype=np.float64),
+                                      np.arange(len(x)) if ids is None
+                                      else np.ascontiguousarray(ids, dtype=np.int64),
                                       pi, pj, b, margin))
 
 

@@ -137,6 +137,39 @@ def candidate_pairs(
     return _cell_pairs(x, y, length, margin, float(length.max()) + margin)
 
 
+ORDER_CELL = 1.0
+"""Side of the grid cells of :func:`spatial_order` (about one particle length)."""
+
+
+def _spread_bits(v: np.ndarray) -> np.ndarray:
+    """The bits of 32-bit integers v spread to the even bit positions of 64-bit ones."""
+    v = v & np.uint64(0xFFFFFFFF)
+    for shift, mask in ((16, 0x0000FFFF0000FFFF), (8, 0x00FF00FF00FF00FF),
+                        (4, 0x0F0F0F0F0F0F0F0F), (2, 0x3333333333333333),
+                        (1, 0x5555555555555555)):
+        v = (v | (v << np.uint64(shift))) & np.uint64(mask)
+    return v
+
+
+def spatial_order(x: np.ndarray, y: np.ndarray, h: float = ORDER_CELL) -> np.ndarray:
+    """The permutation that puts the particles in Morton (Z-curve) order of their centres.
+
+    Centres are binned on a grid of side ``h`` from the lower left corner; the cells are
+    ordered by interleaving the bits of their column and row (ix, iy), ties in the present
+    order (stable sort).  Neighbours in space then lie near each other in memory, which is
+    what the contact solver's per-contact reads of both particles need (measured: 1.65x fewer
+    seconds per solver iteration at 32,768 particles, docs/benchmarks.md).
+    """
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    if x.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    ix = np.floor((x - x.min()) / h).astype(np.uint64)
+    iy = np.floor((y - y.min()) / h).astype(np.uint64)
+    key = _spread_bits(ix) | (_spread_bits(iy) << np.uint64(1))
+    return np.argsort(key, kind="stable")
+
+
 def brute_force_pairs(
     x: np.ndarray, y: np.ndarray, length: np.ndarray, margin: float
 ) -> tuple[np.ndarray, np.ndarray]:

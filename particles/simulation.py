@@ -3,7 +3,8 @@
 In the manner of Dedalus's solver (``step``, ``evolve``) and JAX-MD's ``init_fn`` / ``apply_fn``:
 one explicit mutable state (``state.ParticleState``), a ``step()`` that advances it by one
 time step (stepping.robust_step: detect, solve, move and grow, re-solve, halving; then the
-division rule, growth.divide) and returns a typed :class:`StepRecord` of what happened, and
+division rule and the spatial order, stepping.divide_in_order) and returns a typed
+:class:`StepRecord` of what happened, and
 :func:`run`, a short loop that hands each step to the output writers (output.RunOutput), the
 checkpointer (checkpoint.py) and the progress bar.
 
@@ -26,11 +27,10 @@ from tqdm import tqdm
 
 from .checkpoint import NO_FRAMES, StopRequest, checkpoint_config, load_checkpoint, save_checkpoint
 from .config import STEP_POLICY_FIELDS, Config
-from .growth import divide
 from .output import RunOutput, write_config, write_history
 from .packings import from_csv, single_cell
 from .state import ParticleState
-from .stepping import Detections, detect, next_dt, robust_step
+from .stepping import Detections, detect, divide_in_order, next_dt, robust_step
 
 log = logging.getLogger(__name__)
 
@@ -305,7 +305,7 @@ class Simulation:
             dt = until - st.t
         info, st.warm = robust_step(st, config, dt, st.warm, detections=self._detections)
         st.dt_next = next_dt(dt, info, config.dt, config.step_control)
-        divisions = divide(st, st.rng, config.division_noise)
+        divisions = divide_in_order(st, st.rng, config.division_noise)
         st.t += dt
         st.step += 1
         record = StepRecord(

@@ -144,6 +144,15 @@ class ParticleState:
         self.generation = np.concatenate([self.generation,
                                           np.asarray(generation, dtype=np.int64)])
 
+    def permute(self, order: np.ndarray) -> None:
+        """Reorder the particles: particle k becomes the former particle ``order[k]``.
+
+        Every per-particle array moves; ids, lineage and the warm start (keyed by ids) are
+        unchanged.
+        """
+        for k in PARTICLE_ARRAYS:
+            setattr(self, k, getattr(self, k)[order])
+
     def copy(self) -> ParticleState:
         """An independent copy (arrays copied; the generator copied with its state)."""
         rng = None

@@ -14,8 +14,9 @@ One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
    max(PASS_ITERATION_FLOOR, iterations of step 2) iterations, else OverlapError or
    ContactSolveError, upon which the step is redone from the same state as two steps of dt/2
    (``robust_step``, nested up to dt/16);
-5. divide particles with l >= 2 (growth.divide; done by ``Simulation.step`` after this
-   module's :func:`robust_step`, with the time, step count and warm start).
+5. divide particles with l >= 2 and put them in spatial order (:func:`divide_in_order`; done
+   by ``Simulation.step`` after this module's :func:`robust_step`, with the time, step count
+   and warm start).
 
 The next step's length follows ``Config.step_control`` (:func:`next_dt`): "overlap" (the
 default: keep the overlap the linearised step leaves near MAIN_OVERLAP), "fixed" (``dt``) or
@@ -40,8 +41,8 @@ import numpy as np
 from .apgd import solve_contacts_apgd
 from .contact_solver import ContactSolveError, solve_contacts
 from .geometry import Contacts, axial_stress, find_contacts, generalised_forces
-from .growth import grow
-from .neighbours import candidate_pairs
+from .growth import divide, grow
+from .neighbours import candidate_pairs, spatial_order
 from .state import ParticleState
 from .twolevel import solve_contacts_twolevel
 
@@ -141,7 +142,7 @@ def detect(state: ParticleState, margin: float, timers: dict | None = None,
     t0 = _time.perf_counter()
     pairs = candidate_pairs(state.x, state.y, state.length, margin)
     t1 = _time.perf_counter()
-    c = find_contacts(state.x, state.y, state.theta, state.length, pairs, margin)
+    c = find_contacts(state.x, state.y, state.theta, state.length, pairs, margin, ids=state.ids)
     if timers is not None:
         timers["neighbours"] = timers.get("neighbours", 0.0) + t1 - t0
         timers["geometry"] = timers.get("geometry", 0.0) + _time.perf_counter() - t1
@@ -304,6 +305,19 @@ def robust_step(state: ParticleState, config: Config, dt: float,  # noqa: PLR091
     for k in ("max_overlap", "residual", "max_rotation", "max_displacement", "main_overlap"):
         info[k] = max(a[k], b[k])
     return info, warm
+
+
+def divide_in_order(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
+    """The division rule (growth.divide), then the particles in spatial order.
+
+    Reordered (neighbours.spatial_order) only if a particle divided: the daughters that
+    growth.divide appends are far in memory from their neighbours in space otherwise.
+    Returns the number of divisions.
+    """
+    divisions = divide(state, rng, noise)
+    if divisions:
+        state.permute(spatial_order(state.x, state.y))
+    return divisions
 
 
 STEP_CONTROLS = ("fixed", "overlap", "cost")

@@ -54,11 +54,11 @@ import particles.stepping as stepping
 from cases import analysis as A
 from particles import Config, run
 from particles.checkpoint import checkpoint_config, load_checkpoint
-from particles.growth import divide
+from particles.neighbours import spatial_order
 
 COLUMNS = ("lam", "policy", "uncapped", "cpu_s", "wall_s", "steps", "halved", "main_iterations",
            "pass_iterations", "failed_iterations", "t_at_radius", "n_particles")
-CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "solver", "solver_tol", "threads",
+CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "solver", "solver_tol", "threads", "reorder",
                       "duration", "cpu_s", "wall_s", "steps", "halved", "main_per_time",
                       "pass_per_time", "failed_per_time", "max_rotation", "rotation_q999",
                       "n_particles")
@@ -124,18 +124,22 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
             "n_particles": colony.state.n}
 
 
-def measure_checkpoint(path: str | Path, policy: str, duration: float,
+def measure_checkpoint(path: str | Path, policy: str, duration: float,  # noqa: PLR0913
                        threads: int | None = None, solver: str | None = None,
-                       solver_tol: float | None = None) -> dict:
+                       solver_tol: float | None = None, reorder: bool = False) -> dict:
     """Advance the state of checkpoint ``path`` by ``duration`` under ``policy``.
 
     See the module docstring; the run's configuration otherwise. Iterations are per unit time.
     An adaptive policy starts from the run's last step (at most DT), a fixed one with DT.
     ``threads``, ``solver``, ``solver_tol``: the contact solver's threads, name and residual
-    tolerance (None: the run's).
+    tolerance (None: the run's).  ``reorder``: first put the particles in spatial order
+    (particles.neighbours.spatial_order), as a run of this version holds them after its last
+    division (a checkpoint written before 2026-12-02 holds them in the order of birth).
     """
     config = checkpoint_config(Path(path))
     state, history, _ = load_checkpoint(Path(path), config)
+    if reorder:
+        state.permute(spatial_order(state.x, state.y))
     t0, rng, warm = state.t, state.rng, state.warm
     control, dt_max, target = parse_policy(policy)
     given = {"threads": threads, "solver": solver, "solver_tol": solver_tol}
@@ -143,14 +147,15 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,
                      **{k: v for k, v in given.items() if v is not None})
     dt = dt_max if control == "fixed" or not history else min(dt_max, history[-1]["dt"])
     t, rows, turns = t0, [], []
+    detections = stepping.Detections()  # as a run keeps them (particles.Simulation.step)
     w0, c0 = time.perf_counter(), time.process_time()
     with main_overlap(target):
         while t < t0 + duration * (1 - 1e-9):
             dt = min(dt, t0 + duration - t)
             theta = state.theta.copy()
-            info, warm = stepping.robust_step(state, config, dt, warm)
+            info, warm = stepping.robust_step(state, config, dt, warm, detections=detections)
             turns.append(np.abs(state.theta - theta))
-            divide(state, rng, config.division_noise)
+            stepping.divide_in_order(state, rng, config.division_noise)
             rows.append(info)
             t += dt
             dt = stepping.next_dt(dt, info, dt_max, control)
@@ -162,7 +167,7 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,
 
     return {"checkpoint": str(path), "lam": config.lam, "policy": policy,
             "solver": config.solver, "solver_tol": config.effective_solver_tol,
-            "threads": config.threads, "duration": t - t0,
+            "threads": config.threads, "reorder": reorder, "duration": t - t0,
             "cpu_s": cpu, "wall_s": wall, "steps": len(rows),
             "halved": sum(r["substeps"] > 1 for r in rows),
             "main_per_time": per_time("iterations") - per_time("pass_iterations"),
@@ -229,6 +234,8 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     help="with --checkpoint: contact solver (default: the run's)")
     ap.add_argument("--solver-tol", type=float, default=None,
                     help="with --checkpoint: the solver's residual tolerance (default: the run's)")
+    ap.add_argument("--reorder", action="store_true",
+                    help="with --checkpoint: the particles in spatial order first")
     ap.add_argument("--history", type=Path, nargs="+",
                     help="report the step-policy segments of these run folders (no runs)")
     ap.add_argument("--min-particles", type=float, default=0.0,
@@ -256,7 +263,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     if a.checkpoint is not None:
         for policy in a.policies:
             rows.append(measure_checkpoint(a.checkpoint, policy, a.duration, a.threads,
-                                           a.solver, a.solver_tol))
+                                           a.solver, a.solver_tol, a.reorder))
             _write(rows, CHECKPOINT_COLUMNS, a.out)
         _checkpoint_table(rows)
         return rows

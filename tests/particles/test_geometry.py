@@ -187,3 +187,22 @@ def test_bad_input():
         solve_contacts(c, l, 0.01, -0.1)
     with pytest.raises(ValueError):
         contacts_of([0, 0], [0, 0.4], [0, 0], [0.4, 1.0])
+
+
+def test_contact_keys_do_not_depend_on_the_particle_order():
+    """The contact identities (warm start) survive a reordering of the particles in memory."""
+    from particles.geometry import canonical_keys
+    from particles.packings import ring_packing
+
+    x, y, th, l = ring_packing(600, seed=2)[:4]
+    ids = np.arange(x.size) * 3 + 7
+    order = np.random.default_rng(0).permutation(x.size)
+    keys = []
+    for o in (np.arange(x.size), order):
+        pairs = candidate_pairs(x[o], y[o], l[o], 0.1)
+        c = find_contacts(x[o], y[o], th[o], l[o], pairs, 0.1, ids=ids[o])
+        keys.append(np.sort(c.keys(ids[o])))
+    assert keys[0].size > x.size and np.array_equal(*keys)
+    raw = ids[c.i] * (1 << 31) + ids[c.j] * 4 + c.code  # (id_i, id_j, code) in index order
+    assert np.array_equal(canonical_keys(raw), c.keys(ids))
+    assert np.array_equal(canonical_keys(c.keys(ids)), c.keys(ids))

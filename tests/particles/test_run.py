@@ -237,7 +237,7 @@ def test_overlap_step_keeps_the_linearisation_error():
 
     A fixed step of the same length leaves twice as much (lam = 0, dt = 0.1, to 400 particles:
     medians 0.133 and 0.29); the step follows it (shorter than dt once the colony jams, never
-    longer).
+    longer: the shortest step 0.053 with the spatial order of 2026-12-02, below 0.05 before).
     """
     def grow(control):
         sim = Simulation(Config(lam=0.0, dt=0.1, seed=1, step_control=control))
@@ -249,7 +249,7 @@ def test_overlap_step_keeps_the_linearisation_error():
     fixed, _ = grow("fixed")
     adapted, dts = grow("overlap")
     assert adapted <= stepping.MAIN_OVERLAP < fixed
-    assert dts.min() < 0.05 and dts.max() <= 0.1
+    assert dts.min() < 0.75 * 0.1 and dts.max() <= 0.1
 
 
 def test_init_file(tmp_path):
@@ -345,7 +345,9 @@ def test_failed_steps_are_halved():
     assert max(r["max_overlap"] for r in c.history) <= 1e-3
     assert c.state.t == pytest.approx(4.0, abs=1e-12)
     failed = np.array([r["failed_iterations"] for r in c.history])
-    assert np.all((failed > 0) == (sub > 1))  # the failed attempts' work is counted
+    # the failed attempts' work is counted, and only in halved steps (an attempt may fail
+    # after 0 iterations: warm start within tolerance, overlap after the move)
+    assert np.all(failed[sub == 1] == 0) and failed[sub > 1].sum() > 0
 
 
 def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
@@ -390,8 +392,11 @@ def test_progress_lines_in_a_log(monkeypatch, caplog, tmp_path):
 
 
 def test_kept_detections_change_nothing(monkeypatch):
-    """A step reuses the previous step's final contacts (stepping.Detections) when no division
-    changed the configuration; the run is the same bit for bit as one detecting every time."""
+    """A step reuses the previous step's final contacts (stepping.Detections).
+
+    It does when no division changed the configuration; the run is the same bit for bit as
+    one detecting every time.
+    """
     hits = []
     get = stepping.Detections.get
 
