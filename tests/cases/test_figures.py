@@ -303,6 +303,10 @@ def test_smoke_case(case, smoke_runs, tmp_path):
     merged = merge.merge(name, part, data, tmp_path / "merged")
     assert sorted(p.name for p in merged.iterdir()) == sorted(p.name for p in data.iterdir())
     for p in data.iterdir():
+        if p.name == "exponents.csv":  # fitted again from the table as written (8 digits)
+            for k, v in A.read_csv(p).items():
+                np.testing.assert_allclose(A.read_csv(merged / p.name)[k], v, rtol=1e-6)
+            continue
         assert (merged / p.name).read_bytes() == p.read_bytes(), p.name
     for col, expected in SMOKE.get(name, {}).items():
         s = A.read_csv(data / "summary.csv")
