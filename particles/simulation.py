@@ -388,11 +388,11 @@ class _ProgressBar:
             now = _time.monotonic()
             if now - self.last >= PROGRESS_SECONDS:
                 self.last = now
-                reached = record.t if self.by_time else record.radius
-                log.info("%s %.4g of %.4g, t = %.4f, radius %.2f, %d particles, step %d, "
-                         "dt %.3g, %.0f s", "t" if self.by_time else "radius", reached,
-                         self.total, record.t, record.radius, record.n_particles, record.step,
-                         record.dt, now - self.started)
+                goal = (f"t = {record.t:.4f} of {self.total:g}, radius {record.radius:.2f}"
+                        if self.by_time else
+                        f"radius {record.radius:.2f} of {self.total:g}, t = {record.t:.4f}")
+                log.info("%s, %d particles, step %d, dt %.3g, %.0f s", goal,
+                         record.n_particles, record.step, record.dt, now - self.started)
         if self.bar.disable:
             return
         self.bar.n = min(self.total, record.t if self.by_time else record.radius)

@@ -384,7 +384,8 @@ def test_progress_lines_in_a_log(monkeypatch, caplog, tmp_path):
     with caplog.at_level("INFO", logger="particles.simulation"):
         run(Config(lam=1e-2, radius=1.5, seed=0), out=tmp_path, progress=True)
     lines = [r.getMessage() for r in caplog.records if r.name == "particles.simulation"]
-    assert lines and all(m.startswith("radius ") and " of 1.5, t = " in m for m in lines)
+    assert lines and all(m.startswith("radius ") and " of 1.5, t = " in m and " particles, "
+                         in m for m in lines)
     caplog.clear()
     with caplog.at_level("INFO", logger="particles.simulation"):
         Simulation(Config(lam=1e-2, seed=0)).advance(radius=1.5)  # progress off by default
