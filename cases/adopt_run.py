@@ -25,6 +25,11 @@ Command line::
     python -m cases.adopt_run RUN [--runs runs/paper] [--scale paper]
         [--data cases/data/particles_paper] [--time-log LOG]
     python -m cases.adopt_run --table [--data cases/data/particles_paper]
+    python -m cases.adopt_run --compare OLD NEW [OLD NEW ...]
+
+4. :func:`compare`: two records of one lam (e.g. a colony and the one it replaces, the earlier
+   taken from git) side by side: size and time at radius 150, the first times at radii 50,
+   100 and 150, the central stress and the mean differences of the final profiles.
 
 Nothing is moved or written when a check fails (a one-line error, exit status 2).
 """
@@ -38,10 +43,13 @@ import shutil
 import sys
 from pathlib import Path
 
+import numpy as np
+
 from cases import analysis as A
 from cases.sweep import DONE, _engine_params, run_name, scale_config
 
-__all__ = ["adopt", "initial_config", "record", "summary", "table", "time_reports"]
+__all__ = ["adopt", "compare", "compare_table", "initial_config", "record", "summary", "table",
+           "time_reports"]
 
 SMALL_FILES = ("profile.csv", "config.json")
 """Files copied as they are by :func:`record` (besides the thinned history)."""
@@ -205,6 +213,70 @@ def table(data: str | Path) -> str:
     return "\n".join(lines) + "\n"
 
 
+COMPARE_RADII = (50.0, 100.0, 150.0)
+"""Radii at which :func:`compare` reports the first time the colony reaches them."""
+
+
+def _filled_annuli(profile: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The annuli of a profile with finite stress and mean length (an empty annulus has nan)."""
+    keep = np.isfinite(profile["stress"]) & np.isfinite(profile["mean_length"])
+    return {k: v[keep] for k, v in profile.items()}
+
+
+def compare(old: str | Path, new: str | Path) -> dict:
+    """Two records ``DATA/lam=LAM/`` of one lam compared (the earlier ``old``, the later ``new``).
+
+    Returns, for each of old and new, the final particles and t, the first times t(R) at
+    :data:`COMPARE_RADII` (``statistics.time_at_radius``) and the central stress p0 of the
+    final profile (``profile_central_stress``, fit); and the differences of the final profiles
+    on the old one's annuli over the radii both cover (the new profile linearly interpolated;
+    empty annuli left out),
+    as means over the annuli relative to the old profile's mean::
+
+        d_stress = mean |s_new - s_old| / mean s_old,   d_length likewise for mean_length.
+
+    Raises
+    ------
+    ValueError
+        The two records are of different lam.
+    """
+    rec = {}
+    for key, d in (("old", Path(old)), ("new", Path(new))):
+        h = A.read_csv(d / "history.csv")
+        prof = A.read_csv(d / "profile.csv")
+        rec[key] = {"lam": float(json.loads((d / "config.json").read_text())["lam"]),
+                    "particles": int(h["n_particles"][-1]), "t": float(h["t"][-1]),
+                    "t_at": A.time_at_radius(h["t"], h["radius"], np.array(COMPARE_RADII)),
+                    "p0": A.profile_central_stress(prof, float(h["radius"][-1]))["central_fit"],
+                    "profile": prof}
+    if rec["old"]["lam"] != rec["new"]["lam"]:
+        raise ValueError(f"{old} and {new} hold different lam: {rec['old']['lam']:g}, "
+                         f"{rec['new']['lam']:g}")
+    po, pn = (_filled_annuli(rec[key].pop("profile")) for key in ("old", "new"))
+    inside = (po["r"] >= pn["r"][0]) & (po["r"] <= pn["r"][-1])
+    diff = {}
+    for name in ("stress", "mean_length"):
+        moved = np.interp(po["r"][inside], pn["r"], pn[name]) - po[name][inside]
+        diff[f"d_{name}"] = float(np.mean(np.abs(moved)) / np.mean(po[name][inside]))
+    return {"lam": rec["old"]["lam"], "old": rec["old"], "new": rec["new"], **diff}
+
+
+def compare_table(pairs: list[tuple[Path, Path]]) -> str:
+    """Markdown table of :func:`compare` for (old, new) record pairs, a row each."""
+    head = ("| lam | particles old / new | t old / new | "
+            + " | ".join(f"t(R = {r:g}) old / new" for r in COMPARE_RADII)
+            + " | central stress p0 old / new | mean profile change: stress, mean length |")
+    lines = [head, "|" + "---|" * (5 + len(COMPARE_RADII))]
+    for old, new in pairs:
+        c = compare(old, new)
+        o, n = c["old"], c["new"]
+        times = " | ".join(f"{a:.3f} / {b:.3f}" for a, b in zip(o["t_at"], n["t_at"], strict=True))
+        lines.append(f"| {c['lam']:g} | {o['particles']:,} / {n['particles']:,} "
+                     f"| {o['t']:.3f} / {n['t']:.3f} | {times} | {o['p0']:.4g} / {n['p0']:.4g} "
+                     f"| {100 * c['d_stress']:.1f} %, {100 * c['d_mean_length']:.1f} % |")
+    return "\n".join(lines) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("run", type=Path, nargs="?",
@@ -219,9 +291,27 @@ def main(argv: list[str] | None = None) -> int:
                    help="small data go to DATA/lam=LAM (default cases/data/particles_paper)")
     p.add_argument("--time-log", type=Path, default=None,
                    help="the run's /usr/bin/time -v -a -o log")
+    p.add_argument("--compare", type=Path, nargs="+", metavar="OLD NEW",
+                   help="compare records DATA/lam=LAM in pairs OLD NEW (a table), adopt nothing")
     args = p.parse_args(argv)
     if args.table:
         print(table(args.data), end="")
+        return 0
+    if args.compare is not None:
+        if len(args.compare) % 2:
+            p.error("--compare takes pairs of record folders: OLD NEW [OLD NEW ...]")
+        pairs = list(zip(args.compare[::2], args.compare[1::2], strict=True))
+        missing = [d for d in args.compare for f in ("history.csv", "profile.csv", "config.json")
+                   if not (d / f).is_file()]
+        if missing:
+            print(f"adopt_run: error: {missing[0]} is not a record (history.csv, profile.csv, "
+                  "config.json)", file=sys.stderr)
+            return 2
+        try:
+            print(compare_table(pairs), end="")
+        except ValueError as err:
+            print(f"adopt_run: error: {err}", file=sys.stderr)
+            return 2
         return 0
     if args.run is None:
         p.error("give a RUN folder or --table")

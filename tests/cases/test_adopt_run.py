@@ -120,3 +120,40 @@ def test_packaged_readme_holds_the_table_of_its_adopted_runs():
     assert rows
     for row in rows:
         assert row in readme
+
+
+def record_of(folder, lam, radius, stress, length):
+    """A record DATA/lam=LAM: R(t) = radius(t) on t in [0, 10], a profile on r = 1 ... 8."""
+    folder.mkdir(parents=True)
+    (folder / "config.json").write_text(json.dumps({"lam": lam}))
+    t = np.linspace(0.0, 10.0, 1001)
+    A.write_csv(folder / "history.csv", {"t": t, "radius": radius(t),
+                                         "n_particles": np.round(100 * t) + 1})
+    r = np.arange(1.0, 9.0)
+    A.write_csv(folder / "profile.csv", {"r": np.append(r, 9.0), "count": np.append(10 + 0 * r, 0),
+                                         "stress": np.append(stress(r), np.nan),
+                                         "mean_length": np.append(length(r), np.nan)})
+    return folder
+
+
+def test_compare_two_records_of_one_lam(tmp_path, capsys):
+    """Times at radius, central stress and profile changes against hand-computed values."""
+    old = record_of(tmp_path / "old", 0.0, lambda t: 16 * t, lambda r: 100 - r**2,
+                    lambda r: 1.5 + 0 * r)
+    new = record_of(tmp_path / "new", 0.0, lambda t: 15 * t, lambda r: 90 - 0.9 * r**2,
+                    lambda r: 1.65 + 0 * r)
+    c = adopt_run.compare(old, new)
+    # R = 16 t and 15 t reach 50, 100, 150 at R / 16 and R / 15
+    np.testing.assert_allclose(c["old"]["t_at"], np.array([50, 100, 150]) / 16)
+    np.testing.assert_allclose(c["new"]["t_at"], np.array([50, 100, 150]) / 15)
+    assert c["old"]["particles"] == 1001 and c["new"]["t"] == 10.0
+    # the stress is 0.9 times the old one everywhere: a 10 % mean change; lengths + 10 %
+    assert c["d_stress"] == pytest.approx(0.1) and c["d_mean_length"] == pytest.approx(0.1)
+    assert c["old"]["p0"] == pytest.approx(100) and c["new"]["p0"] == pytest.approx(90)
+    assert adopt_run.main(["--compare", str(old), str(new)]) == 0
+    assert "| 0 | 1,001 / 1,001 | 10.000 / 10.000 | 3.125 / 3.333 |" in capsys.readouterr().out
+    other = record_of(tmp_path / "other", 1e-2, lambda t: t, lambda r: r, lambda r: r)
+    assert adopt_run.main(["--compare", str(old), str(other)]) == 2
+    assert adopt_run.main(["--compare", str(old), str(tmp_path)]) == 2
+    err = capsys.readouterr().err.splitlines()
+    assert "different lam" in err[0] and "is not a record" in err[1]
