@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import os
+import re
 from pathlib import Path
 
 import numpy as np
@@ -34,6 +35,7 @@ __all__ = [
     "particle_growth_series",
     "profile_central_stress",
     "history_segments",
+    "progress_wall",
 ]
 
 
@@ -161,15 +163,33 @@ def particle_growth_series(folder: str | os.PathLike, edge_width: float = 0.5,
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
-def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
+def progress_wall(log: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(step, wall seconds) of the progress lines of a ``colony particles`` log (its stderr).
+
+    The lines written once a minute when stderr is not a terminal, ``... step S, dt D, W s``
+    (W: seconds since the command started; the bar's carriage returns count as line ends),
+    after (0, 0): the start, before the first step.
+    """
+    found = re.findall(r"step (\d+), dt \S+, (\d+) s\s*$",
+                       Path(log).read_text().replace("\r", "\n"), flags=re.MULTILINE)
+    return (np.array([0] + [int(a) for a, _ in found], dtype=float),
+            np.array([0] + [int(b) for _, b in found], dtype=float))
+
+
+def history_segments(run: str | Path, min_particles: float = 0.0,
+                     max_particles: float = math.inf,
+                     wall: tuple[np.ndarray, np.ndarray] | None = None) -> list[dict]:
     """Per step-policy segment of the run folder ``run``, its solver work.
 
     The segments are those of config.json's ``step_policy_changes`` (a run resumed with another
-    step), restricted to N >= ``min_particles``.
+    step), restricted to ``min_particles`` <= N < ``max_particles``.
 
     These are: first and last step, N range, t range, dt range, steps, halved steps, iterations
     per unit time (main, passes and failed attempts; failed counted 0 where the history predates
-    the column), the failed share and the largest overlap after a step.
+    the column), the failed share and the largest overlap after a step.  With ``wall``, the
+    (step, seconds) of the run's progress lines (:func:`progress_wall`), also the wall seconds
+    of the segment (interpolated linearly in the step between the lines; nan outside them) and
+    its wall milliseconds per iteration.
     """
     run = Path(run)
     h = read_csv(run / "history.csv")
@@ -178,7 +198,8 @@ def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
     failed = np.nan_to_num(h["failed_iterations"])
     rows = []
     for a, b in zip(bounds[:-1], bounds[1:], strict=True):
-        m = (h["step"] > a) & (h["step"] <= b) & (h["n_particles"] >= min_particles)
+        m = ((h["step"] > a) & (h["step"] <= b) & (h["n_particles"] >= min_particles)
+             & (h["n_particles"] < max_particles))
         if not m.any():
             continue
         work = h["iterations"][m] + failed[m]
@@ -192,4 +213,10 @@ def history_segments(run: str | Path, min_particles: float = 0.0) -> list[dict]:
                      "per_time": float(work.sum() / h["dt"][m].sum()),
                      "failed_share": float(failed[m].sum() / work.sum()),
                      "max_overlap": float(h["max_overlap"][m].max())})
+        if wall is not None:
+            steps, seconds = wall
+            ends = np.interp([h["step"][m][0] - 1, h["step"][m][-1]], steps, seconds,
+                             left=np.nan, right=np.nan)
+            rows[-1]["wall_s"] = float(ends[1] - ends[0])
+            rows[-1]["ms_per_iteration"] = float(1e3 * rows[-1]["wall_s"] / work.sum())
     return rows

@@ -29,11 +29,15 @@ Command line::
     python -m cases.bench.timestep --checkpoint RUN/checkpoint.npz [--duration 0.02]
                                    [--policies fixed:0.005 fixed:0.0025]
     python -m cases.bench.timestep --history RUN [RUN ...] [--min-particles 6e4]
+                                   [--sizes 1e4 2e4 4e4 6e4] [--logs LOG [LOG ...]]
 
 ``--history`` reads what whole runs did instead (no computation): per step-policy segment of
 each run folder (config.json's ``step_policy_changes``), restricted to N >= ``--min-particles``,
 the steps, dt range, halved steps and solver iterations per unit time, failed attempts
-included.
+included; ``--sizes`` cuts each segment further into stretches of the colony's size (N below
+the first size, between two, above the last), and ``--logs`` (a ``colony particles`` stderr
+log per run, in the same order) adds each stretch's wall time and wall milliseconds per solver
+iteration (``cases.analysis.progress_wall``).
 
 CPU time (time.process_time) is reported because the engine is single-threaded and this
 machine is often shared; wall time is in the CSV too.
@@ -44,6 +48,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import csv
+import math
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -179,10 +184,13 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,  # noqa: 
 
 def _segments_table(rows: list[dict]) -> None:
     print(A.markdown_rows(
-        ("run", "steps", "N", "dt", "halved", "iterations per unit time", "failed share"),
+        ("run", "steps", "N", "t", "dt", "halved", "iterations per unit time", "failed share",
+         "wall s", "ms per iteration"),
         ((r["run"], f"{r['first_step']}-{r['last_step']}", f"{r['n_first']}-{r['n_last']}",
-          f"{r['dt_min']:.2g}-{r['dt_max']:.2g}", f"{r['halved']} of {r['steps']}",
-          f"{r['per_time']:.3g}", f"{100 * r['failed_share']:.0f} %") for r in rows)), flush=True)
+          f"{r['t_first']:.2f}-{r['t_last']:.2f}", f"{r['dt_min']:.2g}-{r['dt_max']:.2g}",
+          f"{r['halved']} of {r['steps']}", f"{r['per_time']:.3g}",
+          f"{100 * r['failed_share']:.1f} %", f"{r.get('wall_s', math.nan):.0f}",
+          f"{r.get('ms_per_iteration', math.nan):.2f}") for r in rows)), flush=True)
 
 
 def _checkpoint_table(rows: list[dict]) -> None:
@@ -240,12 +248,25 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     help="report the step-policy segments of these run folders (no runs)")
     ap.add_argument("--min-particles", type=float, default=0.0,
                     help="with --history: steps with at least this many particles")
+    ap.add_argument("--sizes", type=float, nargs="+", default=[],
+                    help="with --history: cut at these colony sizes N (stretches of size)")
+    ap.add_argument("--logs", type=Path, nargs="+", default=None,
+                    help="with --history: each run's colony particles log (wall per stretch)")
     a = ap.parse_args(argv)
     if a.history:
         missing = [str(r) for r in a.history if not (r / "history.csv").is_file()]
         if missing:
             ap.error(f"no history.csv in {', '.join(missing)}")
-        rows = [row for r in a.history for row in A.history_segments(r, a.min_particles)]
+        if a.logs is not None and len(a.logs) != len(a.history):
+            ap.error(f"--logs needs one log per --history run: {len(a.logs)} for "
+                     f"{len(a.history)}")
+        if a.logs is not None and (bad := [str(p) for p in a.logs if not p.is_file()]):
+            ap.error(f"no log file {', '.join(bad)}")
+        cuts = [a.min_particles, *sorted(n for n in a.sizes if n > a.min_particles), math.inf]
+        logs = a.logs or [None] * len(a.history)
+        rows = [row for r, log in zip(a.history, logs, strict=True)
+                for lo, hi in zip(cuts[:-1], cuts[1:], strict=True)
+                for row in A.history_segments(r, lo, hi, log and A.progress_wall(log))]
         _segments_table(rows)
         return rows
     try:

@@ -187,3 +187,38 @@ def test_bench_handoff_table(capsys):
     assert row["median_spread"] == pytest.approx(row["spread_exact"], rel=0.1)
     assert row["step_width_10_90"] == pytest.approx(row["step_width_exact"], rel=0.1)
     assert "| packing |" in capsys.readouterr().out
+
+
+def test_history_stretches_of_size_with_wall_times(tmp_path, capsys):
+    """--sizes partitions the steps by colony size; --logs gives each stretch's wall time.
+
+    A history of 400 steps of dt 0.01 with N = step and 10 iterations each, and a log whose
+    progress lines put step 100 at 60 s and step 400 at 360 s (and the start, step 0, at 0 s):
+    the stretch N in [100, 300) (steps 100-299) runs from the end of step 99 (59.4 s, linear
+    between the lines) to that of step 299 (259 s), 199.6 s for 2000 iterations.
+    """
+    from cases import analysis as A
+    from cases.bench import timestep as bench_timestep
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "config.json").write_text("{}")
+    step = np.arange(1, 401)
+    A.write_csv(run / "history.csv", {"step": step, "t": 0.01 * step, "dt": 0.01 + 0 * step,
+                                      "n_particles": step, "iterations": 10 + 0 * step,
+                                      "failed_iterations": 0 * step, "substeps": 1 + 0 * step,
+                                      "max_overlap": 1e-4 + 0 * step})
+    log = tmp_path / "run.log"
+    log.write_text("colony: radius 5 of 9, t = 1, 100 particles, step 100, dt 0.01, 60 s\r"
+                   "something else\n"
+                   "colony: radius 9 of 9, t = 4, 400 particles, step 400, dt 0.01, 360 s\n")
+    np.testing.assert_array_equal(A.progress_wall(log)[0], [0, 100, 400])
+    rows = bench_timestep.main(["--history", str(run), "--sizes", "100", "300",
+                                "--logs", str(log)])
+    assert [(r["first_step"], r["last_step"]) for r in rows] == [(1, 99), (100, 299), (300, 400)]
+    assert rows[1]["wall_s"] == pytest.approx(199.6)
+    assert rows[1]["ms_per_iteration"] == pytest.approx(99.8)
+    assert rows[0]["wall_s"] == pytest.approx(60 * 99 / 100)
+    assert rows[1]["per_time"] == pytest.approx(1000)
+    assert "| 100-299 | 100-299 | 1.00-2.99 |" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench_timestep.main(["--history", str(run), "--logs", str(log), str(log)])
