@@ -23,7 +23,7 @@ several sessions, not by the sweep; once finished it is adopted:
 Command line::
 
     python -m cases.adopt_run RUN [--runs runs/paper] [--scale paper]
-        [--data cases/data/particles_paper] [--time-log LOG]
+        [--data cases/data/particles_paper] [--time-log LOG] [--log PROGRESS_LOG]
     python -m cases.adopt_run --table [--data cases/data/particles_paper]
     python -m cases.adopt_run --compare OLD NEW [OLD NEW ...]
 
@@ -114,18 +114,22 @@ def time_reports(text: str, lines: int = 23) -> str:
                    for b in blocks)
 
 
-def record(run: str | Path, data: str | Path, time_log: str | Path | None = None) -> Path:
+def record(run: str | Path, data: str | Path, time_log: str | Path | None = None,
+           progress_log: str | Path | None = None) -> Path:
     """Copy the small data of the adopted run ``run`` to ``data/lam=LAM/`` (module docstring).
 
-    Returns that folder.
+    ``progress_log``: the command's stderr (its progress lines, one a minute), copied as
+    ``progress.log`` and timing the stretches of ``work.csv`` (wall_s, ms_per_iteration:
+    ``cases.analysis.history_segments``).  Returns that folder.
     """
     run = Path(run)
     lam = float(json.loads((run / "config.json").read_text())["lam"])
     dest = Path(data) / f"lam={lam:g}"
     dest.mkdir(parents=True, exist_ok=True)
     A.write_csv(dest / "history.csv", A.thin_rows(A.read_csv(run / "history.csv")))
+    wall = A.progress_wall(progress_log) if progress_log is not None else None
     work = [{"min_particles": n, **row} for n in WORK_MIN_PARTICLES
-            for row in A.history_segments(run, n)]
+            for row in A.history_segments(run, n, wall=wall)]
     if work:
         A.write_csv(dest / "work.csv",
                     {k: [row[k] for row in work] for k in work[0] if k != "run"})
@@ -134,6 +138,8 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
             shutil.copy(run / f, dest / f)
     if time_log is not None:
         (dest / "time.txt").write_text(time_reports(Path(time_log).read_text()))
+    if progress_log is not None:
+        shutil.copy(progress_log, dest / "progress.log")
     return dest
 
 
@@ -291,6 +297,8 @@ def main(argv: list[str] | None = None) -> int:
                    help="small data go to DATA/lam=LAM (default cases/data/particles_paper)")
     p.add_argument("--time-log", type=Path, default=None,
                    help="the run's /usr/bin/time -v -a -o log")
+    p.add_argument("--log", type=Path, default=None,
+                   help="the run's progress log (its stderr), kept as progress.log")
     p.add_argument("--compare", type=Path, nargs="+", metavar="OLD NEW",
                    help="compare records DATA/lam=LAM in pairs OLD NEW (a table), adopt nothing")
     args = p.parse_args(argv)
@@ -316,13 +324,14 @@ def main(argv: list[str] | None = None) -> int:
     if args.run is None:
         p.error("give a RUN folder or --table")
     try:
-        if args.time_log is not None and not args.time_log.is_file():
-            raise ValueError(f"no time log {args.time_log}")
+        for log in (args.time_log, args.log):
+            if log is not None and not log.is_file():
+                raise ValueError(f"no log file {log}")
         target = adopt(args.run, args.runs, args.scale, args.engine)
     except ValueError as err:
         print(f"adopt_run: error: {err}", file=sys.stderr)
         return 2
-    dest = record(target, args.data, args.time_log)
+    dest = record(target, args.data, args.time_log, args.log)
     h = A.read_csv(target / "history.csv")
     last = ", ".join(f"{k} = {h[k][-1]:.6g}" for k in ("t", "radius", "n_particles") if k in h)
     print(f"adopted {target} ({last}); small data in {dest}")

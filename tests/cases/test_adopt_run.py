@@ -97,7 +97,14 @@ def test_summary_and_table_of_adopted_runs(tmp_path):
               "\tMaximum resident set size (kbytes): {m}\n")
     log.write_text(report.format(u=100.5, w="1:02:03", m=400000)
                    + report.format(u=10.0, w="0:59.50", m=500000))
-    dest = adopt_run.record(target, tmp_path / "data", log)
+    progress = tmp_path / "progress.log"
+    progress.write_text("colony: radius 15 of 15, t = 49.99, 99981 particles, step 5000, "
+                        "dt 0.01, 5000 s\n")
+    dest = adopt_run.record(target, tmp_path / "data", log, progress)
+    assert (dest / "progress.log").read_text() == progress.read_text()
+    work = A.read_csv(dest / "work.csv")  # 1 s per step; 5000 * 100 + 100 * 50 iterations
+    np.testing.assert_allclose(work["wall_s"], [5000, 2000])  # N >= 6e4 from step 3001
+    np.testing.assert_allclose(work["ms_per_iteration"], [5e6 / 505000, 10])
     row = adopt_run.summary(dest)
     assert row["lam"] == 0.1 and row["particles"] == 99981 and row["steps"] == 5000
     assert row["halved"] == 100 and row["max_overlap"] == 5e-4 and row["reports"] == 2
