@@ -188,8 +188,9 @@ def history_segments(run: str | Path, min_particles: float = 0.0,
     per unit time (main, passes and failed attempts; failed counted 0 where the history predates
     the column), the failed share and the largest overlap after a step.  With ``wall``, the
     (step, seconds) of the run's progress lines (:func:`progress_wall`), also the wall seconds
-    of the segment (interpolated linearly in the step between the lines; nan outside them) and
-    its wall milliseconds per iteration.
+    of the segment up to the last progress line (interpolated linearly in the step between the
+    lines: the last steps of a run, after its last line, are left out; nan for a segment that
+    begins after it) and its wall milliseconds per iteration over the same steps.
     """
     run = Path(run)
     h = read_csv(run / "history.csv")
@@ -215,8 +216,12 @@ def history_segments(run: str | Path, min_particles: float = 0.0,
                      "max_overlap": float(h["max_overlap"][m].max())})
         if wall is not None:
             steps, seconds = wall
-            ends = np.interp([h["step"][m][0] - 1, h["step"][m][-1]], steps, seconds,
-                             left=np.nan, right=np.nan)
-            rows[-1]["wall_s"] = float(ends[1] - ends[0])
-            rows[-1]["ms_per_iteration"] = float(1e3 * rows[-1]["wall_s"] / work.sum())
+            logged = h["step"][m] <= steps[-1]
+            seconds_ = math.nan
+            if logged.any():
+                ends = np.interp([h["step"][m][0] - 1, h["step"][m][logged][-1]], steps, seconds)
+                seconds_ = float(ends[1] - ends[0])
+            rows[-1]["wall_s"] = seconds_
+            its = float(work[logged].sum())
+            rows[-1]["ms_per_iteration"] = 1e3 * seconds_ / its if its > 0 else math.nan
     return rows

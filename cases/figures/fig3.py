@@ -56,7 +56,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-fig3-smoke",
     ``finished_only``: engines whose runs are only reused where finished; ``lams``: only
     these lam of the figure (default all; sweep.case_runs).
     """
-    lams, needed = runs_needed(scale, engines)
+    _, needed = runs_needed(scale, engines)
     folders = case_runs("fig3", needed, scale, out, runs, scheduler, n_workers, engines,
                         needs_continuum=True, finished_only=finished_only, lams=lams)
     cfg = scale_config(scale)
@@ -142,6 +142,24 @@ def _seed_bars(ax, ens: Path, key: str) -> None:
               label=f"particles, {_seeds(ens)} seeds: 2.5-97.5 %")
 
 
+def _asymptote(a, lam: np.ndarray) -> None:
+    """The late growth speed (2/lam)^(1/2) over the range of ``lam`` (none when empty)."""
+    if lam.size:
+        lg = np.logspace(np.log10(lam.min()), np.log10(lam.max()), 50)
+        a.plot(lg, np.sqrt(2 / lg), "k--", label=r"$(2/\lambda)^{1/2}$")
+
+
+def _blank_without_lam(axes, lam: np.ndarray) -> None:
+    """Blank the panels against lam when the data have no lam > 0 (``--lams 0``)."""
+    if lam.size:
+        return
+    for a in axes:
+        a.clear()
+        a.set_axis_off()
+        a.text(0.5, 0.5, r"no $\lambda > 0$ in these data", ha="center", va="center",
+               transform=a.transAxes)
+
+
 def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 3 (PNG and PDF in ``out``) from the CSVs in ``data`` only.
 
@@ -217,11 +235,11 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     if ens is not None:
         _seed_bars(a, ens, "slope")
     a.plot(lam, summary["slope_exact"][pos], "k:", label=r"disc $4cR$ at final $R$")
-    lg = np.logspace(np.log10(lam.min()), np.log10(lam.max()), 50)
-    a.plot(lg, np.sqrt(2 / lg), "k--", label=r"$(2/\lambda)^{1/2}$")
+    _asymptote(a, lam)
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel=r"$dR/dt$ at $t_f$",
           title="(D)")
     a.legend(fontsize=8)
+    _blank_without_lam(ax[1], lam)
     plain_log_ticks(fig)
     fig.tight_layout()
     note_missing_engines(fig, {e for e in ENGINES if np.isfinite(summary[f"slope_{e}"]).any()})

@@ -300,6 +300,8 @@ def test_smoke_case(case, smoke_runs, tmp_path):
     lam = case.runs_needed("smoke")[0][-1]
     part = case.compute(scale="smoke", out=tmp_path / "one", runs=smoke_runs, n_workers=2,
                         lams=[lam])
+    table = {"fig2": "snapshots.csv", "crosscheck": "table.csv"}.get(name, "summary.csv")
+    assert set(A.read_csv(part / table)["lam"]) == {lam}  # that lam's runs alone
     merged = merge.merge(name, part, data, tmp_path / "merged")
     assert sorted(p.name for p in merged.iterdir()) == sorted(p.name for p in data.iterdir())
     for p in data.iterdir():
@@ -398,3 +400,12 @@ def test_fig2_draws_with_a_particle_colony_missing(tmp_path):
         f.unlink()
     paths = fig2.plot(data, tmp_path)
     assert paths and all(p.stat().st_size > 1000 for p in paths)
+
+
+def test_fig3_of_lam_0_alone(fake_runs, tmp_path):
+    """A reduction of lam = 0 alone (``colony case fig3 --lams 0``) draws: no scaling panels."""
+    data = fig3.reduce({k: v for k, v in fake_runs.items() if k[1] == 0.0}, tmp_path / "data",
+                       profile_lams=[0.0])
+    np.testing.assert_array_equal(A.read_csv(data / "summary.csv")["lam"], [0.0])
+    paths = fig3.plot(data, tmp_path)
+    assert [p.name for p in paths] == ["fig3.png", "fig3.pdf"]
