@@ -445,11 +445,12 @@ def _order_rows(fam: Family, case: str, x: np.ndarray, errors: dict[str, np.ndar
     fit = slice(0, -1) if fam.reference == "finest" else slice(None)
     for qn in fam.quantities:
         e = np.asarray(errors[qn], float)[fit]
-        if not np.isfinite(e).any() or not np.any(e[np.isfinite(e)] > 0):
+        if not np.isfinite(e).any():
             continue
         s = math.nan if spread is None else spread.get(qn, math.nan)
         fin = e[np.isfinite(e)]
-        same = fin.size > 1 and bool(np.ptp(fin) <= 1e-9 * fin.max())
+        # the setting changes nothing: equal errors, or none at all (runs identical bit for bit)
+        same = (fin.size > 1 and bool(np.ptp(fin) <= 1e-9 * fin.max())) or not np.any(fin > 0)
         rows.append({
             "study": fam.study, "engine": fam.engine, "parameter": fam.parameter,
             "quantity": qn, "case": case, "reference": fam.reference,
