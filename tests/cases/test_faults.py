@@ -298,7 +298,7 @@ def test_closed_two_point_polygon(colony, tmp_path):
 
 def _start(out: Path, *extra):
     return subprocess.Popen(
-        [sys.executable, "-m", "cases.cli", *SMALL_PARTICLES[:3], "--radius", "12",
+        [sys.executable, "-m", "cases.cli", *SMALL_PARTICLES[:3], "--radius", "20",
          "--out", str(out), "--quiet", *extra], stderr=subprocess.PIPE, text=True)
 
 
