@@ -51,9 +51,9 @@ from cases.rundir import (
     is_no_space,
     no_space_message,
     partial_of,
-    prepare_stage,
     publish,
     record,
+    stage,
 )
 from cases.sweep import select_lams
 
@@ -174,12 +174,13 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
     """Run ``body(partial)`` in the checked stage of ``out`` with its provenance, then publish.
 
     Everything that can be checked is checked before the stage is touched (rundir); the stage
-    records the run (run.json) and is renamed to ``out`` only when ``body`` returned.
+    is held by this process alone (rundir.stage), records the run (run.json) and is renamed to
+    ``out`` only when ``body`` returned.
     """
-    partial = prepare_stage(out, overwrite, engine, config, resumable, step_policy)
-    with record(partial, engine, config):
-        result = body(partial)
-    publish(partial)
+    with stage(out, overwrite, engine, config, resumable, step_policy) as partial:
+        with record(partial, engine, config):
+            result = body(partial)
+        publish(partial)
     return result
 
 
@@ -510,6 +511,11 @@ def _terminate(signum, frame):
     raise SystemExit(128 + signum)
 
 
+#: Signals that stop a run like Ctrl-C: checkpoint, status stopped, exit 128 + signal number
+#: (SIGHUP: a closed terminal or ssh session).
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+
+
 def _stage_of(args) -> Path | None:
     """The stage folder of a run command (None for other commands or unusable --out)."""
     out = getattr(args, "out", None)
@@ -524,20 +530,27 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(argv)
     configure_logging(getattr(args, "quiet", False), getattr(args, "verbose", False))
     main_thread = threading.current_thread() is threading.main_thread()
-    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
+    previous = ({sig: signal.signal(sig, _terminate) for sig in STOP_SIGNALS} if main_thread
+                else {})
     try:
         return _report(args)
     finally:
-        if main_thread:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 def _report(args) -> int:
     """Run the command; every failure becomes one line on stderr and an exit status."""
     partial = _stage_of(args)
 
+    def holds(name: str) -> bool:  # False also for a stage whose name cannot exist
+        try:
+            return partial is not None and (partial / name).exists()
+        except OSError:
+            return False
+
     def kept() -> str:
-        if partial is None or not any((partial / name).exists() for name in CHECKPOINTS):
+        if not any(holds(name) for name in CHECKPOINTS):
             return ""
         return f"; the last checkpoint is kept in {partial}, give the same command to resume"
 
@@ -553,10 +566,9 @@ def _report(args) -> int:
         raise
     except (ValueError, RuntimeError, OSError) as err:
         message = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
-        if partial is not None and is_no_space(err, partial if partial.is_dir() else None):
+        if partial is not None and is_no_space(err, partial if holds(".") else None):
             message = no_space_message(partial.parent)
-        if (partial is not None and partial.is_dir() and (partial / RECORD).exists()
-                and not isinstance(err, RunFolderError)):
+        if holds(RECORD) and not isinstance(err, RunFolderError):
             message += f" (output so far kept in {partial})"
         print(f"colony: error: {message}", file=sys.stderr)
         return 2

@@ -23,16 +23,31 @@ Safety rules (:func:`check_target`, :func:`prepare_stage`), checked before any w
   refused with a message saying how to start afresh (``--overwrite`` clears it); a stage that
   holds no checkpoint is cleared, so the published folder holds exactly what one run wrote;
 - the file system must have :data:`MIN_FREE_BYTES` free; a run that fills it ends with
-  "no space left on DIR" (:func:`no_space_message`), its last checkpoint intact.
+  "no space left on DIR" (:func:`no_space_message`), its last checkpoint intact;
+- one writer at a time: a run holds an exclusive ``flock`` on its stage folder ``DIR.partial``
+  (the folder itself, so the lock moves with it when it is published) from before it looks
+  into it until it is published (:func:`stage`); ``colony plot|movie`` hold the lock of the
+  folder they write into (:func:`hold`). A second writer is refused with one line naming the
+  holder's process (``run.json``); the operating system releases the lock when its holder
+  dies, so a lock never goes stale, and ``colony info`` tells a dead run from a live one by it
+  (:func:`is_held`);
+- no links: colony never reads a checkpoint from, writes into or deletes through a symbolic
+  link inside a run folder (:func:`links_inside`), and ``DIR`` itself may not be a link (one
+  line naming it); a folder is cleared without following links (:func:`_clear`);
+- the names ``DIR.partial`` and ``DIR.replaced`` must fit the file system's name limit, and
+  the stage is created before any work, so an unusable ``DIR`` fails before the run, not
+  after it.
 """
 
 from __future__ import annotations
 
 import errno
+import fcntl
 import json
 import os
 import resource
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -61,23 +76,38 @@ class RunFolderError(ValueError):
     """An output folder that may not be used or replaced (one-line message)."""
 
 
+class FolderInUse(RunFolderError):
+    """A run folder another process holds (:func:`hold`)."""
+
+
+#: Longest suffix colony appends to ``DIR`` (``DIR.replaced``; ``DIR.partial`` is shorter).
+LONGEST_SUFFIX = ".replaced"
+
+
 def _written_by_us(name: str) -> bool:
     return name in OUTPUT_NAMES or name.endswith(TEMPORARY_SUFFIXES)
 
 
 def read_record(folder: Path) -> dict | None:
-    """The ``run.json`` of ``folder``, or None when it has none (or it is unreadable)."""
+    """The ``run.json`` of ``folder``, or None when it has none (or it is not a JSON object)."""
+    record = _load_record(folder)
+    return record if isinstance(record, dict) else None
+
+
+def _load_record(folder: Path):
+    """The parsed ``run.json`` of ``folder`` whatever its shape; None when unreadable."""
     try:
         return json.loads((Path(folder) / RECORD).read_text())
     except (OSError, ValueError):
         return None
 
 
-def foreign_entries(folder: Path) -> list[str]:
+def foreign_entries(folder: Path, follow: bool = True) -> list[str]:
     """Entries of ``folder`` this tool did not write (empty: the folder is recognisably ours).
 
     Ours: ``run.json`` lists every entry (published runs), or every entry has a name this
     tool writes and ``run.json`` or ``config.json`` is present (stages, older runs).
+    ``follow=False``: a link named ``fields`` is not looked into.
     """
     folder = Path(folder)
     names = sorted(p.name for p in folder.iterdir())
@@ -89,7 +119,7 @@ def foreign_entries(folder: Path) -> list[str]:
         return names
     foreign = [n for n in names if not _written_by_us(n)]
     fields = folder / "fields"
-    if fields.is_dir():
+    if fields.is_dir() and (follow or not fields.is_symlink()):
         foreign += [f"fields/{p.name}" for p in sorted(fields.iterdir()) if p.suffix != ".vtu"]
     return foreign
 
@@ -115,6 +145,11 @@ def check_target(out: Path, overwrite: bool) -> Path:
     """
     target = Path(os.path.abspath(out))
     target = target.parent.resolve() / target.name if target.name else target.resolve()
+    if target.is_symlink():
+        raise RunFolderError(
+            f"refusing --out {out}: it is a symbolic link (to {os.readlink(target)}); colony "
+            "never writes or deletes through links: give the folder itself")
+    _check_name_length(out, target)
     why = _protected(target.resolve() if target.exists() else target)
     if why:
         raise RunFolderError(f"refusing --out {out}: {why}; give a new folder for the run")
@@ -134,6 +169,44 @@ def check_target(out: Path, overwrite: bool) -> Path:
     return target
 
 
+def _check_name_length(out, target: Path) -> None:
+    """Refuse a ``DIR`` whose ``DIR.replaced`` would not fit the file system's name limit."""
+    parent = _existing(target.parent)
+    try:
+        limit = os.pathconf(parent, "PC_NAME_MAX")
+    except (OSError, ValueError):
+        limit = 255
+    size = len(os.fsencode(target.name + LONGEST_SUFFIX))
+    if size > limit:
+        raise RunFolderError(
+            f"--out name too long: {size - len(LONGEST_SUFFIX)} bytes, at most "
+            f"{limit - len(LONGEST_SUFFIX)} (the file system allows {limit}, colony adds "
+            f"{LONGEST_SUFFIX!r}); give a shorter name")
+
+
+def links_inside(folder: Path) -> list[str]:
+    """Symbolic links in ``folder`` and its sub-folders (relative names), not followed."""
+    found = []
+    with os.scandir(folder) as entries:
+        for entry in sorted(entries, key=lambda e: e.name):
+            if entry.is_symlink():
+                found.append(entry.name)
+            elif entry.is_dir(follow_symlinks=False):
+                found += [f"{entry.name}/{name}" for name in links_inside(Path(entry.path))]
+    return found
+
+
+def check_no_links(folder: Path) -> None:
+    """Refuse (one line naming the entry) a run folder that holds a symbolic link."""
+    links = links_inside(folder)
+    if links:
+        more = f" (and {len(links) - 1} more)" if len(links) > 1 else ""
+        raise RunFolderError(
+            f"{Path(folder) / links[0]} is a symbolic link{more}; colony never reads, writes or "
+            "deletes through links in a run folder: remove it, or give --overwrite to start "
+            "afresh (removes the links, not what they point to)")
+
+
 def _names(names: list[str]) -> str:
     shown = ", ".join(names[:3])
     return shown + (f" and {len(names) - 3} more" if len(names) > 3 else "")
@@ -145,14 +218,22 @@ def config_differences(saved: dict, config: dict, ignore=()) -> list[str]:
     return sorted(k for k in keys if saved.get(k) != config.get(k))
 
 
-def _clear(folder: Path) -> None:
-    """Remove a folder whose every entry this tool wrote (checked by the caller)."""
+def _clear(folder: Path, keep_folder: bool = False) -> None:
+    """Remove a folder whose every entry this tool wrote (checked by the caller).
+
+    Links are removed, never followed (a link as ``folder`` is removed itself);
+    ``keep_folder``: empty it but keep the folder (a stage whose lock is held).
+    """
+    if folder.is_symlink():
+        folder.unlink()
+        return
     for entry in folder.iterdir():
         if entry.is_dir() and not entry.is_symlink():
             shutil.rmtree(entry)
         else:
             entry.unlink()
-    folder.rmdir()
+    if not keep_folder:
+        folder.rmdir()
 
 
 def partial_of(out: Path) -> Path:
@@ -160,47 +241,123 @@ def partial_of(out: Path) -> Path:
     return out.with_name(out.name + ".partial")
 
 
-def prepare_stage(out: Path, overwrite: bool, engine: str, config, resumable=(),
-                  step_policy=()) -> Path:
-    """Check ``out`` and return its staging folder ``out.partial``, created or reused.
+@contextmanager
+def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_policy=()):
+    """Check ``out``, then hold its staging folder ``out.partial`` (created or reused).
 
-    A stage left by a stopped run is reused when it holds a checkpoint of the same engine and
-    configuration (``resumable``: names of checkpoint files; ``step_policy``: fields that may
-    differ, the engine checks them); a stage of another engine is refused, and one of another
-    configuration when it holds a checkpoint, unless ``overwrite``, which clears it; any other
-    stage of this engine without a checkpoint is cleared. Nothing is removed that this tool did
-    not write.
+    Yields the stage, locked (:func:`hold`) from before anything in it is read until the body
+    ends (publish inside the body). A stage left by a stopped run is reused when it holds a
+    checkpoint of the same engine and configuration (``resumable``: names of checkpoint files;
+    ``step_policy``: fields that may differ, the engine checks them); a stage of another engine
+    is refused, and one of another configuration when it holds a checkpoint, unless
+    ``overwrite``, which clears it; any other stage of this engine without a checkpoint is
+    cleared. A stage held by another process, or holding links or entries this tool did not
+    write, is refused. Nothing is removed that this tool did not write; a stage created here
+    and refused is removed again.
     """
     out = check_target(out, overwrite)
     partial = partial_of(out)
+    if partial.is_symlink():
+        raise RunFolderError(f"{partial} is a symbolic link; colony never writes through links: "
+                             "remove it or choose another --out")
     if partial.exists() and not partial.is_dir():
         raise RunFolderError(f"{partial} is a file; move it away or choose another --out")
-    if partial.exists():
-        foreign = foreign_entries(partial)
-        if foreign:
+    created = not partial.exists()
+    if created:
+        check_free_space(_existing(partial))
+        try:
+            partial.mkdir(parents=True)
+        except FileExistsError:  # another run created it a moment ago: its lock decides
+            created = False
+        except OSError as err:
+            raise RunFolderError(f"cannot create {partial}: {err.strerror}") from None
+    try:
+        with hold(partial):
+            _check_stage(partial, overwrite, engine, config, resumable, step_policy)
+            check_free_space(partial)
+            created = False  # from here on the stage is this run's, whatever happens
+            yield partial
+    finally:
+        if created and partial.is_dir() and not any(partial.iterdir()):
+            partial.rmdir()
+
+
+def _check_stage(partial: Path, overwrite: bool, engine: str, config, resumable,
+                 step_policy) -> None:
+    """Check a held stage (:func:`stage`) and clear it unless it is this run's to resume."""
+    if not overwrite:
+        check_no_links(partial)
+    foreign = foreign_entries(partial, follow=False)
+    if foreign:
+        raise RunFolderError(
+            f"{partial} holds {_names(foreign)}, which colony did not write; move them away or "
+            "choose another --out")
+    saved_engine, saved = _stage_identity(partial)
+    checkpoint = any((partial / name).is_file() for name in resumable)
+    if saved_engine is not None and not overwrite:
+        if saved_engine != engine:
             raise RunFolderError(
-                f"{partial} holds {_names(foreign)}, which colony did not write; move them "
-                "away or choose another --out")
-        saved_engine, saved = _stage_identity(partial)
-        checkpoint = any((partial / name).exists() for name in resumable)
-        if saved_engine is not None and not overwrite:
-            if saved_engine != engine:
-                raise RunFolderError(
-                    f"{partial} holds a stopped {saved_engine} run; give its command to resume "
-                    "it, or --overwrite to start this run afresh (removes it)")
-            diff = config_differences(saved, asdict(config), ignore=step_policy)
-            if diff and checkpoint:
-                hint = (" or --change-step-policy to resume it with the new step"
-                        if engine == "particles" and set(diff) <= {"dt", "step_control"} else "")
-                raise RunFolderError(
-                    f"{partial} holds a stopped run whose configuration differs in "
-                    f"{', '.join(diff)}; give its command to resume it{hint}, or --overwrite "
-                    "to start afresh (removes it)")
-        if overwrite or not checkpoint or saved_engine is None:
-            _clear(partial)
-    check_free_space(_existing(partial))
-    partial.mkdir(parents=True, exist_ok=True)
-    return partial
+                f"{partial} holds a stopped {saved_engine} run; give its command to resume it, "
+                "or --overwrite to start this run afresh (removes it)")
+        diff = config_differences(saved, asdict(config), ignore=step_policy)
+        if diff and checkpoint:
+            hint = (" or --change-step-policy to resume it with the new step"
+                    if engine == "particles" and set(diff) <= {"dt", "step_control"} else "")
+            raise RunFolderError(
+                f"{partial} holds a stopped run whose configuration differs in "
+                f"{', '.join(diff)}; give its command to resume it{hint}, or --overwrite to "
+                "start afresh (removes it)")
+    if overwrite or not checkpoint or saved_engine is None:
+        _clear(partial, keep_folder=True)
+
+
+@contextmanager
+def hold(folder: Path, wait: bool = False):
+    """Hold the exclusive lock of the run folder ``folder`` while the body runs.
+
+    The lock is a ``flock`` on the folder itself (opened without following a link), so it
+    follows the folder when it is renamed and ends with its holder, however that ends.
+    Raises :class:`FolderInUse` (one line naming the holder, :func:`holder`) when another
+    process (or another open of this one) holds it, unless ``wait``.
+    """
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError as err:
+        why = "a symbolic link" if err.errno == errno.ELOOP else err.strerror
+        raise RunFolderError(f"cannot use the run folder {folder}: {why}") from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise FolderInUse(f"{folder} is in use by {holder(folder)}; wait for it to end or "
+                              "stop it (a stopped run resumes with its command)") from None
+        yield folder
+    finally:
+        os.close(fd)
+
+
+def is_held(folder: Path) -> bool:
+    """Whether a process holds the lock of ``folder`` (:func:`hold`); False if unreadable."""
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    except OSError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_SH | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)
+    return False
+
+
+def holder(folder: Path) -> str:
+    """Who holds ``folder``: "process PID since START" from its run.json, as far as known."""
+    sessions = (read_record(folder) or {}).get("sessions")
+    last = sessions[-1] if isinstance(sessions, list) and sessions else None
+    if isinstance(last, dict) and last.get("pid") and last.get("status") == "running":
+        return f"process {last['pid']} since {last.get('start')}"
+    return "another process"
 
 
 def _existing(path: Path) -> Path:
@@ -233,23 +390,28 @@ def publish(partial: Path) -> Path:
     """Move the finished stage ``DIR.partial`` to ``DIR``, which it returns.
 
     A ``DIR`` there is checked again (it may have changed during the run: :func:`check_target`
-    with overwrite) and removed only afterwards. ``run.json`` gets the list of published entries
-    (what a later ``--overwrite`` may remove).
+    with overwrite), its lock awaited (a ``colony plot`` writing into it) and it is removed
+    only afterwards. ``run.json`` gets the list of published entries (what a later
+    ``--overwrite`` may remove).
     """
     out = partial.with_name(partial.name.removesuffix(".partial"))
-    if out.exists():  # still only what colony wrote, right before it is replaced
+    if out.exists() or out.is_symlink():  # still only what colony wrote, right before it goes
         check_target(out, overwrite=True)
     record = read_record(partial) or {}
     record["files"] = sorted(p.name for p in partial.iterdir() if p.name != RECORD)
     write_record(partial, record)
-    old = None
-    if out.exists():
-        old = out.with_name(out.name + ".replaced")
-        if old.exists():
+    if not out.exists():
+        partial.rename(out)
+        return out
+    old = out.with_name(out.name + LONGEST_SUFFIX)
+    with hold(out, wait=True):
+        if old.exists() or old.is_symlink():
+            if foreign_entries(old, follow=False):
+                raise RunFolderError(f"{old} holds entries colony did not write; move it away "
+                                     f"(the finished run is kept in {partial})")
             _clear(old)
         out.rename(old)
-    partial.rename(out)
-    if old is not None:
+        partial.rename(out)
         _clear(old)
     return out
 
@@ -343,7 +505,7 @@ def record(folder: Path, engine: str, config, argv: list[str] | None = None):
         "error": None, "sessions": previous.get("sessions", []),
     }
     session = {"command": list(sys.argv if argv is None else argv), "start": _now(),
-               "status": "running"}
+               "pid": os.getpid(), "status": "running"}
     run["sessions"] = run["sessions"] + [session]
     write_record(folder, run)
     t0, cpu0 = time.monotonic(), _cpu_seconds()
@@ -362,8 +524,7 @@ def record(folder: Path, engine: str, config, argv: list[str] | None = None):
     try:
         yield run
     except (KeyboardInterrupt, SystemExit) as err:
-        signal_name = "SIGINT" if isinstance(err, KeyboardInterrupt) else "SIGTERM"
-        close("stopped", f"stopped by {signal_name}")
+        close("stopped", f"stopped by {_signal_name(err)}")
         raise
     except BaseException as err:
         close("failed", (str(err).strip().splitlines() or [type(err).__name__])[0])
@@ -371,20 +532,43 @@ def record(folder: Path, engine: str, config, argv: list[str] | None = None):
     close("finished", None)
 
 
+def _signal_name(err: BaseException) -> str:
+    """The signal behind a KeyboardInterrupt (SIGINT) or ``SystemExit(128 + signum)``."""
+    if isinstance(err, KeyboardInterrupt):
+        return "SIGINT"
+    code = getattr(err, "code", None)
+    if isinstance(code, int) and code > 128:
+        try:
+            return signal.Signals(code - 128).name
+        except ValueError:
+            pass
+    return "SIGTERM"
+
+
 def describe(folder: Path) -> str:
-    """Human-readable summary of a run folder's ``run.json`` (``colony info DIR``)."""
+    """Human-readable summary of a run folder's ``run.json`` (``colony info DIR``).
+
+    A run whose record says ``running`` but whose folder no process holds (:func:`is_held`)
+    ended without a word (killed, out of memory): it is reported as such.
+    """
     folder = Path(folder)
     if not folder.is_dir() and partial_of(folder).is_dir():
         folder = partial_of(folder)
     if not folder.is_dir():
         raise RunFolderError(f"no run folder {folder}")
-    run = read_record(folder)
+    run = _load_record(folder)
     if run is None:
-        raise RunFolderError(f"{folder} has no {RECORD}: not a run folder of colony")
+        raise RunFolderError(f"{folder} has no readable {RECORD}: not a run folder of colony")
+    shape = _record_shape(run)
+    if shape:
+        raise RunFolderError(f"{folder / RECORD} is damaged: {shape}")
+    status = f"{run.get('status')}" + (f": {run['error']}" if run.get("error") else "")
+    if run.get("status") == "running" and not is_held(folder):
+        status = ("died: its process ended without a word (killed, out of memory); give its "
+                  "command to resume it from the last checkpoint")
     lines = [f"run folder      {folder}",
              f"engine          {run.get('engine')}",
-             f"status          {run.get('status')}" + (f": {run['error']}" if run.get("error")
-                                                       else ""),
+             f"status          {status}",
              f"package         colony-mechanics {run.get('package_version')}, git "
              f"{run.get('git_commit') or 'unknown'}"]
     config = run.get("config", {})
@@ -394,11 +578,25 @@ def describe(folder: Path) -> str:
             f"session {i}       {s.get('start')} .. {s.get('end', '-')}, {s.get('status')}, wall "
             f"{s.get('wall_seconds', '-')} s, cpu {s.get('cpu_seconds', '-')} s, peak memory "
             f"{s.get('peak_memory_mb', '-')} MB")
-        lines.append(f"  command       {' '.join(s.get('command', []))}")
+        lines.append(f"  command       {' '.join(map(str, s.get('command', [])))}")
     last = _last_history_row(folder)
     if last:
         lines.append("last step       " + ", ".join(f"{k}={v}" for k, v in last.items()))
     return "\n".join(lines)
+
+
+def _record_shape(run) -> str | None:
+    """What is wrong with the shape of a ``run.json`` (None: an object as :func:`record`)."""
+    if not isinstance(run, dict):
+        return f"expected a JSON object, found {type(run).__name__}"
+    if not isinstance(run.get("config", {}), dict):
+        return "'config' is not an object"
+    sessions = run.get("sessions", [])
+    if not isinstance(sessions, list) or not all(isinstance(s, dict) for s in sessions):
+        return "'sessions' is not a list of objects"
+    if not all(isinstance(s.get("command", []), list) for s in sessions):
+        return "a session's 'command' is not a list"
+    return None
 
 
 def _last_history_row(folder: Path) -> dict:
