@@ -43,24 +43,9 @@ import threading
 import tomllib
 from pathlib import Path
 
-from cases.analysis import continuum_profile, particle_profile, write_csv
-from cases.rundir import (
-    RECORD,
-    RunFolderError,
-    describe,
-    is_no_space,
-    no_space_message,
-    partial_of,
-    publish,
-    record,
-    stage,
-)
+from cases.rundir import RECORD, RunFolderError, describe, is_no_space, no_space_message, partial_of
+from cases.runs import CHECKPOINTS, run_continuum, run_particles
 from cases.sweep import select_lams
-
-#: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
-CONTINUUM_EDGE_WIDTH = 0.05
-#: Particle profiles: the outermost annulus about one particle diameter wide.
-PARTICLE_EDGE_WIDTH = 0.5
 
 #: ``colony case NAME``: the module of each case (``compute``, ``plot``; docs/DESIGN.md).
 CASES = {
@@ -167,91 +152,6 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
 
 
 # --------------------------------------------------------------------------- runs
-
-
-def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable=(),
-                step_policy=()):
-    """Run ``body(partial)`` in the checked stage of ``out`` with its provenance, then publish.
-
-    Everything that can be checked is checked before the stage is touched (rundir); the stage
-    is held by this process alone (rundir.stage), records the run (run.json) and is renamed to
-    ``out`` only when ``body`` returned.
-    """
-    with stage(out, overwrite, engine, config, resumable, step_policy) as partial:
-        with record(partial, engine, config):
-            result = body(partial)
-        publish(partial)
-    return result
-
-
-def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True,
-                  start: tuple | None = None):
-    """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG.
-
-    ``start``: (state, record) of ``cases.handoff.continuum_start``, the state at t = 0 of a
-    particle colony handed over (handoff.json and outline.csv written first; the picture then
-    shows the transported mean length).
-    """
-    from cases.figures.draw import continuum_picture
-    from cases.handoff import check_resume, write_handoff
-    from continuum.budget import check_memory
-    from continuum.output import write_rings
-    from continuum.simulation import run
-
-    def body(partial):
-        if start is not None:
-            write_handoff(partial, start[1])
-        state = run(config, out=partial, progress=progress,
-                    initial=None if start is None else start[0]).state
-        write_csv(partial / "profile.csv", continuum_profile(
-            state.points, state.triangles, state.fields, edge_width=CONTINUUM_EDGE_WIDTH))
-        write_rings(partial, state.points, state.triangles, state.fields["G"])
-        continuum_picture(state, partial / "mean_length", config.lam,
-                          transported=start is not None)
-        _remove_checkpoints(partial)
-        return state
-
-    check_memory(config)  # before the stage is touched (the engine checks again on a fresh start)
-    if not overwrite:  # a stopped run resumes from its own start only
-        check_resume(partial_of(Path(os.path.abspath(out))), None if start is None else start[1])
-    return _staged_run("continuum", config, Path(out), overwrite, body,
-                       resumable=CHECKPOINTS)
-
-
-def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
-                  change_step_policy: bool = False):
-    """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
-    from cases.figures.draw import particles_picture
-    from cases.shapes import initial_state
-    from particles import run
-    from particles.config import STEP_POLICY_FIELDS
-    from particles.simulation import check_initial
-
-    start = initial_state(config)  # the particles of config.shape (None: init or one cell)
-
-    def body(partial):
-        colony = run(config, out=partial, progress=progress,
-                     change_step_policy=change_step_policy, state=start).state
-        profile = particle_profile(colony.x, colony.y, colony.theta, colony.length, colony.stress,
-                                   edge_width=PARTICLE_EDGE_WIDTH,
-                                   radius=colony.enclosing_radius())
-        write_csv(partial / "profile.csv", profile)
-        particles_picture(colony, partial / "colony", config.lam)
-        _remove_checkpoints(partial)  # the run is complete: nothing to resume
-        return colony
-
-    check_initial(config, state=start)
-    return _staged_run("particles", config, Path(out), overwrite, body, resumable=CHECKPOINTS,
-                       step_policy=STEP_POLICY_FIELDS if change_step_policy else ())
-
-
-#: Checkpoint files of either engine in a stage (a stopped run resumes from them).
-CHECKPOINTS = ("checkpoint.npz",)
-
-
-def _remove_checkpoints(partial: Path) -> None:
-    for checkpoint in partial.glob("checkpoint*"):
-        checkpoint.unlink()
 
 
 # --------------------------------------------------------------------------- parser

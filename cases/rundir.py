@@ -76,7 +76,7 @@ class RunFolderError(ValueError):
     """An output folder that may not be used or replaced (one-line message)."""
 
 
-class FolderInUse(RunFolderError):
+class FolderInUseError(RunFolderError):
     """A run folder another process holds (:func:`hold`)."""
 
 
@@ -317,7 +317,7 @@ def hold(folder: Path, wait: bool = False):
 
     The lock is a ``flock`` on the folder itself (opened without following a link), so it
     follows the folder when it is renamed and ends with its holder, however that ends.
-    Raises :class:`FolderInUse` (one line naming the holder, :func:`holder`) when another
+    Raises :class:`FolderInUseError` (one line naming the holder, :func:`holder`) when another
     process (or another open of this one) holds it, unless ``wait``.
     """
     try:
@@ -329,7 +329,7 @@ def hold(folder: Path, wait: bool = False):
         try:
             fcntl.flock(fd, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError:
-            raise FolderInUse(f"{folder} is in use by {holder(folder)}; wait for it to end or "
+            raise FolderInUseError(f"{folder} is in use by {holder(folder)}; wait for it to end or "
                               "stop it (a stopped run resumes with its command)") from None
         yield folder
     finally:

@@ -37,6 +37,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
@@ -84,8 +85,18 @@ def run_name(params: Mapping[str, Any]) -> str:
 
 
 def is_done(folder: Path) -> bool:
-    """True when ``folder`` holds a finished run (its ``DONE`` marker)."""
-    return (Path(folder) / DONE).is_file()
+    """True when ``folder`` holds a finished run.
+
+    A published engine run (its ``run.json`` says finished, ``cases.rundir``) or a run of
+    another ``run_fn`` (its ``DONE`` marker).
+    """
+    from cases.rundir import read_record
+
+    folder = Path(folder)
+    if (folder / DONE).is_file():
+        return True
+    record = read_record(folder) if folder.is_dir() and not folder.is_symlink() else None
+    return record is not None and record.get("status") == "finished"
 
 
 def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path) -> Path:
@@ -93,10 +104,14 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path) -> 
 
     ``params.json`` is written next to the results; ``DONE`` marks success. A ``.partial``
     stage left by a stopped run is reused as it is (``run_fn`` resumes from what it holds).
-    Returns ``folder``.
+    A ``run_fn`` with the attribute ``stages_itself`` (:func:`run_engine`) is given ``folder``
+    itself and stages, records and publishes it (``cases.runs``). Returns ``folder``.
     """
     folder = Path(folder)
     if is_done(folder):
+        return folder
+    if getattr(run_fn, "stages_itself", False):  # the engine runs: cases.runs
+        run_fn(dict(params), folder)
         return folder
     stage = folder.with_name(folder.name + ".partial")
     stage.mkdir(parents=True, exist_ok=True)  # a left-over stage keeps its checkpoint
@@ -153,7 +168,7 @@ def sweep(
 
     if n_workers < 1:
         raise ValueError(f"n_workers must be >= 1, got {n_workers}")
-    root = Path(root)
+    root = Path(os.path.abspath(root))  # resolved here: workers have other working folders
     names = [run_name(p) for p in params]
     if len(set(names)) != len(names):
         raise ValueError("parameter sets must have distinct names")
@@ -206,29 +221,32 @@ def run_engine(params: dict, folder: Path) -> None:
     """Sweep ``run_fn`` for either engine: ``params = {"engine": ..., "lam": ..., **config}``.
 
     The remaining keys are the fields of ``continuum.Config`` / ``particles.Config``
-    (docs/DESIGN.md); the engine writes its output contract into ``folder``. A particle run
-    with a ``shape`` starts from the particles of cases.shapes.initial_state. A sweep's runs
-    share the cores, so a particle run takes one solver thread unless ``params`` say otherwise
-    (``threads`` changes no result).
+    (docs/DESIGN.md). The run is the command line's (``cases.runs``): ``folder`` is staged,
+    recorded in ``run.json``, resumed from its checkpoint after a stop and published with its
+    profile, rings and picture, as ``colony continuum|particles --out folder`` makes it. A
+    particle run with a ``shape`` starts from the particles of cases.shapes.initial_state. A
+    sweep's runs share the cores, so a particle run takes one solver thread unless ``params``
+    say otherwise (``threads`` changes no result).
     """
+    from cases import runs
+
     params = dict(params)
     engine = params.pop("engine", None)
     if engine == "continuum":
-        from continuum import Config, run
+        from continuum import Config
     elif engine == "particles":
-        from particles import Config, run
+        from particles import Config
         params.setdefault("threads", 1)
     else:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
     config = Config(**params)
     if hasattr(config, "validate"):
         config.validate()
-    start = {}
-    if engine == "particles" and config.shape is not None:
-        from cases.shapes import initial_state
+    run = runs.run_continuum if engine == "continuum" else runs.run_particles
+    run(config, Path(folder), progress=False)
 
-        start["state"] = initial_state(config)
-    run(config, out=Path(folder), progress=False, **start)
+
+run_engine.stages_itself = True
 
 
 #: Run sizes of the figure cases. Every case draws its runs from the same table, so cases given

@@ -59,8 +59,10 @@ def _launch(out: Path, radius="8"):
 
 
 def test_two_runs_on_one_folder_one_is_refused(tmp_path):
-    """Two identical runs started within milliseconds, three times: exactly one runs, and what
-    it publishes equals a run made alone, byte for byte."""
+    """Two identical runs started within milliseconds, three times.
+
+    Exactly one runs, and what it publishes equals a run made alone, byte for byte.
+    """
     solo = tmp_path / "solo"
     proc = _launch(solo)
     assert proc.wait(timeout=300) == 0, proc.stderr.read()
@@ -84,7 +86,7 @@ def test_a_held_folder_is_refused_and_named(tmp_path):
                                                 "status": "running"}]})
     with rundir.hold(folder):
         assert rundir.is_held(folder)
-        with pytest.raises(rundir.FolderInUse, match="in use by process 4242 since T0"):
+        with pytest.raises(rundir.FolderInUseError, match="in use by process 4242 since T0"):
             with rundir.hold(folder):
                 pass
     assert not rundir.is_held(folder)

@@ -115,3 +115,69 @@ def test_paper_scale_particles_take_the_default_step_at_every_lam():
         assert _engine_params("particles", lam, cfg) == {
             "engine": "particles", "lam": lam, "radius": 150.0, "output_every": 50}
     assert _engine_params("continuum", 1e-3, cfg)["output_every"] == 0.5
+
+
+@pytest.fixture
+def scheduler(tmp_path_factory):
+    """A real ``dask scheduler`` and two ``dask worker`` processes (not a LocalCluster).
+
+    Started from the command line in a folder of their own, as on a cluster; yields the
+    address and that folder.
+    """
+    import shutil
+    import subprocess
+    import sys
+    import time
+
+    elsewhere = tmp_path_factory.mktemp("workers-cwd")
+    info = elsewhere / "scheduler.json"
+    bindir = Path(sys.executable).parent
+    dask = shutil.which("dask", path=str(bindir)) or "dask"
+    procs = [subprocess.Popen([dask, "scheduler", "--host", "127.0.0.1", "--port", "0",
+                               "--no-dashboard", "--scheduler-file", str(info)], cwd=elsewhere,
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    try:
+        deadline = time.monotonic() + 60
+        while not info.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        address = json.loads(info.read_text())["address"]
+        procs += [subprocess.Popen([dask, "worker", address, "--nworkers", "1", "--nthreads",
+                                    "1", "--no-dashboard"], cwd=elsewhere,
+                                   stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                  for _ in range(2)]
+        from dask.distributed import Client
+
+        with Client(address) as client:
+            client.wait_for_workers(2, timeout=60)
+        yield address, elsewhere
+    finally:
+        for proc in reversed(procs):
+            proc.terminate()
+        for proc in procs:
+            proc.wait(timeout=30)
+
+
+def test_engine_sweep_on_a_real_scheduler_with_a_relative_root(scheduler, tmp_path,
+                                                                monkeypatch):
+    """Runs of both engines on workers that work in another folder.
+
+    The relative root is resolved on the client, and every folder is the command line's
+    (run.json finished, profile, picture), so ``colony info`` reads it.
+    """
+    from cases import cli, rundir
+    from cases.sweep import run_engine
+
+    address, elsewhere = scheduler
+    monkeypatch.chdir(tmp_path)
+    params = [{"engine": "continuum", "lam": 1e-2, "radius": 1.2, "n_nodes": 200},
+              {"engine": "particles", "lam": 1e-2, "radius": 2.0}]
+    folders = sweep(run_engine, params, "runs", scheduler=address, progress=False)
+    assert [f.parent for f in folders] == [tmp_path / "runs"] * 2
+    assert not (elsewhere / "runs").exists()
+    for folder, picture in zip(folders, ("mean_length.png", "colony.png"), strict=True):
+        record = rundir.read_record(folder)
+        assert record["status"] == "finished" and record["sessions"][0]["pid"] != os.getpid()
+        assert set(record["files"]) >= {"history.csv", "profile.csv", picture, "config.json"}
+        assert (folder / "profile.csv").read_text().count("\n") > 2
+        assert cli.main(["info", str(folder)]) == 0
+    assert "rings.csv" in rundir.read_record(folders[0])["files"]
