@@ -25,7 +25,17 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from .checkpoint import NO_FRAMES, StopRequest, checkpoint_config, load_checkpoint, save_checkpoint
+from .checkpoint import (
+    HISTORY,
+    NO_FRAMES,
+    StopRequest,
+    checkpoint_config,
+    checkpoint_files,
+    history_record,
+    load_checkpoint,
+    resume_checkpoint,
+    save_checkpoint,
+)
 from .config import STEP_POLICY_FIELDS, Config
 from .output import RunOutput, write_config, write_history
 from .packings import from_csv, single_cell
@@ -179,7 +189,8 @@ class Simulation:
     out : path, optional
         Existing run folder.  When given, the simulation resumes from ``out/checkpoint.npz``
         if there is one (same configuration up to ``EXECUTION_FIELDS``, and
-        ``STEP_POLICY_FIELDS`` with ``change_step_policy``), else writes config.json and the
+        ``STEP_POLICY_FIELDS`` with ``change_step_policy``; ``checkpoint.prev.npz`` when that
+        one is damaged: checkpoint.resume_checkpoint), else writes config.json and the
         trajectory's first frame; :meth:`advance` then writes a frame every
         ``config.output_every`` steps and :meth:`save` defaults to ``out/checkpoint.npz``.
     state : ParticleState, optional
@@ -211,16 +222,14 @@ class Simulation:
         self._frames = list(NO_FRAMES)
         self._detections = Detections()  # the last step's final contacts, for the next step
         self.output = None
-        checkpoint = None
         if out is not None:
             out = Path(out)
             if not out.is_dir():
                 raise ValueError(f"output folder does not exist: {out}")
             self.output = RunOutput(out, config.output_every)
-            checkpoint = self.output.checkpoint
-        if checkpoint is not None and checkpoint.exists():
-            self.state, self.history, frames = load_checkpoint(checkpoint, config,
-                                                               change_step_policy)
+        if out is not None and checkpoint_files(out):
+            checkpoint, (self.state, self.history, frames) = resume_checkpoint(
+                out, config, change_step_policy)
             self.output.resume(frames)
             log.info("resuming from %s at t = %.6g (step %d, %d particles)", checkpoint,
                      self.state.t, self.state.step, self.state.n)
@@ -253,14 +262,23 @@ class Simulation:
         return sim
 
     def save(self, path: str | Path | None = None) -> Path:
-        """Write a checkpoint (checkpoint.py; atomic) to ``path``, default out/checkpoint.npz."""
+        """Write a checkpoint (checkpoint.py; atomic) to ``path``, default out/checkpoint.npz.
+
+        The run folder's checkpoint: history.csv first, which the checkpoint refers to (its
+        size stays that of the colony), and the checkpoint it replaces kept as
+        checkpoint.prev.npz.  Elsewhere the checkpoint holds the history rows.
+        """
         if path is None:
             if self.output is None:
                 raise ValueError("give a path: this simulation has no output folder")
             path = self.output.checkpoint
         path = Path(path)
         frames = self._frames if self.output is None else self.output.frames
-        save_checkpoint(path, self.config, self.state, self.history, frames)
+        history = self.history
+        if self.output is not None and path == self.output.checkpoint:
+            write_history(self.output.out, self.history)
+            history = history_record(self.output.out / HISTORY, len(self.history))
+        save_checkpoint(path, self.config, self.state, history, frames)
         return path
 
     def done(self, radius: float | None = None, time: float | None = None) -> bool:
@@ -406,7 +424,7 @@ class _ProgressBar:
 
 
 class _Checkpointer:
-    """A checkpoint (and history.csv) every ``Config.checkpoint_seconds`` of wall time."""
+    """A checkpoint (history.csv first) every ``Config.checkpoint_seconds`` of wall time."""
 
     def __init__(self, sim: Simulation):
         self.sim = sim
@@ -417,7 +435,6 @@ class _Checkpointer:
         if now - self.last >= self.sim.config.checkpoint_seconds:
             self.sim.output.ensure_space(self.sim.state)
             self.sim.save()
-            write_history(self.sim.output.out, self.sim.history)
             self.last = now
 
 
