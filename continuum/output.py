@@ -28,13 +28,25 @@ picks a frame; ``pyvista.read('fields.pvd')`` returns the FIRST time only (teste
 tests/continuum/test_output.py). :func:`read_frame_time` reads ``TimeValue`` back.
 
 Every writer refuses non-finite values (``ValueError``): NaN fields are never written.
+
+Frame names are made from the frame's index (:func:`frame_name`), never read back from a file;
+frames, fields.pvd and history.csv are written to a temporary file and renamed (os.replace), so
+none is ever half written and none is written through a symbolic link; ``fields`` itself may
+not be a link (:func:`fields_folder`). A resumed run removes the frames after its checkpoint
+(:func:`remove_frames_from`: only names this module makes, never through a link). Like the
+particle engine, a run keeps RESERVE_BYTES free on its file system (:func:`ensure_space`).
 """
 
 from __future__ import annotations
 
 import csv
 import dataclasses
+import errno
+import io
 import json
+import os
+import re
+import shutil
 from pathlib import Path
 
 import meshio
@@ -43,7 +55,17 @@ import numpy as np
 from continuum.growth import ring_index
 
 __all__ = ["write_config", "write_history", "write_boundary", "write_rings", "FieldWriter",
-           "ring_index", "read_frame_time"]
+           "ring_index", "read_frame_time", "frame_name", "fields_folder", "remove_frames_from",
+           "ensure_space", "RESERVE_BYTES"]
+
+#: Free space a run keeps on its output's file system (as the particle engine's): it stops with
+#: ENOSPC before a write could fill it, its last checkpoint intact.
+RESERVE_BYTES = 4 * 2**20
+
+#: Bytes of a VTU frame per mesh node, a bound (coordinates, connectivity, 12 fields; base64).
+FRAME_BYTES_PER_NODE = 400
+
+_FRAME = re.compile(r"frame_([0-9]{5,})\.vtu(\.tmp)?")
 
 
 def _check_finite(name: str, values) -> None:
@@ -58,20 +80,53 @@ def write_config(out: Path, config) -> Path:
     return path
 
 
+def _replace_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` atomically: a new temporary file, then os.replace.
+
+    Never through a link: a link at ``path`` is replaced, not followed.
+    """
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.unlink(missing_ok=True)
+    try:
+        with open(tmp, "x", newline="") as fh:
+            fh.write(text)
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def write_history(out: Path, history: list[dict]) -> Path:
-    """Write history.csv, one row per dict (columns from the first row)."""
+    """Write history.csv (atomically), one row per dict (columns from the first row)."""
     path = Path(out) / "history.csv"
     if not history:
         raise ValueError("empty history")
     cols = list(history[0])
     for row in history:
         _check_finite("history", [row[c] for c in cols])
-    with path.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(cols)
-        for row in history:
-            w.writerow([repr(float(row[c])) if isinstance(row[c], float) else row[c] for c in cols])
+    text = io.StringIO(newline="")
+    w = csv.writer(text)
+    w.writerow(cols)
+    for row in history:
+        w.writerow([repr(float(row[c])) if isinstance(row[c], float) else row[c] for c in cols])
+    _replace_text(path, text.getvalue())
     return path
+
+
+def ensure_space(out: Path, n_nodes: int, checkpoint: Path | None = None) -> None:
+    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes.
+
+    The next writes: a frame of ``n_nodes`` nodes, a checkpoint (at most the last one's size
+    twice) and a new copy of history.csv.
+    """
+    out = Path(out)
+    need = RESERVE_BYTES + FRAME_BYTES_PER_NODE * n_nodes
+    for path, times in ((checkpoint, 2), (out / "history.csv", 1)):
+        if path is not None and path.is_file():
+            need += times * path.stat().st_size
+    free = shutil.disk_usage(out).free
+    if free < need:
+        raise OSError(errno.ENOSPC, f"no space left on {out} ({free / 2**20:.1f} MB free, "
+                      f"{need / 2**20:.1f} MB needed for the next output)")
 
 
 def write_boundary(out: Path, boundary: np.ndarray) -> Path:
@@ -123,19 +178,83 @@ def read_frame_time(path: Path) -> float:
     return float(np.asarray(mesh.field_data["TimeValue"]).ravel()[0])
 
 
+def frame_name(index: int) -> str:
+    """File name of the frame of this index in ``fields/``: ``frame_NNNNN.vtu``."""
+    return f"frame_{index:05d}.vtu"
+
+
+def fields_folder(out: Path) -> Path:
+    """The run folder's ``fields`` folder, created when missing.
+
+    ValueError (one line) when ``fields`` is a symbolic link or not a folder: frames are never
+    written into, nor deleted from, a folder elsewhere.
+    """
+    folder = Path(out) / "fields"
+    if folder.is_symlink():
+        raise ValueError(f"{folder} is a symbolic link; colony neither writes nor deletes "
+                         "frames through a link (remove it, or start afresh with --overwrite)")
+    if os.path.lexists(folder) and not folder.is_dir():
+        raise ValueError(f"{folder} is not a folder (remove it, or start afresh with "
+                         "--overwrite)")
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def remove_frames_from(out: Path, count: int) -> None:
+    """Delete the frames of ``fields/`` from index ``count`` on, and any temporary frame.
+
+    Those a run wrote after its checkpoint (a resumed run writes them again).  Only entries
+    named exactly as :func:`frame_name` names them (or their ``.tmp``) are touched; a link
+    so named is removed itself (never followed); anything else so named is refused
+    (ValueError), as is a ``fields`` that is a link (:func:`fields_folder`).
+    """
+    folder = fields_folder(out)
+    for name in sorted(os.listdir(folder)):
+        match = _FRAME.fullmatch(name)
+        if match is None or name.removesuffix(".tmp") != frame_name(int(match[1])):
+            continue
+        if int(match[1]) < count and not match[2]:
+            continue
+        path = folder / name
+        if not (path.is_symlink() or path.is_file()):
+            raise ValueError(f"{path} is not a frame file (remove it, or start afresh with "
+                             "--overwrite)")
+        path.unlink()
+
+
 class FieldWriter:
     """VTU series of the mesh and point fields, indexed by fields.pvd.
 
     Parameters
     ----------
     out : Path
-        Run folder; frames go to ``out/fields/frame_NNNNN.vtu``.
+        Run folder; frames go to ``out/fields/frame_NNNNN.vtu`` (:func:`frame_name`).
+
+    Attributes
+    ----------
+    times : list of float
+        The times of the frames written, frame k named ``frame_name(k)``.
     """
 
     def __init__(self, out: Path):
         self.out = Path(out)
-        (self.out / "fields").mkdir(parents=True, exist_ok=True)
-        self.frames: list[tuple[float, str]] = []
+        self.folder = fields_folder(self.out)
+        self.times: list[float] = []
+
+    @property
+    def frames(self) -> list[tuple[float, str]]:
+        """(t, file relative to the run folder) of each frame written."""
+        return [(t, f"fields/{frame_name(k)}") for k, t in enumerate(self.times)]
+
+    def resume(self, times: list[float]) -> None:
+        """Continue the series of a checkpoint that wrote frames at ``times``.
+
+        The frames after them are removed (:func:`remove_frames_from`) and fields.pvd lists
+        these.
+        """
+        self.times = [float(t) for t in times]
+        remove_frames_from(self.out, len(self.times))
+        self._write_pvd()
 
     def write(self, t: float, points: np.ndarray, tris: np.ndarray, fields: dict) -> Path:
         """Write one frame at time t; vectors (N, 2) are padded to 3 components for ParaView.
@@ -153,16 +272,20 @@ class FieldWriter:
             data[name] = v
         if "G" in data and "ring_index" not in data:
             data["ring_index"] = ring_index(data["G"])
-        name = f"frame_{len(self.frames):05d}.vtu"
+        path = self.folder / frame_name(len(self.times))
+        tmp = path.with_name(path.name + ".tmp")
+        tmp.unlink(missing_ok=True)
         pts3 = np.column_stack([points, np.zeros(len(points))])
-        meshio.write(
-            self.out / "fields" / name,
-            meshio.Mesh(pts3, [("triangle", np.asarray(tris))], point_data=data),
-        )
-        _add_time_value(self.out / "fields" / name, t)
-        self.frames.append((float(t), f"fields/{name}"))
+        try:
+            meshio.write(tmp, meshio.Mesh(pts3, [("triangle", np.asarray(tris))],
+                                          point_data=data), file_format="vtu")
+            _add_time_value(tmp, t)
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
+        self.times.append(float(t))
         self._write_pvd()
-        return self.out / "fields" / name
+        return path
 
     def _write_pvd(self) -> None:
         lines = [
@@ -174,4 +297,4 @@ class FieldWriter:
             f'    <DataSet timestep="{t!r}" group="" part="0" file="{f}"/>' for t, f in self.frames
         ]
         lines += ["  </Collection>", "</VTKFile>", ""]
-        (self.out / "fields.pvd").write_text("\n".join(lines))
+        _replace_text(self.out / "fields.pvd", "\n".join(lines))

@@ -26,11 +26,14 @@ independent of earlier calls; BLAS runs on one thread (limit_blas_threads).
 
 Checkpoints (``run(config, out)``): every ``checkpoint_seconds`` of wall time, after the last
 step of a call (``max_steps_this_call``) and after the step during which SIGINT or SIGTERM
-arrived, ``out/checkpoint.npz`` is written (continuum.checkpoint: the state, the AMG matrix,
-the history and the frame list). ``run`` with the same configuration (up to EXECUTION_FIELDS)
-on that folder resumes from it, removes the frames written after it, and ends bit-identical to
-an uninterrupted run; writing checkpoints changes no state, so the result does not depend on
-when they happen. ``Simulation.save`` / ``Simulation.load`` write and read the same format.
+arrived, history.csv and then ``out/checkpoint.npz`` are written (continuum.checkpoint: the
+state, the AMG matrix, the frame times, the rows and checksum of history.csv; verified, the one
+before kept as ``checkpoint.prev.npz``). ``run`` with the same configuration (up to
+EXECUTION_FIELDS) on that folder resumes from it (from the previous one when it is damaged),
+drops the history rows and removes the frames written after it, and ends bit-identical to an
+uninterrupted run; writing checkpoints changes no state, so the result does not depend on when
+they happen. ``Simulation.save`` / ``Simulation.load`` write and read the same format. Before
+each frame and checkpoint the run checks for continuum.output.RESERVE_BYTES of free space.
 """
 
 from __future__ import annotations
@@ -285,13 +288,12 @@ class Simulation:
         self.config = config
         self.finished = True
         self.output = None if out is None else _Outputs(config, Path(out))
-        if self.output is not None and self.output.checkpoint.exists():
-            _, state, amg, history, frames, next_frame, _ = checkpoint.load(
-                self.output.checkpoint, config)
+        if self.output is not None and checkpoint.checkpoint_files(self.output.out):
+            path, (_, state, amg, history, frame_times, next_frame, _) = checkpoint.resume(
+                self.output.out, config)
             self._restore(state, amg, history)
-            self.output.resume(frames, next_frame)
-            log.info("resuming from %s at t = %.6g (step %d)", self.output.checkpoint,
-                     state.t, state.step)
+            self.output.resume(frame_times, next_frame)
+            log.info("resuming from %s at t = %.6g (step %d)", path, state.t, state.step)
             return
         check_memory(config)
         self.solver = PressureSolver(config.lam, config.element)
@@ -488,22 +490,29 @@ class Simulation:
         """Write a checkpoint (continuum.checkpoint; atomic) to ``path``; returns the path.
 
         Default out/checkpoint.npz. :meth:`load` (and :func:`run` on its folder) continues
-        from it bit-identically.
+        from it bit-identically. The run folder's checkpoint: history.csv first, which the
+        checkpoint refers to (its size stays that of the mesh), and the checkpoint it replaces
+        kept as checkpoint.prev.npz; elsewhere the checkpoint holds the history rows.
         """
         if path is None:
             if self.output is None:
                 raise ValueError("give a path: this simulation has no output folder")
             path = self.output.checkpoint
-        frames, next_frame = [], math.inf
+        path = Path(path)
+        frame_times, next_frame, history = [], math.inf, self.history
         if self.output is not None:
-            frames, next_frame = self.output.frame_list(), self.output.next_frame
+            frame_times, next_frame = self.output.frame_times(), self.output.next_frame
         elif self.config.output_every > 0:
             every = self.config.output_every
             next_frame = every * (math.floor(self.state.t / every) + 1)
-        checkpoint.save(Path(path), self.config, self.state, self.solver.amg_state(),
-                        self.history, frames, next_frame,
-                        self.done(self.config.radius, self.config.time))
-        return Path(path)
+        if self.output is not None and path == self.output.checkpoint:
+            self.output.ensure_space(self)
+            self.output.write_history(self)
+            history = checkpoint.history_record(self.output.out / checkpoint.HISTORY,
+                                                len(self.history))
+        checkpoint.save(path, self.config, self.state, self.solver.amg_state(), history,
+                        frame_times, next_frame, self.done(self.config.radius, self.config.time))
+        return path
 
     @classmethod
     def load(cls, path: Path | str, config: Config | None = None) -> Simulation:
@@ -569,19 +578,24 @@ class _Outputs:
         self.output.write_config(self.out, self.config)
         self.frame(sim)
 
-    def resume(self, frames: list, next_frame: float) -> None:
-        """Continue the frame list of a checkpoint (the frames written after it removed)."""
+    def resume(self, frame_times: list, next_frame: float) -> None:
+        """Continue the frames of a checkpoint (those written after it removed)."""
         self.next_frame = next_frame
         if self.fields is not None:
-            self.fields.frames = frames
-            checkpoint.remove_later_frames(self.out, frames)
+            self.fields.resume(frame_times)
 
-    def frame_list(self) -> list:
-        return [] if self.fields is None else self.fields.frames
+    def frame_times(self) -> list:
+        """The times of the frames written."""
+        return [] if self.fields is None else self.fields.times
+
+    def ensure_space(self, sim: Simulation) -> None:
+        """continuum.output.ensure_space before the next frame or checkpoint of ``sim``."""
+        self.output.ensure_space(self.out, len(sim.state.points), self.checkpoint)
 
     def frame(self, sim: Simulation) -> None:
         if self.fields is not None:
             s = sim.state
+            self.ensure_space(sim)
             self.fields.write(s.t, s.points, s.triangles, s.fields)
 
     def after_step(self, sim: Simulation, done: bool) -> None:
@@ -595,6 +609,7 @@ class _Outputs:
 
     def finish(self, sim: Simulation) -> None:
         """history.csv, boundary.csv and the last frame, at the goal."""
+        self.ensure_space(sim)
         self.write_history(sim)
         self.output.write_boundary(self.out, sim.state.boundary)
         self.frame(sim)
@@ -667,8 +682,8 @@ def _steps(sim: Simulation, progress: bool, max_steps_this_call: int | None,
            stop: checkpoint.StopRequest) -> None:
     """The loop of ``run``.
 
-    Step until the goal, a stop request or ``max_steps_this_call`` steps; a checkpoint (and
-    history.csv) every ``checkpoint_seconds`` and when stopping; the final files at the goal.
+    Step until the goal, a stop request or ``max_steps_this_call`` steps; history.csv and a
+    checkpoint every ``checkpoint_seconds`` and when stopping; the final files at the goal.
     """
     config = sim.config
     goal = {"radius": config.radius, "time": config.time}
@@ -684,8 +699,7 @@ def _steps(sim: Simulation, progress: bool, max_steps_this_call: int | None,
             pause = pause and steps_here >= max_steps_this_call
             due = not done and _time.monotonic() - last_checkpoint >= config.checkpoint_seconds
             if sim.output is not None and (stop.signum is not None or pause or due):
-                sim.save()
-                sim.output.write_history(sim)
+                sim.save()  # history.csv, then the checkpoint
                 last_checkpoint = _time.monotonic()
             if stop.signum is not None or pause:
                 sim.finished = done
