@@ -192,7 +192,7 @@ def test_periodic_checkpoints_do_not_change_the_result(reference, tmp_path):
     state = run(small_config(checkpoint_seconds=0.0), out=tmp_path)
     assert_same_run(reference, tmp_path, state, skip=("config.json",))
     meta = json.loads(str(np.load(tmp_path / CHECKPOINT)["meta"]))
-    assert len(meta["history"]) == len(state.history) - 1  # the last step before the goal
+    assert meta["history"]["rows"] == len(state.history) - 1  # the last step before the goal
 
 
 def interrupt_at(monkeypatch, step: int, signum=signal.SIGINT) -> None:
@@ -232,7 +232,7 @@ def test_sigint_finishes_the_step_checkpoints_and_resumes(reference, tmp_path, m
     finally:
         signal.signal(signal.SIGINT, previous)
     meta = json.loads(str(np.load(tmp_path / CHECKPOINT)["meta"]))
-    assert len(meta["history"]) == step + 1 and meta["done"] == (where == "last")
+    assert meta["history"]["rows"] == step + 1 and meta["done"] == (where == "last")
     assert_same_run(reference, tmp_path, run(small_config(), out=tmp_path))
 
 
