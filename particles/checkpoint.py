@@ -118,9 +118,10 @@ def _read_file(path: Path, follow: bool = True) -> bytes:
         if err.errno == errno.ELOOP:
             raise damaged(path, "a symbolic link, not read") from None
         raise
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise damaged(path, "not a regular file")
     with os.fdopen(fd, "rb") as fh:
-        if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
-            raise damaged(path, "not a regular file")
         return fh.read()
 
 
@@ -135,7 +136,7 @@ def _why(err: BaseException) -> str:
         return "impossible array sizes"
     if isinstance(err, EOFError) or "zip" in text.lower():
         return "not a complete npz archive"
-    return f"unreadable npz archive ({type(err).__name__})"
+    return "unreadable npz archive"
 
 
 def read_arrays(path: Path, follow: bool = True) -> dict[str, np.ndarray]:
@@ -148,6 +149,8 @@ def read_arrays(path: Path, follow: bool = True) -> dict[str, np.ndarray]:
     data = _read_file(path, follow)
     if not data:
         raise damaged(path, "empty file")
+    if not data.startswith(b"PK\x03\x04"):  # else np.load tries an npy file, or a pickle
+        raise damaged(path, "not an npz archive")
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as z:
             arrays = {name: z[name] for name in z.files}
@@ -283,9 +286,9 @@ def resume_from(out: Path, load: Callable[[Path], tuple]) -> tuple[Path, tuple]:
         except CheckpointError as err:
             errors.append(err)
             continue
-        if errors:
-            log.warning("%s; resuming from %s, one checkpoint interval earlier",
-                        errors[0].damage, path)
+        if path.name == PREVIOUS:
+            why = errors[0].damage if errors else f"{path.with_name(CHECKPOINT)} is missing"
+            log.warning("%s; resuming from %s, one checkpoint interval earlier", why, path)
         return path, result
     if not errors:
         raise FileNotFoundError(errno.ENOENT, "no checkpoint", str(Path(out) / CHECKPOINT))
