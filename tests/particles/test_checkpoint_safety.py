@@ -85,18 +85,21 @@ def cut(data: bytes) -> bytes:
     return data[: len(data) // 2]
 
 
-def flip(at: float | bytes):
-    """Flip the byte at this fraction of the file, or the first byte of this text in it."""
+def flip(where):
+    """A damage: the byte at ``where(data)`` flipped."""
 
     def flipped(data: bytes) -> bytes:
-        k = data.index(at) + 2 if isinstance(at, bytes) else int(at * len(data))
+        k = where(data)
         return data[:k] + bytes([data[k] ^ 0xFF]) + data[k + 1:]
 
     return flipped
 
 
 def zero(data: bytes) -> bytes:
+    """64 bytes zeroed, the first 64 from a third of the file on that are not all zero."""
     k = len(data) // 3
+    while not any(data[k:k + 64]):
+        k += 64
     return data[:k] + bytes(64) + data[k + 64:]
 
 
@@ -117,9 +120,10 @@ def pickled(data: bytes) -> bytes:
 
 
 BYTES = {"emptied": lambda data: b"", "cut short": cut, "tail cut": lambda data: data[:-40],
-         "byte flipped in the data": flip(0.5),
-         "byte flipped in an array header": flip(b"{'descr'"),
-         "directory byte flipped": flip(0.995), "bytes zeroed": zero,
+         "byte flipped in the data": flip(lambda data: len(data) // 2),
+         "byte flipped in an array header": flip(lambda data: data.index(b"{'descr'") + 2),
+         "name flipped in the zip directory": flip(lambda data: data.rindex(b"PK\x01\x02") + 46),
+         "bytes zeroed": zero,
          "random bytes": random_bytes, "an npy file": npy, "a pickle": pickled}
 
 ENTRIES = {
