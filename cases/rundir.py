@@ -62,7 +62,8 @@ RECORD = "run.json"
 OUTPUT_NAMES = frozenset({
     RECORD, "config.json", "history.csv", "profile.csv", "boundary.csv", "rings.csv",
     "fields.pvd", "fields", "mean_length.png", "particles.csv", "trajectory.gsd", "colony.png",
-    "checkpoint.npz", "radius.png", "profile.png", "movie.mp4", "handoff.json", "outline.csv",
+    "checkpoint.npz", "checkpoint.prev.npz", "radius.png", "profile.png", "movie.mp4",
+    "handoff.json", "outline.csv",
 })
 #: Suffixes of the temporary files a writer replaces atomically (``x.tmp``, ``x.tmp.npz``).
 TEMPORARY_SUFFIXES = (".tmp", ".tmp.npz", ".gsd.tmp")

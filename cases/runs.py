@@ -14,7 +14,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from cases.analysis import continuum_profile, particle_profile, write_csv
 from cases.rundir import partial_of, publish, record, stage
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
@@ -46,6 +45,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
     particle colony handed over (handoff.json and outline.csv written first; the picture then
     shows the transported mean length).
     """
+    from cases.analysis import continuum_profile, write_csv
     from cases.figures.draw import continuum_picture
     from cases.handoff import check_resume, write_handoff
     from continuum.budget import check_memory
@@ -75,6 +75,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
 def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
                   change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
+    from cases.analysis import particle_profile, write_csv
     from cases.figures.draw import particles_picture
     from cases.shapes import initial_state
     from particles import run

@@ -224,3 +224,12 @@ def test_case_lams_select_some_lam_or_are_refused_before_any_work(tmp_path, caps
     with pytest.raises(SystemExit):
         cli.main(["case", "fig3", "--lams", "x"])
     assert not out.exists()
+
+
+def test_the_command_starts_without_the_numerical_stack():
+    """``colony --help`` imports neither engine nor scipy, meshio or matplotlib (it stays quick)."""
+    code = ("import sys, cases.cli; heavy = ('scipy', 'meshio', 'matplotlib', 'numba', "
+            "'continuum', 'particles', 'dask'); print([m for m in heavy if m in sys.modules])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout
+    assert out.strip() == "[]"

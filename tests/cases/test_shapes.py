@@ -114,5 +114,6 @@ def test_resume_checks_the_shape(colony, tmp_path):
 def test_sweep_runs_a_particle_shape(tmp_path):
     from cases.sweep import run_engine
 
-    run_engine({"engine": "particles", "lam": 1e-2, "time": 0.02, "shape": "line:3"}, tmp_path)
-    assert json.loads((tmp_path / "config.json").read_text())["shape"] == "line:3"
+    run = tmp_path / "run"
+    run_engine({"engine": "particles", "lam": 1e-2, "time": 0.02, "shape": "line:3"}, run)
+    assert json.loads((run / "config.json").read_text())["shape"] == "line:3"
