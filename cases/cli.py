@@ -85,41 +85,65 @@ FIELD_PARSERS = {"threads": _threads}
 """``--set`` values of fields whose type is not that of their default (else ``_coerce``)."""
 
 
-def _coerce(value: str, like):
-    """Parse a ``--set`` string into the type of the dataclass field's default ``like``."""
-    if isinstance(like, bool):
-        if value.lower() in ("1", "true", "yes", "on"):
-            return True
-        if value.lower() in ("0", "false", "no", "off"):
-            return False
-        raise UsageError(f"expected a boolean, got {value!r}")
-    if isinstance(like, int):
+def _coerce(value: str, key: str, mismatch):
+    """A ``--set`` string as the first of a number, an integer, a boolean or the string itself
+    that the field ``key`` takes (``mismatch(key, value)`` is None: the engine's
+    ``Config.type_mismatch``); UsageError naming what it takes when none does.
+
+    Booleans are written 1, true, yes, on or 0, false, no, off (any case).
+    """
+    candidates = []
+    for parse in (float, int):
         try:
-            return int(value)
+            candidates.append(parse(value))
         except ValueError:
-            raise UsageError(f"expected an integer, got {value!r}") from None
-    if isinstance(like, float) or like is None:
-        try:
-            return float(value)
-        except ValueError:
-            return value
-    return value
+            pass
+    word = value.strip().lower()
+    if word in ("1", "true", "yes", "on", "0", "false", "no", "off"):
+        candidates.append(word in ("1", "true", "yes", "on"))
+    for candidate in (*candidates, value):
+        if mismatch(key, candidate) is None:
+            return candidate
+    number = [c for c in candidates if isinstance(c, float)]  # "a finite number" for inf
+    raise UsageError(f"expected {mismatch(key, (number or [value])[0])}, got {value!r}")
 
 
 def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
-    """Engine defaults <- TOML file <- ``--set KEY=VALUE`` <- flags; then ``validate()``."""
-    names = {f.name: f for f in dataclasses.fields(cls)}
+    """Engine defaults <- TOML file <- ``--set KEY=VALUE`` <- flags; then ``validate()``.
+
+    Every value is checked against its field's type (``cls.type_mismatch``, when the class has
+    one) where it was given, so that the one-line message names its source:
+    ``--config FILE: key lam: expected a number, got true``, ``--set seed: expected an
+    integer, got '1.5'`` or ``--seed: ...``.
+    """
+    import json
+
+    names = {f.name for f in dataclasses.fields(cls)}
+    mismatch = getattr(cls, "type_mismatch", None) or (lambda key, value: None)
     values: dict = {}
+    source: dict = {}
+
+    def shown(value) -> str:  # as written in TOML: true, "yes", 1e+300; cut at 60 characters
+        text = json.dumps(value) if isinstance(value, (bool, str)) else repr(value)
+        return text if len(text) <= 60 else text[:57] + "..."
+
     if toml_file:
         path = Path(toml_file)
         if not path.is_file():
             raise UsageError(f"config file not found: {path}")
         with path.open("rb") as fh:
             try:
-                values.update(tomllib.load(fh))
+                table = tomllib.load(fh)
             except tomllib.TOMLDecodeError as err:
-                raise UsageError(f"{path}: {err}") from None
-    defaults = cls.__new__(cls)  # field defaults without running validation
+                raise UsageError(f"--config {path}: {err}") from None
+            except UnicodeDecodeError:
+                raise UsageError(f"--config {path}: not a UTF-8 text file") from None
+        unknown = sorted(set(table) - names)
+        if unknown:
+            raise UsageError(f"--config {path}: unknown setting(s) {', '.join(unknown)}; "
+                             f"known: {', '.join(sorted(names))}")
+        values.update(table)
+        source.update({key: f"--config {path}: key {key}" for key in table})
     for item in sets:
         key, sep, raw = item.partition("=")
         key = key.strip().replace("-", "_")
@@ -127,15 +151,18 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
             raise UsageError(f"--set expects KEY=VALUE, got {item!r}")
         if key not in names:
             raise UsageError(f"unknown setting {key!r}; known: {', '.join(sorted(names))}")
-        default = names[key].default
-        if default is dataclasses.MISSING:
-            default = getattr(defaults, key, None)
         try:
             values[key] = (FIELD_PARSERS[key](raw) if key in FIELD_PARSERS
-                           else _coerce(raw, default))
+                           else _coerce(raw, key, mismatch))
         except (UsageError, argparse.ArgumentTypeError) as err:
             raise UsageError(f"--set {key}: {err}") from None
+        source[key] = f"--set {key}"
     given = {k: v for k, v in flags.items() if v is not None}
+    source.update({key: "--" + key.replace("_", "-") for key in given})
+    for key, value in (*values.items(), *given.items()):
+        what = mismatch(key, value)
+        if what is not None:
+            raise UsageError(f"{source[key]}: expected {what}, got {shown(value)}")
     if "lam" in names:
         if "lam" in given and "lam" in values and float(values["lam"]) != given["lam"]:
             raise UsageError(f"lam given twice: --lam {given['lam']:g} and lam = "
@@ -143,7 +170,7 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
         if "lam" not in given and "lam" not in values:
             raise UsageError("lam is required: give --lam or lam in --config/--set")
     values.update(given)
-    unknown = set(values) - set(names)
+    unknown = set(values) - names
     if unknown:
         raise UsageError(f"unknown setting(s) {', '.join(sorted(unknown))}")
     config = cls(**values)

@@ -70,22 +70,37 @@ __all__ = ["Config", "Simulation", "run", "config_fields"]
 log = logging.getLogger(__name__)
 
 
-def _positive(v) -> bool:
-    return isinstance(v, (int, float)) and math.isfinite(v) and v > 0
+def _number(v) -> bool:
+    """A finite int or float (a bool is no number here)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an int beyond the range of floats
+        return False
 
 
-_RULES = [  # (field, test, what the value must be), checked by Config.validate
-    ("n_nodes", lambda v: isinstance(v, int) and v >= 50, "an integer >= 50"),
-    ("interior_coarsening", lambda v: math.isfinite(v) and v >= 1, ">= 1"),
+#: The types of the fields' annotations: (test of a value, what the value must be).
+_TYPES = {
+    "float": (_number, "a number"),
+    "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
+    "str": (lambda v: isinstance(v, str), "a string"),
+    "bool": (lambda v: isinstance(v, bool), "true or false"),
+    "None": (lambda v: v is None, "None"),
+}
+
+_RULES = [  # (field, test, what the value must be), checked by Config.validate after the types
+    ("n_nodes", lambda v: v >= 50, "an integer >= 50"),
+    ("interior_coarsening", lambda v: v >= 1, ">= 1"),
     ("courant", lambda v: 0 < v <= 1.0, "in (0, 1]"),
     ("q_min", lambda v: 0 < v < 0.9, "in (0, 0.9)"),
-    ("stretch", lambda v: math.isfinite(v) and v > 1.1, "> 1.1"),
-    ("n_length_cells", lambda v: isinstance(v, int) and v >= 8, "an integer >= 8"),
+    ("stretch", lambda v: v > 1.1, "> 1.1"),
+    ("n_length_cells", lambda v: v >= 8, "an integer >= 8"),
     ("psi_transport", lambda v: v in TRANSPORTS, " or ".join(map(repr, TRANSPORTS))),
     ("element", lambda v: v in ELEMENTS, " or ".join(map(repr, ELEMENTS))),
-    ("output_every", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
-    ("max_steps", lambda v: isinstance(v, int) and v > 0, "a positive integer"),
-    ("checkpoint_seconds", lambda v: math.isfinite(v) and v >= 0, ">= 0"),
+    ("output_every", lambda v: v >= 0, ">= 0"),
+    ("max_steps", lambda v: v > 0, "a positive integer"),
+    ("checkpoint_seconds", lambda v: v >= 0, ">= 0"),
 ]
 
 
@@ -176,16 +191,20 @@ class Config:
         """Check the values; raises ValueError with a one-line message. Returns self.
 
         ``require_stop``: exactly one of ``radius`` and ``time`` is required (else at most one).
+        Every field's type first (``type_mismatch``), then the goal, the values and the shape.
         """
-        if not (isinstance(self.lam, (int, float)) and math.isfinite(self.lam)):
-            raise ValueError(f"lam must be a finite number, got {self.lam!r}")
+        for field in fields(self):
+            value = getattr(self, field.name)
+            what = self.type_mismatch(field.name, value)
+            if what is not None:
+                raise ValueError(f"{field.name} must be {what}, got {value!r}")
         if self.radius is not None and self.time is not None:
             raise ValueError("give exactly one of radius and time, not both")
         if require_stop and self.radius is None and self.time is None:
             raise ValueError("give exactly one of radius and time")
         positive = ["initial_radius", "h_max", "courant", "bump_width", "grading"]
         positive += [name for name in ("radius", "time") if getattr(self, name) is not None]
-        rules = [(name, _positive, "a positive finite number") for name in positive]
+        rules = [(name, lambda v: v > 0, "a positive number") for name in positive]
         for name, ok, what in rules + _RULES:
             v = getattr(self, name)
             if not ok(v):
@@ -198,6 +217,20 @@ class Config:
                     f"radius {self.radius} is smaller than the initial radius {r_init:.6g}"
                 )
         return self
+
+    @classmethod
+    def type_mismatch(cls, name: str, value) -> str | None:
+        """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
+
+        The type is the field's annotation (``float | None``): float a finite int or float, never
+        a bool; int an int, not a bool; str a string; bool True or False only; None.
+        """
+        kinds = [kind.strip() for kind in cls.__dataclass_fields__[name].type.split("|")]
+        if any(_TYPES[kind][0](value) for kind in kinds):
+            return None
+        if "float" in kinds and isinstance(value, float):
+            return "a finite number"
+        return " or ".join(_TYPES[kind][1] for kind in kinds if kind != "None")
 
     def initial_boundary(self) -> np.ndarray:
         """A dense polygon of the initial shape (checked, counter-clockwise).

@@ -9,7 +9,8 @@ to config.json next to the results.  Which fields a checkpoint may resume under 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+import os
+from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numba
@@ -18,7 +19,21 @@ from .geometry import B
 from .packings import FILL_LENGTHS, FILL_ORIENTATIONS
 from .stepping import SOLVERS, STEP_CONTROLS
 
-__all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS"]
+__all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS", "check_budget"]
+
+#: Most time steps a run may take (at least): refused beyond by ``check_budget``. A step of the
+#: smallest colony, one cell, costs ~2.5 ms (issue 28: 120,451 steps in 5 min at dt = 1e-300),
+#: so 1e6 steps are 40 min at the very least, days for a colony of thousands of cells; the
+#: paper's colonies took 1,300-2,900 steps (docs/benchmarks.md).
+MAX_STEPS = 1_000_000
+#: Particles per unit area of a grown colony, the sparsest measured: lam = 0 at radius 150,
+#: 65,536 cells = 0.93 pi R^2 (lam = 1e-2: 99,195 = 1.40 pi R^2; docs/benchmarks.md).
+PARTICLES_PER_AREA = 0.9
+#: Resident bytes per particle of a run, measured: 666 MB peak at 99,281 particles (lam = 1e-2,
+#: radius 150; docs/benchmarks.md), rounded up.
+BYTES_PER_PARTICLE = 7_000
+#: Enclosing radius of the default initial state, one cell of length 1 (packings.single_cell).
+SINGLE_CELL_RADIUS = 0.5
 
 
 @dataclass
@@ -129,9 +144,17 @@ class Config:
         """Raise ValueError with a one-line message on an inconsistent configuration.
 
         ``require_stop``: exactly one of ``radius`` and ``time`` (a run); False: at most one
-        (a ``Simulation`` stepped by hand).  The fields are checked in the order of ``_RULES``.
+        (a ``Simulation`` stepped by hand).  Every field's type first (``type_mismatch``), then
+        the goal, then the fields in the order of ``_RULES``, then the size of the run
+        (``check_budget``; its steps from the one cell's radius when neither ``init`` nor
+        ``shape`` is given, else cases.shapes checks them from the filled shape).
         """
-        if not _finite(self.lam) or self.lam < 0:
+        for field in fields(self):
+            value = getattr(self, field.name)
+            what = self.type_mismatch(field.name, value)
+            if what is not None:
+                raise ValueError(f"{field.name} must be {what}, got {value!r}")
+        if self.lam < 0:
             raise ValueError(f"lam must be a finite number >= 0 for particles, got {self.lam}")
         if self.radius is not None and self.time is not None:
             raise ValueError("give exactly one of radius and time")
@@ -143,6 +166,22 @@ class Config:
             v = getattr(self, name)
             if not ok(v):
                 raise ValueError(message(v))
+        one_cell = self.init is None and self.shape is None
+        check_budget(self, SINGLE_CELL_RADIUS if one_cell else None)
+
+    @classmethod
+    def type_mismatch(cls, name: str, value) -> str | None:
+        """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
+
+        The type is the field's annotation (``float | None``): float a finite int or float, never
+        a bool; int an int, not a bool; str a string; bool True or False only; None.
+        """
+        kinds = [kind.strip() for kind in cls.__dataclass_fields__[name].type.split("|")]
+        if any(_TYPES[kind][0](value) for kind in kinds):
+            return None
+        if "float" in kinds and isinstance(value, float):
+            return "a finite number"
+        return " or ".join(_TYPES[kind][1] for kind in kinds if kind != "None")
 
     @property
     def effective_solver_tol(self) -> float:
@@ -150,60 +189,142 @@ class Config:
         return self.solver_tol_factor * self.tol if self.solver_tol is None else self.solver_tol
 
 
-def _finite(v) -> bool:
-    return isinstance(v, (int, float)) and math.isfinite(v)
+def _number(v) -> bool:
+    """A finite int or float (a bool is no number here)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an int beyond the range of floats
+        return False
 
 
-def _count(v, low: int) -> bool:
-    return isinstance(v, int) and v >= low
+#: The types of the fields' annotations: (test of a value, what the value must be).
+_TYPES = {
+    "float": (_number, "a number"),
+    "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
+    "str": (lambda v: isinstance(v, str), "a string"),
+    "bool": (lambda v: isinstance(v, bool), "true or false"),
+    "None": (lambda v: v is None, "None"),
+}
+
+
+def _is_file(path: str) -> bool:
+    """Whether ``path`` is a file (False also for a name the system refuses: too long, NUL)."""
+    try:
+        return Path(path).is_file()
+    except (OSError, ValueError):
+        return False
 
 
 _RULES = [  # (field, test, message of a failed test), checked in order by Config.validate
-    ("radius", lambda v: v is None or (_finite(v) and v > 0),
+    # after the types (Config.type_mismatch): a test may compare its number
+    ("radius", lambda v: v is None or v > 0,
      lambda v: f"radius must be positive, got {v}"),
-    ("time", lambda v: v is None or (_finite(v) and v > 0),
+    ("time", lambda v: v is None or v > 0,
      lambda v: f"time must be positive, got {v}"),
-    ("dt", lambda v: _finite(v) and 0 < v <= 0.1,
+    ("dt", lambda v: 0 < v <= 0.1,
      lambda v: f"dt must be in (0, 0.1], got {v}"),
-    ("tol", lambda v: _finite(v) and 0 < v < B,
+    ("tol", lambda v: 0 < v < B,
      lambda v: f"tol must be in (0, b = {B}), got {v}"),
-    ("solver_tol", lambda v: v is None or (_finite(v) and v > 0),
+    ("solver_tol", lambda v: v is None or v > 0,
      lambda v: f"solver_tol must be positive, got {v}"),
-    ("solver_tol_factor", lambda v: _finite(v) and v > 0,
+    ("solver_tol_factor", lambda v: v > 0,
      lambda v: f"solver_tol_factor must be positive, got {v}"),
-    ("seed", lambda v: _count(v, 0),
+    ("seed", lambda v: v >= 0,
      lambda v: f"seed must be a non-negative integer, got {v}"),
-    ("division_noise", lambda v: _finite(v) and 0 <= v <= 0.5,
+    ("division_noise", lambda v: 0 <= v <= 0.5,
      lambda v: f"division_noise must be in [0, 0.5] rad, got {v}"),
     ("solver", lambda v: v in SOLVERS,
      lambda v: f"unknown solver {v!r}; choose from {sorted(SOLVERS)}"),
-    ("output_every", lambda v: _count(v, 1),
+    ("output_every", lambda v: v >= 1,
      lambda v: f"output_every must be an integer >= 1, got {v}"),
-    ("checkpoint_seconds", lambda v: _finite(v) and v >= 0,
+    ("checkpoint_seconds", lambda v: v >= 0,
      lambda v: f"checkpoint_seconds must be >= 0, got {v}"),
-    ("max_particles", lambda v: _count(v, 1),
+    ("max_particles", lambda v: v >= 1,
      lambda v: f"max_particles must be a positive integer, got {v}"),
-    ("contact_margin", lambda v: _finite(v) and v >= 0,
+    ("contact_margin", lambda v: v >= 0,
      lambda v: f"contact_margin must be >= 0, got {v}"),
-    ("max_passes", lambda v: _count(v, 0),
+    ("max_passes", lambda v: v >= 0,
      lambda v: f"max_passes must be an integer >= 0, got {v}"),
-    ("max_iterations", lambda v: _count(v, 1),
+    ("max_iterations", lambda v: v >= 1,
      lambda v: f"max_iterations must be a positive integer, got {v}"),
     ("step_control", lambda v: v in STEP_CONTROLS,
      lambda v: f"step_control must be one of {', '.join(STEP_CONTROLS)}, got {v!r}"),
-    ("threads", lambda v: v == "auto" or (isinstance(v, int) and not isinstance(v, bool)
+    ("threads", lambda v: v == "auto" or (isinstance(v, int)
                                           and 1 <= v <= numba.config.NUMBA_NUM_THREADS),
      lambda v: f"threads must be auto or an integer in [1, {numba.config.NUMBA_NUM_THREADS}], "
                f"got {v!r}"),
-    ("init", lambda v: v is None or Path(v).is_file(),
+    ("init", lambda v: v is None or _is_file(v),
      lambda v: f"init file not found: {v}"),
-    ("shape", lambda v: v is None or (isinstance(v, str) and v.strip() != ""),
+    ("shape", lambda v: v is None or v.strip() != "",
      lambda v: f"shape must be a shape specification such as star:5,0.2,8, got {v!r}"),
     ("fill_orientation", lambda v: v in FILL_ORIENTATIONS,
      lambda v: f"fill_orientation must be one of {', '.join(FILL_ORIENTATIONS)}, got {v!r}"),
     ("fill_lengths", lambda v: v in FILL_LENGTHS,
      lambda v: f"fill_lengths must be one of {', '.join(FILL_LENGTHS)}, got {v!r}"),
 ]
+
+
+def least_steps(config: Config, initial_radius: float | None) -> float:
+    """A lower bound of the steps of a run: time / dt, or ln(radius / initial_radius) / dt.
+
+    Every step is at most dt long, and the colony's radius grows at most e-fold per unit time:
+    every cell grows at the rate exp(-lam sigma) <= 1, and the cells of a line, whose tips move
+    fastest, push them out at R per unit time. ``initial_radius`` None (not known yet): no
+    bound for a radius goal.
+    """
+    if config.time is not None:
+        return config.time / config.dt
+    if config.radius is None or initial_radius is None:
+        return 0.0
+    return max(math.log(config.radius) - math.log(initial_radius), 0.0) / config.dt
+
+
+def least_particles(config: Config) -> float:
+    """About how many particles the colony holds at its radius goal: PARTICLES_PER_AREA pi R^2."""
+    if config.radius is None:
+        return 0.0
+    return PARTICLES_PER_AREA * math.pi * config.radius * config.radius
+
+
+def _at_least(x: float) -> str:
+    """``at least 1.39e+06``, or ``more than 1e+300`` for what overflows a float."""
+    return f"at least {x:.3g}" if x < 1e300 else "more than 1e+300"
+
+
+def _physical_memory() -> float:
+    """Bytes of physical memory (inf where the system does not say)."""
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (AttributeError, ValueError, OSError):
+        return math.inf
+
+
+def check_budget(config: Config, initial_radius: float | None = None) -> None:
+    """Raise ValueError (one line, with the estimate) for a run this machine cannot do.
+
+    Refused: a radius goal whose colony (``least_particles``) exceeds ``max_particles`` or, at
+    BYTES_PER_PARTICLE per particle, the physical memory; more than MAX_STEPS steps
+    (``least_steps``: a bound from dt and the goal, with the initial colony's enclosing radius
+    ``initial_radius`` for a radius goal).
+    """
+    n = least_particles(config)
+    need, memory = n * BYTES_PER_PARTICLE, _physical_memory()
+    if n > config.max_particles or need > memory:
+        limit = (f"more than max_particles = {config.max_particles}" if n > config.max_particles
+                 else f"~{need / 2**30:.3g} GiB, more than the {memory / 2**30:.3g} GiB of this "
+                 "machine's memory")
+        raise ValueError(f"radius {config.radius:g} takes {_at_least(n)} particles "
+                         f"({PARTICLES_PER_AREA:g} pi R^2, the sparsest colony measured), {limit}")
+    steps = least_steps(config, initial_radius)
+    if steps > MAX_STEPS:
+        goal = (f"time {config.time:g}" if config.time is not None else
+                f"radius {config.radius:g} from the initial radius {initial_radius:.3g} (the "
+                "radius grows at most e-fold per unit time)")
+        raise ValueError(f"dt = {config.dt:g} takes {_at_least(steps)} steps to {goal}, more "
+                         f"than the {MAX_STEPS:,} a run may take (days of computing); give a "
+                         "larger dt or a nearer goal")
 
 
 LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",
