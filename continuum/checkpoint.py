@@ -205,8 +205,8 @@ def checked(path: Path, build: Callable):
         raise
     except KeyError as err:
         raise damaged(path, f"no entry {err.args[0]}") from None
-    except (TypeError, ValueError, IndexError, AttributeError, OverflowError) as err:
-        raise damaged(path, f"unexpected content ({type(err).__name__})") from None
+    except (TypeError, ValueError, IndexError, AttributeError, OverflowError):
+        raise damaged(path, "unexpected content") from None
 
 
 def _intact(path: Path) -> bool:

@@ -557,8 +557,9 @@ class Simulation:
         """
         saved, state, amg, history, *_ = checkpoint.load(Path(path), config)
         sim = cls.__new__(cls)
-        sim.config = (Config(**saved) if config is None else config).validate(
-            require_stop=False)
+        if config is None:
+            config = checkpoint.checked(Path(path), lambda: Config(**saved))
+        sim.config = config.validate(require_stop=False)
         sim.finished, sim.output = True, None
         limit_blas_threads(1)
         sim._restore(state, amg, history)
