@@ -60,7 +60,6 @@ from cases.handoff import (
     final_particles,
     particle_outline,
     polygon_moments,
-    write_handoff,
 )
 from cases.studies.stability import area_centroid
 from cases.sweep import is_done, run_engine, run_name, sweep
@@ -141,8 +140,11 @@ def run_shape(params: dict, folder: Path) -> None:
 
     ``from_run`` NAME (a finished particle run in the same root as ``folder``): the continuum
     starts from its last frame by cases.handoff.continuum_start (handoff.json and outline.csv
-    written beside), the particles from the same frame as their ``init`` CSV (``init.csv``).
+    written into the run), the particles from the same frame as their ``init`` CSV
+    (``NAME.init.csv`` beside the run folder). Every run is the command line's (cases.runs).
     """
+    from cases import runs
+
     params = dict(params)
     source = params.pop("from_run", None)
     if source is None:
@@ -152,18 +154,19 @@ def run_shape(params: dict, folder: Path) -> None:
     src = folder.parent / source
     engine = params.pop("engine")
     if engine == "continuum":
-        from continuum import Config, run
+        from continuum import Config
 
         config = Config(**params)
-        state, record = continuum_start(src, config)
-        write_handoff(folder, record)
-        run(config, out=folder, progress=False, initial=state)
+        runs.run_continuum(config, folder, progress=False, start=continuum_start(src, config))
         return
     frame = final_particles(src)
-    init = folder / "init.csv"
+    init = folder.with_name(folder.name + ".init.csv")
     np.savetxt(init, np.column_stack([frame.x, frame.y, frame.theta, frame.length]),
                delimiter=",", header="x,y,theta,length", comments="", fmt="%.17g")
     run_engine({"engine": engine, **params, "init": str(init.resolve())}, folder)
+
+
+run_shape.stages_itself = True
 
 
 def mesh_boundary(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
