@@ -17,45 +17,73 @@ the outline; :mod:`particles.packings` fills an outline with rods. ``continuum``
 
 from __future__ import annotations
 
+import logging
+
 from continuum import shapes
 from particles import packings
+from particles.config import Config, check_budget
 from particles.state import ParticleState
 
 __all__ = ["initial_particles", "initial_state"]
 
+log = logging.getLogger(__name__)
+
+#: A fill estimated (packings.fill_estimate) to take longer than this says so first.
+ANNOUNCE_SECONDS = 10.0
+
 
 def initial_particles(spec: str, seed: int = 0, orientation: str = "tangent",
-                      lengths: str = "stable") -> ParticleState:
+                      lengths: str = "stable", max_rods: int | None = None) -> ParticleState:
     """The particles at t = 0 of a shape specification.
 
     ``line:N``: packings.line(N), N cells of length 1 end to end on the x axis; any other
     shape: continuum.shapes.outline(spec) (the default radius of ``circle`` and ``star:K,EPS``
     is R0 = sqrt(b/pi), as in the continuum) filled by packings.fill_outline with these
-    ``seed``, ``orientation`` and ``lengths``.
+    ``seed``, ``orientation`` and ``lengths``. A fill estimated to take more than
+    ANNOUNCE_SECONDS logs its rods and seconds first.
+
+    ``max_rods``: the most particles (None: the particle engine's default ``max_particles``);
+    a line of more cells or an outline whose fill takes more rods is refused before any work.
 
     Raises
     ------
     ValueError
-        One line: a malformed spec (continuum.shapes.parse), a bad option, or an outline too
-        small to hold a rod.
+        One line: a malformed spec (continuum.shapes.parse), a bad option, an outline too
+        small to hold a rod, more than ``max_rods`` particles or a fill longer than
+        packings.MAX_FILL_SECONDS.
     """
     shape = shapes.parse(spec)
+    limit = Config.__dataclass_fields__["max_particles"].default if max_rods is None else max_rods
     if shape.kind == "line":
+        if shape.values[0] > limit:
+            raise ValueError(f"shape {spec!r}: {shape.values[0]:,} cells, more than "
+                             f"max_particles = {limit}")
         return packings.line(shape.values[0])
-    return packings.fill_outline(shapes.outline(shape), seed=seed, orientation=orientation,
-                                 lengths=lengths)
+    outline = shapes.outline(shape)
+    try:
+        rods, seconds = packings.fill_estimate(outline, lengths)
+        if rods <= limit and ANNOUNCE_SECONDS < seconds <= packings.MAX_FILL_SECONDS:
+            log.info("shape %s: filling with about %.3g rods, about %.0f s", spec, rods,
+                     seconds)
+        return packings.fill_outline(outline, seed=seed, orientation=orientation,
+                                     lengths=lengths, max_rods=limit)
+    except ValueError as err:
+        raise ValueError(f"shape {spec!r}: {err}") from None
 
 
 def initial_state(config) -> ParticleState | None:
-    """The initial particles of a ``particles.Config`` with a ``shape`` (else None).
+    """The initial particles of a ``particles.Config`` with a ``shape`` (else None), checked.
 
     ``initial_particles(config.shape, config.seed, config.fill_orientation,
-    config.fill_lengths)``.
+    config.fill_lengths, config.max_particles)``, then the run's steps from the fill's radius
+    (particles.config.check_budget).
     """
     if config.shape is None:
         return None
-    return initial_particles(config.shape, config.seed, config.fill_orientation,
-                             config.fill_lengths)
+    state = initial_particles(config.shape, config.seed, config.fill_orientation,
+                              config.fill_lengths, config.max_particles)
+    check_budget(config, state.enclosing_radius())
+    return state
 
 
 #: Shapes of the packing table (docs/tutorial.md, "Shapes").

@@ -11,15 +11,16 @@ One specification for both engines (``colony continuum --shape``, ``colony parti
                             ROUND (default 0, sharp; 0 <= ROUND <= min(W, H)/2)
 ``star:K,EPS[,R]``          polar curve r(theta) = R (1 + EPS cos K theta), K >= 2 an integer,
                             0 <= EPS < 1, R default the default radius
-``polygon:FILE.csv``        closed polygon of a CSV file with columns x,y, last row = first
+``polygon:FILE.csv``        closed polygon of a CSV file with columns x,y, last row = first (to
+                            round-off, 1e-12 of the largest coordinate), at most MAX_VERTICES
 ``line:N``                  N cells end to end (particles only: no outline, no area)
 ==========================  ========================================================================
 
 :func:`parse` reads a specification into a :class:`Shape` (a one-line ValueError for every
-malformed one), :func:`outline` gives the dense counter-clockwise polygon (K, 2) of a shape with
-an area, one function per shape (:func:`circle`, :func:`ellipse`, :func:`rectangle`,
-:func:`star`, :func:`polygon_csv`). Exact areas, for checking: pi R^2, pi A B,
-W H - (4 - pi) ROUND^2, pi R^2 (1 + EPS^2 / 2).
+malformed one; every size within SIZES, K at most MAX_VERTICES / 32), :func:`outline` gives
+the dense counter-clockwise polygon (K, 2) of a shape with an area, one function per shape
+(:func:`circle`, :func:`ellipse`, :func:`rectangle`, :func:`star`, :func:`polygon_csv`).
+Exact areas, for checking: pi R^2, pi A B, W H - (4 - pi) ROUND^2, pi R^2 (1 + EPS^2 / 2).
 
 The spec is parsed here, once, for both engines: ``particles`` may not import ``continuum``,
 so the cases layer (cases.shapes) joins this outline with the particle fill
@@ -54,6 +55,14 @@ KINDS = {
 
 #: Vertices of the outline of a circle or an ellipse (and the least of the other smooth shapes).
 N_VERTICES = 256
+#: Most vertices of an outline (a polygon file's, a star's 32 K): the check that no two edges
+#: cross compares every pair of edges (continuum.mesh.check_polygon), 20 s at 10,000 vertices
+#: (and ~8 GiB of index pairs at 1e5).
+MAX_VERTICES = 10_000
+#: The sizes a shape may have (R, A, B, W, H, ROUND > 0, |x|, |y| of a polygon), in model units
+#: (a cell is b = 1/2 wide): a million cells across is beyond either engine's memory, and the
+#: areas and perimeters of the sizes outside stay finite and non-zero in floating point.
+SIZES = (1e-6, 1e6)
 
 
 @dataclass(frozen=True)
@@ -101,8 +110,12 @@ def _numbers(spec: str, kind: str, args: str, counts: tuple[int, ...]) -> list[f
 
 
 def _positive(spec: str, what: str, value: float) -> None:
+    """A size: positive and within SIZES."""
     if not value > 0:
         raise ValueError(f"shape {spec!r}: {what} must be positive, got {value:g}")
+    if not SIZES[0] <= value <= SIZES[1]:
+        raise ValueError(f"shape {spec!r}: {what} must be in [{SIZES[0]:g}, {SIZES[1]:g}] "
+                         f"(model units, a cell is 1/2 wide), got {value:g}")
 
 
 def _integer(spec: str, what: str, value: float, low: int) -> int:
@@ -163,10 +176,16 @@ def parse(spec: str) -> Shape:
         if not 0 <= rnd <= min(w, h) / 2:
             raise ValueError(f"shape {s!r}: the corner radius ROUND must be in "
                              f"[0, min(W, H)/2 = {min(w, h) / 2:g}], got {rnd:g}")
+        if rnd > 0:
+            _positive(s, "the corner radius ROUND", rnd)
         return Shape("rectangle", (w, h, rnd), None, s)
     if kind == "star":
         k, eps, *rest = _numbers(s, kind, args, (2, 3))
         k = _integer(s, "the mode K", k, 2)
+        if 32 * k > MAX_VERTICES:
+            raise ValueError(f"shape {s!r}: the mode K must be at most {MAX_VERTICES // 32} "
+                             f"(its outline has 32 K = {32 * k:,} vertices, at most "
+                             f"{MAX_VERTICES:,})")
         if not 0 <= eps < 1:
             raise ValueError(f"shape {s!r}: the amplitude EPS must be in [0, 1), got {eps:g}")
         r = None
@@ -192,9 +211,12 @@ def outline(spec: str | Shape, radius: float = R0) -> np.ndarray:
     Raises
     ------
     ValueError
-        A malformed spec, ``line:N`` (no area), or a bad polygon file (PolygonError).
+        A malformed spec, ``line:N`` (no area), a default radius outside SIZES, or a bad
+        polygon file (PolygonError).
     """
     shape = parse(spec) if isinstance(spec, str) else spec
+    if shape.kind in ("circle", "star") and (not shape.values or shape.values[-1] is None):
+        _positive(shape.spec, "the default radius (initial_radius)", radius)
     if shape.kind == "circle":
         return circle(shape.values[0] if shape.values else radius)
     if shape.kind == "ellipse":
@@ -264,33 +286,69 @@ def star(k: int, eps: float, r: float, n: int | None = None) -> np.ndarray:
 def polygon_csv(path) -> np.ndarray:
     """Read a closed boundary polygon from a CSV file with columns x,y (header line optional).
 
-    The polygon must be explicitly closed: the last row repeats the first. Returns the checked,
-    counter-clockwise vertices without the closing duplicate (continuum.mesh.check_polygon).
+    The polygon must be explicitly closed: the last row repeats the first, to round-off (1e-12
+    of the largest coordinate). Returns the checked, counter-clockwise vertices without the
+    closing duplicate (continuum.mesh.check_polygon).
 
     Raises
     ------
     PolygonError
-        Missing file, an unreadable line, an open polygon, fewer than 3 vertices, or a polygon
-        that is not simple or has no area.
+        One line naming the file: missing, not text, an unreadable line, more than
+        MAX_VERTICES vertices, a coordinate beyond SIZES, an open polygon, fewer than 3
+        vertices, or a polygon that is not simple or has no area.
     """
     path = Path(path)
-    if not path.is_file():
+    if not _is_file(path):
         raise PolygonError(f"polygon file not found: {path}")
-    rows = []
-    with path.open() as fh:
-        for row in csv.reader(fh):
-            if not row or row[0].strip().lower() in ("x", "#"):
-                continue
-            try:
-                rows.append([float(row[0]), float(row[1])])
-            except (ValueError, IndexError):
-                raise PolygonError(f"{path}: cannot read x,y from the line {row}") from None
-    xy = np.array(rows, dtype=float).reshape(-1, 2)
-    if len(xy) < 2 or not np.array_equal(xy[0], xy[-1]):
+    xy = _read_xy(path)
+    if len(xy) < 2 or not _closed(xy):
         raise PolygonError(
             f"polygon in {path} is not closed: the last vertex must repeat the first"
         )
     if len(xy) < 4:
         raise PolygonError(f"polygon in {path} has {len(xy) - 1} distinct vertices; a polygon "
                            "needs at least 3 (then the first repeated)")
-    return check_polygon(xy)
+    try:
+        return check_polygon(xy[:-1])
+    except PolygonError as err:
+        raise PolygonError(f"polygon in {path}: {err}") from None
+
+
+def _is_file(path: Path) -> bool:
+    """Whether ``path`` is a file (False also for a name the system refuses: too long, NUL)."""
+    try:
+        return path.is_file()
+    except (OSError, ValueError):
+        return False
+
+
+def _read_xy(path: Path) -> np.ndarray:
+    """The x,y rows of a polygon file (K, 2): finite, within SIZES, at most MAX_VERTICES + 1."""
+    rows = []
+    try:
+        with path.open(newline="") as fh:
+            for row in csv.reader(fh):
+                if not row or row[0].strip().lower() in ("x", "#"):
+                    continue
+                if len(rows) > MAX_VERTICES:
+                    raise PolygonError(f"polygon in {path} has more than {MAX_VERTICES:,} "
+                                       "vertices (the check that no two edges cross compares "
+                                       "every pair); resample it")
+                try:
+                    rows.append([float(row[0]), float(row[1])])
+                except (ValueError, IndexError):
+                    raise PolygonError(f"{path}: cannot read x,y from the line "
+                                       f"{','.join(row)[:60]!r}") from None
+    except (UnicodeDecodeError, csv.Error) as err:
+        raise PolygonError(f"{path} is not a text CSV file of x,y rows ({err})") from None
+    xy = np.array(rows, dtype=float).reshape(-1, 2)
+    if not np.all(np.abs(xy) <= SIZES[1]):  # also NaN
+        raise PolygonError(f"polygon in {path}: the coordinates must be finite numbers within "
+                           f"+-{SIZES[1]:g}")
+    return xy
+
+
+def _closed(xy: np.ndarray) -> bool:
+    """Whether the last vertex repeats the first, to 1e-12 of the largest coordinate."""
+    scale = float(np.max(np.abs(xy)))
+    return bool(np.all(np.abs(xy[-1] - xy[0]) <= 1e-12 * scale))

@@ -4,6 +4,8 @@
 - :func:`from_csv`: the particles of a CSV file with columns x,y,theta,length (``Config.init``);
 - :func:`fill_outline`: rods filling a given outline (a polygon) at the model's packing, lengths
   drawn from :func:`sample_lengths` (by default the stable distribution Psi ~ l^-2 on [1, 2]);
+  :func:`fill_estimate` its rods and seconds beforehand (a fill beyond MAX_FILL_SECONDS or a
+  given number of rods is refused);
 - :func:`line`: N cells of length 1 end to end on the x axis;
 - :func:`ring_packing`: a dense, jammed, non-overlapping disc of rods on concentric rings: the
   synthetic states of ``python -m cases.bench.contact_solvers`` and of the solver tests, where
@@ -25,7 +27,7 @@ from .output import read_init
 from .state import ParticleState
 from .stepping import warm_start
 
-__all__ = ["FILL_LENGTHS", "FILL_ORIENTATIONS", "fill_outline", "from_csv", "line",
+__all__ = ["FILL_LENGTHS", "FILL_ORIENTATIONS", "fill_estimate", "fill_outline", "from_csv", "line",
            "packing_fractions", "ring_packing", "sample_lengths", "single_cell", "warm_problem"]
 
 #: Orientations of :func:`fill_outline` (the first is the default).
@@ -41,6 +43,14 @@ FILL_STEP = 0.02
 HOLE_ANGLES = 6
 #: Largest inward move of a rod of a "tangent" layer, in units of b (:func:`fill_outline`).
 LAYER_SHIFT = 0.5
+#: Seconds of :func:`fill_outline` ("tangent") per area times perimeter of the outline and per
+#: perimeter: its layers (2 A of guides, 4 points per unit) are compared with every edge (4 P),
+#: and its guides are walked 0.02 at a time. Fitted on a 2-core machine to circle:80,
+#: circle:150 (101,068 rods in 87 s), rectangle:750,2 (28 s), 750,20 and 3000,2 (115 s):
+#: within 25 %.
+FILL_SECONDS = (9.2e-7, 0.017)
+#: Longest fill :func:`fill_outline` starts (its estimate, :func:`fill_estimate`).
+MAX_FILL_SECONDS = 3600.0
 
 
 def single_cell() -> ParticleState:
@@ -72,16 +82,42 @@ def from_csv(path: str | os.PathLike) -> ParticleState:
     ------
     ValueError
         With one line naming the file, when it is missing, not text, lacks a column, holds a
-        non-numeric or non-finite value, or a length <= b.
+        non-numeric or non-finite value, a length <= b, or more rods about one place than
+        fit there (:func:`_check_crowding`: before the overlap check, which would compare
+        every pair of them).
     """
     try:
         arrays = read_init(path)
     except UnicodeDecodeError:
         raise ValueError(f"init file {path} is not a text CSV file") from None
     try:
-        return ParticleState.from_arrays(*arrays)
+        state = ParticleState.from_arrays(*arrays)
+        _check_crowding(state.x, state.y, state.length)
     except ValueError as err:
         raise ValueError(f"init file {path}: {err}") from None
+    return state
+
+
+def _check_crowding(x: np.ndarray, y: np.ndarray, length: np.ndarray) -> None:
+    """ValueError when the rods centred in some unit square must overlap.
+
+    A rod centred in the square [i, i + 1) x [j, j + 1) lies within the square widened by
+    lmax / 2 on every side (lmax the longest of them): when their areas b (l - b) + pi b^2 / 4
+    add up to more than (1 + lmax)^2, they overlap. O(N log N): 1e5 rods in a unit square
+    are refused at once instead of filling the memory with their N^2 / 2 contacts.
+    """
+    cells, which = np.unique(np.floor(np.column_stack([x, y])), axis=0, return_inverse=True)
+    which = which.ravel()
+    area = np.bincount(which, B * (length - B) + 0.25 * math.pi * B * B)
+    longest = np.zeros(len(cells))
+    np.maximum.at(longest, which, length)
+    room = (1.0 + longest) ** 2
+    k = int(np.argmax(area / room))
+    if area[k] > room[k]:
+        count = int(np.sum(which == k))
+        raise ValueError(f"{count} rods centred in the unit square at ({cells[k, 0]:g}, "
+                         f"{cells[k, 1]:g}) cover {area[k]:.3g}, more than the "
+                         f"{room[k]:.3g} they can reach: they overlap")
 
 
 def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 1.0,
@@ -237,9 +273,30 @@ def packing_fractions(length: np.ndarray, area: float) -> tuple[float, float]:
     return float(B * length.sum() / area), float(rods.sum() / area)
 
 
+def fill_estimate(outline, lengths: str = "stable", lmin: float = 1.0,
+                  lmax: float = 2.0) -> tuple[float, float]:
+    """(rods, seconds) of :func:`fill_outline` of this outline, estimated before any work.
+
+    Rods: the model's packing, b sum l = A, at the mean of the ``lengths`` distribution
+    (measured: 0.93 of it for circle:20, 0.98 for circle:80). Seconds: FILL_SECONDS times
+    (A P, P) of the outline (area A, perimeter P). inf where a size overflows.
+    """
+    poly = _checked_outline(outline)
+    area = _signed_area(poly)
+    perimeter = float(np.linalg.norm(np.roll(poly, -1, axis=0) - poly, axis=1).sum())
+    if lengths == "birth" or lmax == lmin:
+        mean = lmin
+    elif lengths == "uniform":
+        mean = 0.5 * (lmin + lmax)
+    else:  # "stable": density ~ l^-2 (sample_lengths)
+        mean = lmin * lmax * math.log(lmax / lmin) / (lmax - lmin)
+    seconds = FILL_SECONDS[0] * area * perimeter + FILL_SECONDS[1] * perimeter
+    return area / (B * mean), seconds
+
+
 def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: str = "stable",
                  gap: float = 1e-3, angle: float = 0.0, lmin: float = 1.0,
-                 lmax: float = 2.0) -> ParticleState:
+                 lmax: float = 2.0, max_rods: int | None = None) -> ParticleState:
     """Rods filling the polygon ``outline`` at the model's packing, none overlapping (t = 0).
 
     Lengths: the sequence l_1, l_2, ... of :func:`sample_lengths` (``lengths``, seeded by
@@ -279,6 +336,9 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
         Direction of the rows.
     lmin, lmax : float
         Range of the lengths.
+    max_rods : int, optional
+        Refuse an outline whose fill (:func:`fill_estimate`) takes more rods (the particle
+        engine's ``max_particles``).
 
     Returns
     -------
@@ -289,7 +349,8 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
     Raises
     ------
     ValueError
-        A bad outline or option, or an outline that holds no rod.
+        A bad outline or option, an outline that holds no rod, or, before any work, a fill
+        estimated (:func:`fill_estimate`) beyond ``max_rods`` rods or MAX_FILL_SECONDS.
     """
     if orientation not in FILL_ORIENTATIONS:
         raise ValueError(f"unknown orientation {orientation!r}; choose from "
@@ -298,6 +359,7 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
         raise ValueError(f"gap must be a number in (0, b = {B}), got {gap!r}")
     poly = _checked_outline(outline)
     area = _signed_area(poly)
+    _check_fill(poly, lengths, lmin, lmax, max_rods)
     rng = np.random.default_rng(seed)
     rod_min = B * (lmin - B) + 0.25 * math.pi * B * B
     draws = sample_lengths(int(area / rod_min) + 16, rng, lengths, lmin, lmax)
@@ -325,6 +387,21 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
     centre, d = 0.5 * (a + b), b - a
     return ParticleState.from_arrays(centre[:, 0], centre[:, 1], np.arctan2(d[:, 1], d[:, 0]),
                                      placed[:count])
+
+
+def _check_fill(poly: np.ndarray, lengths: str, lmin: float, lmax: float,
+                max_rods: int | None) -> None:
+    """ValueError when the fill of ``poly`` takes more than ``max_rods`` rods or than
+    MAX_FILL_SECONDS (:func:`fill_estimate`)."""
+    rods, seconds = fill_estimate(poly, lengths, lmin, lmax)
+    area = _signed_area(poly)
+    if max_rods is not None and not rods <= max_rods:
+        raise ValueError(f"the outline (area {area:.3g}) takes about {rods:.3g} rods, more "
+                         f"than max_particles = {max_rods}")
+    if not seconds <= MAX_FILL_SECONDS:
+        raise ValueError(f"the fill of the outline (area {area:.3g}, about {rods:.3g} rods) "
+                         f"takes about {seconds / 3600:.3g} h, more than the "
+                         f"{MAX_FILL_SECONDS / 3600:g} h a fill may take")
 
 
 def _signed_area(xy: np.ndarray) -> float:
