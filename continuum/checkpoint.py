@@ -1,4 +1,4 @@
-"""Checkpoints of a continuum run and the deferred handling of SIGINT / SIGTERM.
+"""Checkpoints of a continuum run and the deferred handling of SIGINT / SIGTERM / SIGHUP.
 
 A checkpoint (``checkpoint.npz`` in the run folder) holds everything the following steps depend
 on, so a simulation loaded from it continues bit-identically:
@@ -38,7 +38,7 @@ A checkpoint resumes under a configuration equal to the saved one up to ``EXECUT
 whose names are ignored) in ``meta``, without ``step``, and as finite volumes when their
 configuration has no ``psi_transport``.
 
-:class:`StopRequest` defers SIGINT and SIGTERM to the end of the current step, so that
+:class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step, so that
 ``continuum.run`` can write a checkpoint of a whole step before stopping.
 """
 
@@ -66,7 +66,8 @@ from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid, Si
 from continuum.state import State
 
 __all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "CheckpointError", "save", "load",
-           "resume", "checkpoint_files", "history_record", "check_resumable", "StopRequest"]
+           "resume", "checkpoint_files", "history_record", "check_resumable", "STOP_SIGNALS",
+           "StopRequest"]
 
 log = logging.getLogger(__name__)
 
@@ -495,8 +496,12 @@ def check_resumable(path: Path, saved: dict, config) -> None:
         )
 
 
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""Signals that end a run after its current step, with a checkpoint (:class:`StopRequest`)."""
+
+
 class StopRequest:
-    """SIGINT / SIGTERM deferred to the end of the current step (main thread only).
+    """SIGINT / SIGTERM / SIGHUP deferred to the end of the current step (main thread only).
 
     ``install`` replaces the handlers; the first signal sets ``signum`` and puts the previous
     handlers back, so the run can finish its step and write a checkpoint, while a second signal
@@ -511,7 +516,7 @@ class StopRequest:
     def install(self) -> StopRequest:
         """Install the deferring handlers (in the main thread; elsewhere a no-op)."""
         if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
+            for sig in STOP_SIGNALS:
                 self._previous[sig] = signal.signal(sig, self._handle)
         return self
 

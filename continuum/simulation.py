@@ -688,9 +688,9 @@ def run(
         ``.state`` the final state (``.state.fields``, ``.state.points``, ...), ``.history``
         one row per step, ``.finished``.
 
-    SIGINT or SIGTERM in the main thread ends the run after the current step (remeshing and
-    output included) with a checkpoint of that step, then raises KeyboardInterrupt (SIGINT) or
-    SystemExit(128 + signum) (SIGTERM); a second signal acts at once.
+    SIGINT, SIGTERM or SIGHUP in the main thread ends the run after the current step (remeshing
+    and output included) with a checkpoint of that step, then raises KeyboardInterrupt (SIGINT)
+    or SystemExit(128 + signum) (SIGTERM, SIGHUP); a second signal acts at once.
 
     Raises
     ------

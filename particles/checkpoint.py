@@ -27,8 +27,9 @@ never read through a symbolic link.
 Older checkpoints load: without ``parent``/``generation`` (initial particles: -1, 0), without
 ``dt_next`` (``Config.dt``) or fields added to or renamed in ``Config`` since (``config.upgrade``).
 
-SIGINT / SIGTERM during a run are deferred to the end of the current step (:class:`StopRequest`)
-so that the run writes a checkpoint of a whole step before stopping.
+SIGINT / SIGTERM / SIGHUP (a closed terminal or ssh session) during a run are deferred to the
+end of the current step (:class:`StopRequest`) so that the run writes a checkpoint of a whole
+step before stopping.
 """
 
 from __future__ import annotations
@@ -428,8 +429,12 @@ def resume_checkpoint(out: Path, config: Config, change_step_policy: bool = Fals
                                                                follow=False))
 
 
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""Signals that end a run after its current step, with a checkpoint (:class:`StopRequest`)."""
+
+
 class StopRequest:
-    """SIGINT / SIGTERM deferred to the end of the current step (main thread only).
+    """SIGINT / SIGTERM / SIGHUP deferred to the end of the current step (main thread only).
 
     ``install`` replaces the handlers; the first signal sets ``signum`` and puts the previous
     handlers back, so the run can write a checkpoint of a whole step before stopping, while a
@@ -442,9 +447,9 @@ class StopRequest:
         self._previous = {}
 
     def install(self) -> StopRequest:
-        """Catch SIGINT and SIGTERM (from the main thread only); returns self."""
+        """Catch STOP_SIGNALS (from the main thread only); returns self."""
         if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGINT, signal.SIGTERM):
+            for sig in STOP_SIGNALS:
                 self._previous[sig] = signal.signal(sig, self._handle)
         return self
 
@@ -467,8 +472,8 @@ class StopRequest:
     def reraise(self) -> None:
         """Re-raise the signal that came, after the final checkpoint.
 
-        KeyboardInterrupt for SIGINT, SystemExit(128 + signal) for SIGTERM, nothing when no
-        signal came.
+        KeyboardInterrupt for SIGINT, SystemExit(128 + signal) for SIGTERM and SIGHUP, nothing
+        when no signal came.
         """
         if self.signum == signal.SIGINT:
             raise KeyboardInterrupt

@@ -443,9 +443,10 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         state: ParticleState | None = None) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
-    SIGINT (Ctrl-C) or SIGTERM (e.g. a batch system's time limit) in the main thread ends the
-    run after the current step, with a checkpoint of that step written (then KeyboardInterrupt,
-    or SystemExit(128 + signal) for SIGTERM); a second signal interrupts at once.
+    SIGINT (Ctrl-C), SIGTERM (e.g. a batch system's time limit) or SIGHUP (a closed terminal)
+    in the main thread ends the run after the current step, with a checkpoint of that step
+    written (then KeyboardInterrupt, or SystemExit(128 + signal) for SIGTERM and SIGHUP); a
+    second signal interrupts at once.
 
     Parameters
     ----------
