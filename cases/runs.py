@@ -100,8 +100,9 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
                        step_policy=STEP_POLICY_FIELDS if change_step_policy else ())
 
 
-#: Checkpoint files of either engine in a stage (a stopped run resumes from them).
-CHECKPOINTS = ("checkpoint.npz",)
+#: Checkpoint files of either engine in a stage (a stopped run resumes from them; from the
+#: previous one when the last is damaged, or its process died while replacing it).
+CHECKPOINTS = ("checkpoint.npz", "checkpoint.prev.npz")
 
 
 def _remove_checkpoints(partial: Path) -> None:
