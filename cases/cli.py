@@ -86,11 +86,11 @@ FIELD_PARSERS = {"threads": _threads}
 
 
 def _coerce(value: str, key: str, mismatch):
-    """A ``--set`` string as the first of a number, an integer, a boolean or the string itself
-    that the field ``key`` takes (``mismatch(key, value)`` is None: the engine's
-    ``Config.type_mismatch``); UsageError naming what it takes when none does.
+    """A ``--set`` string as the type the field ``key`` takes; else UsageError saying which.
 
-    Booleans are written 1, true, yes, on or 0, false, no, off (any case).
+    The first of a number, an integer, a boolean (1, true, yes, on or 0, false, no, off, in
+    any case) or the string itself that the field takes: ``mismatch(key, value)`` is None (the
+    engine's ``Config.type_mismatch``).
     """
     candidates = []
     for parse in (float, int):
@@ -119,7 +119,7 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
     import json
 
     names = {f.name for f in dataclasses.fields(cls)}
-    mismatch = getattr(cls, "type_mismatch", None) or (lambda key, value: None)
+    mismatch = getattr(cls, "type_mismatch", lambda key, value: None)
     values: dict = {}
     source: dict = {}
 
@@ -127,23 +127,25 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
         text = json.dumps(value) if isinstance(value, (bool, str)) else repr(value)
         return text if len(text) <= 60 else text[:57] + "..."
 
+    def name(text) -> str:  # a key or file name on one line: quoted when it holds a line break
+        return str(text) if str(text).isprintable() else repr(str(text))
+
     if toml_file:
         path = Path(toml_file)
-        if not path.is_file():
-            raise UsageError(f"config file not found: {path}")
-        with path.open("rb") as fh:
-            try:
+        try:
+            with path.open("rb") as fh:
                 table = tomllib.load(fh)
-            except tomllib.TOMLDecodeError as err:
-                raise UsageError(f"--config {path}: {err}") from None
-            except UnicodeDecodeError:
-                raise UsageError(f"--config {path}: not a UTF-8 text file") from None
+        except OSError as err:
+            raise UsageError(f"config file not found or not readable: {name(path)} "
+                             f"({err.strerror})") from None
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as err:  # not TOML, not UTF-8
+            raise UsageError(f"--config {name(path)}: {err}") from None
         unknown = sorted(set(table) - names)
         if unknown:
-            raise UsageError(f"--config {path}: unknown setting(s) {', '.join(unknown)}; "
-                             f"known: {', '.join(sorted(names))}")
+            raise UsageError(f"--config {name(path)}: unknown setting(s) "
+                             f"{', '.join(map(name, unknown))}; known: {', '.join(sorted(names))}")
         values.update(table)
-        source.update({key: f"--config {path}: key {key}" for key in table})
+        source.update({key: f"--config {name(path)}: key {key}" for key in table})
     for item in sets:
         key, sep, raw = item.partition("=")
         key = key.strip().replace("-", "_")
@@ -158,21 +160,18 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
             raise UsageError(f"--set {key}: {err}") from None
         source[key] = f"--set {key}"
     given = {k: v for k, v in flags.items() if v is not None}
-    source.update({key: "--" + key.replace("_", "-") for key in given})
-    for key, value in (*values.items(), *given.items()):
+    checks = [(source[key], key, value) for key, value in values.items()]
+    checks += [("--" + key.replace("_", "-"), key, value) for key, value in given.items()]
+    for where, key, value in checks:
         what = mismatch(key, value)
         if what is not None:
-            raise UsageError(f"{source[key]}: expected {what}, got {shown(value)}")
-    if "lam" in names:
-        if "lam" in given and "lam" in values and float(values["lam"]) != given["lam"]:
-            raise UsageError(f"lam given twice: --lam {given['lam']:g} and lam = "
-                             f"{values['lam']} in --config/--set; give it once")
-        if "lam" not in given and "lam" not in values:
-            raise UsageError("lam is required: give --lam or lam in --config/--set")
+            raise UsageError(f"{where}: expected {what}, got {shown(value)}")
+    if "lam" in given and "lam" in values and float(values["lam"]) != given["lam"]:
+        raise UsageError(f"lam given twice: --lam {given['lam']:g} and lam = "
+                         f"{values['lam']} in --config/--set; give it once")
+    if "lam" in names and "lam" not in given and "lam" not in values:
+        raise UsageError("lam is required: give --lam or lam in --config/--set")
     values.update(given)
-    unknown = set(values) - names
-    if unknown:
-        raise UsageError(f"unknown setting(s) {', '.join(sorted(unknown))}")
     config = cls(**values)
     config.validate()
     return config

@@ -124,6 +124,26 @@ def _integer(spec: str, what: str, value: float, low: int) -> int:
     return int(value)
 
 
+def _corner(spec: str, rnd: float, w: float, h: float) -> float:
+    """The corner radius ROUND of a W x H rectangle: 0, or a size up to min(W, H) / 2."""
+    if not 0 <= rnd <= min(w, h) / 2:
+        raise ValueError(f"shape {spec!r}: the corner radius ROUND must be in "
+                         f"[0, min(W, H)/2 = {min(w, h) / 2:g}], got {rnd:g}")
+    if rnd > 0:
+        _positive(spec, "the corner radius ROUND", rnd)
+    return rnd
+
+
+def _mode(spec: str, k: float) -> int:
+    """The mode K of a star: an integer >= 2, its outline's 32 K vertices MAX_VERTICES at most."""
+    k = _integer(spec, "the mode K", k, 2)
+    if 32 * k > MAX_VERTICES:
+        raise ValueError(f"shape {spec!r}: the mode K must be at most {MAX_VERTICES // 32} "
+                         f"(its outline has 32 K = {32 * k:,} vertices, at most "
+                         f"{MAX_VERTICES:,})")
+    return k
+
+
 def parse(spec: str) -> Shape:
     """Read a shape specification (module docstring) and check its values.
 
@@ -172,20 +192,11 @@ def parse(spec: str) -> Shape:
         w, h, *rest = _numbers(s, kind, args, (2, 3))
         _positive(s, "the width W", w)
         _positive(s, "the height H", h)
-        rnd = rest[0] if rest else 0.0
-        if not 0 <= rnd <= min(w, h) / 2:
-            raise ValueError(f"shape {s!r}: the corner radius ROUND must be in "
-                             f"[0, min(W, H)/2 = {min(w, h) / 2:g}], got {rnd:g}")
-        if rnd > 0:
-            _positive(s, "the corner radius ROUND", rnd)
+        rnd = _corner(s, rest[0] if rest else 0.0, w, h)
         return Shape("rectangle", (w, h, rnd), None, s)
     if kind == "star":
         k, eps, *rest = _numbers(s, kind, args, (2, 3))
-        k = _integer(s, "the mode K", k, 2)
-        if 32 * k > MAX_VERTICES:
-            raise ValueError(f"shape {s!r}: the mode K must be at most {MAX_VERTICES // 32} "
-                             f"(its outline has 32 K = {32 * k:,} vertices, at most "
-                             f"{MAX_VERTICES:,})")
+        k = _mode(s, k)
         if not 0 <= eps < 1:
             raise ValueError(f"shape {s!r}: the amplitude EPS must be in [0, 1), got {eps:g}")
         r = None
@@ -297,21 +308,21 @@ def polygon_csv(path) -> np.ndarray:
         MAX_VERTICES vertices, a coordinate beyond SIZES, an open polygon, fewer than 3
         vertices, or a polygon that is not simple or has no area.
     """
-    path = Path(path)
+    path, name = Path(path), _name(path)
     if not _is_file(path):
-        raise PolygonError(f"polygon file not found: {path}")
+        raise PolygonError(f"polygon file not found: {name}")
     xy = _read_xy(path)
     if len(xy) < 2 or not _closed(xy):
         raise PolygonError(
-            f"polygon in {path} is not closed: the last vertex must repeat the first"
+            f"polygon in {name} is not closed: the last vertex must repeat the first"
         )
     if len(xy) < 4:
-        raise PolygonError(f"polygon in {path} has {len(xy) - 1} distinct vertices; a polygon "
+        raise PolygonError(f"polygon in {name} has {len(xy) - 1} distinct vertices; a polygon "
                            "needs at least 3 (then the first repeated)")
     try:
         return check_polygon(xy[:-1])
     except PolygonError as err:
-        raise PolygonError(f"polygon in {path}: {err}") from None
+        raise PolygonError(f"polygon in {name}: {err}") from None
 
 
 def _is_file(path: Path) -> bool:
@@ -324,26 +335,26 @@ def _is_file(path: Path) -> bool:
 
 def _read_xy(path: Path) -> np.ndarray:
     """The x,y rows of a polygon file (K, 2): finite, within SIZES, at most MAX_VERTICES + 1."""
-    rows = []
+    rows, name = [], _name(path)
     try:
         with path.open(newline="") as fh:
             for row in csv.reader(fh):
                 if not row or row[0].strip().lower() in ("x", "#"):
                     continue
                 if len(rows) > MAX_VERTICES:
-                    raise PolygonError(f"polygon in {path} has more than {MAX_VERTICES:,} "
+                    raise PolygonError(f"polygon in {name} has more than {MAX_VERTICES:,} "
                                        "vertices (the check that no two edges cross compares "
                                        "every pair); resample it")
                 try:
                     rows.append([float(row[0]), float(row[1])])
                 except (ValueError, IndexError):
-                    raise PolygonError(f"{path}: cannot read x,y from the line "
+                    raise PolygonError(f"{name}: cannot read x,y from the line "
                                        f"{','.join(row)[:60]!r}") from None
     except (UnicodeDecodeError, csv.Error) as err:
-        raise PolygonError(f"{path} is not a text CSV file of x,y rows ({err})") from None
+        raise PolygonError(f"{name} is not a text CSV file of x,y rows ({err})") from None
     xy = np.array(rows, dtype=float).reshape(-1, 2)
     if not np.all(np.abs(xy) <= SIZES[1]):  # also NaN
-        raise PolygonError(f"polygon in {path}: the coordinates must be finite numbers within "
+        raise PolygonError(f"polygon in {name}: the coordinates must be finite numbers within "
                            f"+-{SIZES[1]:g}")
     return xy
 
@@ -352,3 +363,9 @@ def _closed(xy: np.ndarray) -> bool:
     """Whether the last vertex repeats the first, to 1e-12 of the largest coordinate."""
     scale = float(np.max(np.abs(xy)))
     return bool(np.all(np.abs(xy[-1] - xy[0]) <= 1e-12 * scale))
+
+
+def _name(path) -> str:
+    """A file name for a one-line message: as it is, or quoted when it holds a line break."""
+    text = str(path)
+    return text if text.isprintable() else repr(text)

@@ -256,7 +256,7 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"threads must be auto or an integer in [1, {numba.config.NUMBA_NUM_THREADS}], "
                f"got {v!r}"),
     ("init", lambda v: v is None or _is_file(v),
-     lambda v: f"init file not found: {v}"),
+     lambda v: f"init file not found: {v if v.isprintable() else repr(v)}"),
     ("shape", lambda v: v is None or v.strip() != "",
      lambda v: f"shape must be a shape specification such as star:5,0.2,8, got {v!r}"),
     ("fill_orientation", lambda v: v in FILL_ORIENTATIONS,

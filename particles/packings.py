@@ -43,11 +43,12 @@ FILL_STEP = 0.02
 HOLE_ANGLES = 6
 #: Largest inward move of a rod of a "tangent" layer, in units of b (:func:`fill_outline`).
 LAYER_SHIFT = 0.5
-#: Seconds of :func:`fill_outline` ("tangent") per area times perimeter of the outline and per
-#: perimeter: its layers (2 A of guides, 4 points per unit) are compared with every edge (4 P),
-#: and its guides are walked 0.02 at a time. Fitted on a 2-core machine to circle:80,
-#: circle:150 (101,068 rods in 87 s), rectangle:750,2 (28 s), 750,20 and 3000,2 (115 s):
-#: within 25 %.
+#: Seconds of :func:`fill_outline` ("tangent") per (A + P / 2) P and per P of an outline of
+#: area A and perimeter P: the points of its layers (4 per unit of 2 A + P of guides, the
+#: first layer a copy of the outline) are compared with every edge (4 P), ~3e-8 s a pair, and
+#: its guides are walked 0.02 at a time. Fitted on a 2-core machine to circle:80, circle:150
+#: (101,068 rods in 87 s), rectangle:750,2 (28 s), 1500,2, 750,20 and 3000,2 (115 s): within
+#: a third.
 FILL_SECONDS = (9.2e-7, 0.017)
 #: Longest fill :func:`fill_outline` starts (its estimate, :func:`fill_estimate`).
 MAX_FILL_SECONDS = 3600.0
@@ -279,7 +280,7 @@ def fill_estimate(outline, lengths: str = "stable", lmin: float = 1.0,
 
     Rods: the model's packing, b sum l = A, at the mean of the ``lengths`` distribution
     (measured: 0.93 of it for circle:20, 0.98 for circle:80). Seconds: FILL_SECONDS times
-    (A P, P) of the outline (area A, perimeter P). inf where a size overflows.
+    ((A + P / 2) P, P) of the outline (area A, perimeter P). inf where a size overflows.
     """
     poly = _checked_outline(outline)
     area = _signed_area(poly)
@@ -290,13 +291,14 @@ def fill_estimate(outline, lengths: str = "stable", lmin: float = 1.0,
         mean = 0.5 * (lmin + lmax)
     else:  # "stable": density ~ l^-2 (sample_lengths)
         mean = lmin * lmax * math.log(lmax / lmin) / (lmax - lmin)
-    seconds = FILL_SECONDS[0] * area * perimeter + FILL_SECONDS[1] * perimeter
+    seconds = (FILL_SECONDS[0] * (area + perimeter / 2) + FILL_SECONDS[1]) * perimeter
     return area / (B * mean), seconds
 
 
-def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: str = "stable",
-                 gap: float = 1e-3, angle: float = 0.0, lmin: float = 1.0,
-                 lmax: float = 2.0, max_rods: int | None = None) -> ParticleState:
+def fill_outline(outline, seed: int = 0, orientation: str = "tangent",  # noqa: PLR0913
+                 lengths: str = "stable", gap: float = 1e-3, angle: float = 0.0,
+                 lmin: float = 1.0, lmax: float = 2.0,
+                 max_rods: int | None = None) -> ParticleState:
     """Rods filling the polygon ``outline`` at the model's packing, none overlapping (t = 0).
 
     Lengths: the sequence l_1, l_2, ... of :func:`sample_lengths` (``lengths``, seeded by
@@ -391,8 +393,10 @@ def fill_outline(outline, seed: int = 0, orientation: str = "tangent", lengths: 
 
 def _check_fill(poly: np.ndarray, lengths: str, lmin: float, lmax: float,
                 max_rods: int | None) -> None:
-    """ValueError when the fill of ``poly`` takes more than ``max_rods`` rods or than
-    MAX_FILL_SECONDS (:func:`fill_estimate`)."""
+    """ValueError when the fill of ``poly`` takes more than ``max_rods`` rods or seconds.
+
+    The estimate of :func:`fill_estimate` against ``max_rods`` and MAX_FILL_SECONDS.
+    """
     rods, seconds = fill_estimate(poly, lengths, lmin, lmax)
     area = _signed_area(poly)
     if max_rods is not None and not rods <= max_rods:
