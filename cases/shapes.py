@@ -21,7 +21,7 @@ import logging
 
 from continuum import shapes
 from particles import packings
-from particles.config import Config, check_budget
+from particles.config import Config
 from particles.state import ParticleState
 
 __all__ = ["initial_particles", "initial_state"]
@@ -74,15 +74,17 @@ def initial_particles(spec: str, seed: int = 0, orientation: str = "tangent",
 def initial_state(config) -> ParticleState | None:
     """The initial particles of a ``particles.Config`` with a ``shape`` (else None), checked.
 
-    ``initial_particles(config.shape, config.seed, config.fill_orientation,
-    config.fill_lengths, config.max_particles)``, then the run's steps from the fill's radius
-    (particles.config.check_budget).
+    Whether this machine can do the run (``config.check_budget``: its steps and its colony),
+    before any work; with a ``shape``, ``initial_particles(config.shape, config.seed,
+    config.fill_orientation, config.fill_lengths, config.max_particles)`` and the steps from
+    the fill's radius.
     """
+    config.check_budget()  # a shape's steps to a radius goal: after its fill
     if config.shape is None:
         return None
     state = initial_particles(config.shape, config.seed, config.fill_orientation,
                               config.fill_lengths, config.max_particles)
-    check_budget(config, state.enclosing_radius())
+    config.check_budget(state.enclosing_radius())
     return state
 
 

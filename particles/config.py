@@ -19,9 +19,9 @@ from .geometry import B
 from .packings import FILL_LENGTHS, FILL_ORIENTATIONS
 from .stepping import SOLVERS, STEP_CONTROLS
 
-__all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS", "check_budget"]
+__all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS"]
 
-#: Most time steps a run may take (at least): refused beyond by ``check_budget``. A step of the
+#: Most time steps a run may take (at least): ``Config.check_budget`` refuses more. A step of the
 #: smallest colony, one cell, costs ~2.5 ms (issue 28: 120,451 steps in 5 min at dt = 1e-300),
 #: so 1e6 steps are 40 min at the very least, days for a colony of thousands of cells; the
 #: paper's colonies took 1,300-2,900 steps (docs/benchmarks.md).
@@ -36,18 +36,22 @@ BYTES_PER_PARTICLE = 7_000
 SINGLE_CELL_RADIUS = 0.5
 
 
-@dataclass
+@dataclass(frozen=True)
 class Config:
     """Configuration of a particle run (all quantities in model units, b = 1/2).
+
+    Validated when made (:meth:`validate`; ValueError); frozen (``dataclasses.replace`` makes
+    a changed copy).
 
     Parameters
     ----------
     lam : float
-        Stress sensitivity lambda >= 0 of the growth law dl/dt = l exp(-lam sigma).
+        Stress sensitivity lambda >= 0 of the growth law dl/dt = l exp(-lam sigma); required.
     radius, time : float or None
-        Stop of :func:`particles.run`: when the colony radius (the enclosing radius,
-        measures.enclosing_radius) reaches ``radius`` or when t reaches ``time`` (exactly one
-        for ``run``; both may be None for a ``Simulation``, which ``advance`` stops).
+        The goal of a run: the colony radius (the enclosing radius,
+        measures.enclosing_radius) or the time t to reach.  At most one; :func:`particles.run`
+        needs one, a ``Simulation`` stepped by hand none (``advance()`` without arguments goes
+        to this goal).
     dt : float
         Time step (the last step of a ``time`` run is shortened to land on it); with an
         adaptive ``step_control`` the first and largest step.
@@ -140,14 +144,16 @@ class Config:
     step_control: str = "overlap"
     threads: int | str = "auto"
 
-    def validate(self, require_stop: bool = True) -> None:
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
         """Raise ValueError with a one-line message on an inconsistent configuration.
 
-        ``require_stop``: exactly one of ``radius`` and ``time`` (a run); False: at most one
-        (a ``Simulation`` stepped by hand).  Every field's type first (``type_mismatch``), then
-        the goal, then the fields in the order of ``_RULES``, then the size of the run
-        (``check_budget``; its steps from the one cell's radius when neither ``init`` nor
-        ``shape`` is given, else cases.shapes checks them from the filled shape).
+        Called when the configuration is made.  Every field's type first (``type_mismatch``),
+        then the goal (at most one of ``radius`` and ``time``), then the fields in the order of
+        ``_RULES``.  Whether this machine can do the
+        run is :meth:`check_budget`'s question.
         """
         for field in fields(self):
             value = getattr(self, field.name)
@@ -157,17 +163,43 @@ class Config:
         if self.lam < 0:
             raise ValueError(f"lam must be a finite number >= 0 for particles, got {self.lam}")
         if self.radius is not None and self.time is not None:
-            raise ValueError("give exactly one of radius and time")
-        if require_stop and self.radius is None and self.time is None:
-            raise ValueError("give exactly one of radius and time")
+            raise ValueError("give at most one of radius and time, not both")
         if self.init is not None and self.shape is not None:
             raise ValueError("give at most one initial state: init (a CSV file) or shape")
         for name, ok, message in _RULES:
             v = getattr(self, name)
             if not ok(v):
                 raise ValueError(message(v))
-        one_cell = self.init is None and self.shape is None
-        check_budget(self, SINGLE_CELL_RADIUS if one_cell else None)
+
+    def check_budget(self, initial_radius: float | None = None) -> None:
+        """Raise ValueError (one line, with the estimate) for a run this machine cannot do.
+
+        Refused: a radius goal whose colony (``least_particles``) exceeds ``max_particles`` or,
+        at BYTES_PER_PARTICLE per particle, the physical memory; more than MAX_STEPS steps
+        (``least_steps``: a bound from dt and the goal, for a radius goal from the initial
+        colony's enclosing radius ``initial_radius``; None: the one cell's, SINGLE_CELL_RADIUS,
+        when neither ``init`` nor ``shape`` is given, else unknown and the steps unchecked).
+        A valid configuration (:meth:`validate`) is assumed.
+        """
+        if initial_radius is None and self.init is None and self.shape is None:
+            initial_radius = SINGLE_CELL_RADIUS
+        n = least_particles(self)
+        need, memory = n * BYTES_PER_PARTICLE, _physical_memory()
+        if n > self.max_particles or need > memory:
+            limit = (f"more than max_particles = {self.max_particles}"
+                     if n > self.max_particles else f"~{need / 2**30:.3g} GiB, more than the "
+                     f"{memory / 2**30:.3g} GiB of this machine's memory")
+            raise ValueError(f"radius {self.radius:g} takes {_at_least(n)} particles "
+                             f"({PARTICLES_PER_AREA:g} pi R^2, the sparsest colony measured), "
+                             f"{limit}")
+        steps = least_steps(self, initial_radius)
+        if steps > MAX_STEPS:
+            goal = (f"time {self.time:g}" if self.time is not None else
+                    f"radius {self.radius:g} from the initial radius {initial_radius:.3g} "
+                    "(the radius grows at most e-fold per unit time)")
+            raise ValueError(f"dt = {self.dt:g} takes {_at_least(steps)} steps to {goal}, "
+                             f"more than the {MAX_STEPS:,} a run may take (days of computing); "
+                             "give a larger dt or a nearer goal")
 
     @classmethod
     def type_mismatch(cls, name: str, value) -> str | None:
@@ -299,32 +331,6 @@ def _physical_memory() -> float:
         return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
     except (AttributeError, ValueError, OSError):
         return math.inf
-
-
-def check_budget(config: Config, initial_radius: float | None = None) -> None:
-    """Raise ValueError (one line, with the estimate) for a run this machine cannot do.
-
-    Refused: a radius goal whose colony (``least_particles``) exceeds ``max_particles`` or, at
-    BYTES_PER_PARTICLE per particle, the physical memory; more than MAX_STEPS steps
-    (``least_steps``: a bound from dt and the goal, with the initial colony's enclosing radius
-    ``initial_radius`` for a radius goal).
-    """
-    n = least_particles(config)
-    need, memory = n * BYTES_PER_PARTICLE, _physical_memory()
-    if n > config.max_particles or need > memory:
-        limit = (f"more than max_particles = {config.max_particles}" if n > config.max_particles
-                 else f"~{need / 2**30:.3g} GiB, more than the {memory / 2**30:.3g} GiB of this "
-                 "machine's memory")
-        raise ValueError(f"radius {config.radius:g} takes {_at_least(n)} particles "
-                         f"({PARTICLES_PER_AREA:g} pi R^2, the sparsest colony measured), {limit}")
-    steps = least_steps(config, initial_radius)
-    if steps > MAX_STEPS:
-        goal = (f"time {config.time:g}" if config.time is not None else
-                f"radius {config.radius:g} from the initial radius {initial_radius:.3g} (the "
-                "radius grows at most e-fold per unit time)")
-        raise ValueError(f"dt = {config.dt:g} takes {_at_least(steps)} steps to {goal}, more "
-                         f"than the {MAX_STEPS:,} a run may take (days of computing); give a "
-                         "larger dt or a nearer goal")
 
 
 LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",

@@ -137,6 +137,18 @@ def test_bad_polygon_files_named(tmp_path, content, needle):
 # --------------------------------------------------------------------------- estimates
 
 
+def test_budget_is_asked_apart_from_validity():
+    """A configuration may name a far goal (a benchmark steps by hand); a run checks its budget."""
+    config = particles.Config(lam=1e-2, time=1e9)
+    config.validate()
+    with pytest.raises(ValueError, match="at least 5e\\+10 steps to time 1e\\+09"):
+        config.check_budget()
+    shape = particles.Config(lam=1e-2, radius=5.0, shape="circle:3", dt=1e-300)
+    shape.check_budget()  # the steps of a shape's radius goal: from its fill's radius
+    with pytest.raises(ValueError, match="from the initial radius 3"):
+        shape.check_budget(initial_radius=3.0)
+
+
 def test_least_steps_below_a_run():
     config = particles.Config(lam=1e-2, radius=4.0, step_control="fixed")
     run = particles.run(config)
@@ -153,7 +165,8 @@ def test_least_area_below_a_run(lam, shape):
 
 
 def test_thin_shape_counts_its_boundary_nodes():
-    config = continuum.Config(lam=0.01, radius=2.0, shape="ellipse:1e-6,1").validate()
+    config = continuum.Config(lam=0.01, radius=2.0, shape="ellipse:1e-6,1")
+    config.validate()
     assert check_memory(config) > 4.0 / config.h_max
     with pytest.raises(ValueError, match="mesh nodes"):
         check_memory(config, memory=2**30)
@@ -201,7 +214,8 @@ def test_random_shape_strings_never_a_traceback(spec):
         shape = shapes.parse(spec)
         polygon = shapes.outline(shape)
         assert polygon.ndim == 2 and np.all(np.isfinite(polygon))
-        config = continuum.Config(lam=0.01, time=1.0, shape=spec).validate()
+        config = continuum.Config(lam=0.01, time=1.0, shape=spec)
+        config.validate()
         check_memory(config)
     except ValueError as err:
         assert str(err).strip() and "\n" not in str(err), repr(str(err))
