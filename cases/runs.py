@@ -56,7 +56,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
         if start is not None:
             write_handoff(partial, start[1])
         state = run(config, out=partial, progress=progress,
-                    initial=None if start is None else start[0]).state
+                    state=None if start is None else start[0]).state
         write_csv(partial / "profile.csv", continuum_profile(
             state.points, state.triangles, state.fields, edge_width=CONTINUUM_EDGE_WIDTH))
         write_rings(partial, state.points, state.triangles, state.fields["G"])

@@ -239,9 +239,7 @@ def run_engine(params: dict, folder: Path) -> None:
         params.setdefault("threads", 1)
     else:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
-    config = Config(**params)
-    if hasattr(config, "validate"):
-        config.validate()
+    config = Config(**params)  # validated when made
     run = runs.run_continuum if engine == "continuum" else runs.run_particles
     run(config, Path(folder), progress=False)
 

@@ -6,11 +6,14 @@ carried by the material (docs/model.md). A short use::
 
     import continuum
     sim = continuum.Simulation(continuum.Config(lam=1e-2))
-    record = sim.step()                  # a StepRecord: t, dt, remesh, iterations, radius, ...
+    record = sim.step()                  # a StepRecord: step, t, dt, radius, remesh, ...
     state = sim.advance(radius=5.0)      # the State: mesh, fields, Psi, t, counters
     print(state.t, state.fields["G"].max(), len(state.points))
     sim.save("colony.npz")               # Simulation.load("colony.npz") continues bit for bit
     sim = continuum.run(continuum.Config(lam=1e-2, radius=12), out=folder)  # a run folder
+
+The same contract as ``particles`` (``Config``, ``Simulation(config, state=None, out=None)``
+with ``step``, ``done``, ``advance``, ``save``, ``load``; ``run``; docs/DESIGN.md).
 
 Modules, one concept each:
 
@@ -26,10 +29,12 @@ Modules, one concept each:
 - ``remesh``: when to remesh, the new mesh, the transfer of G, Psi and p;
 - ``sizes``: Psi(x, l, t) in s = log2 l, transport with the division condition;
 - ``state``: the ``State`` of a colony and the ``StepRecord`` of a step;
-- ``simulation``: ``Config``, ``Simulation``, ``run``;
+- ``config``: ``Config``, the configuration of a run (validated when made, frozen);
+- ``simulation``: ``Simulation``, ``run``;
 - ``initial``: the state at t = 0 from any polygon and Psi0 (``state_from``; e.g. a particle
-  colony handed over by cases.handoff), grown by ``Simulation(config, initial=state)``;
-- ``checkpoint``: checkpoint files, SIGINT / SIGTERM deferred to the end of a step;
+  colony handed over by cases.handoff), grown by ``Simulation(config, state=state)``;
+- ``checkpoint``: checkpoint files (``save_checkpoint``, ``load_checkpoint``), SIGINT /
+  SIGTERM / SIGHUP deferred to the end of a step (``StopRequest``);
 - ``output``: the run folder's files (history, boundary, rings, VTU frames);
 - ``radial``: the exact 1D reference of a disc colony (R(t), p, u, characteristics, rings);
 - ``ellipse``: the exact lam = 0 ellipse (semi-axes in time; a polygon's moment axes);
@@ -43,6 +48,7 @@ from __future__ import annotations
 from importlib import metadata as _metadata
 
 from continuum.budget import BudgetError
+from continuum.config import Config
 from continuum.growth import growth_rate, mean_length
 from continuum.initial import state_from
 from continuum.mesh import PolygonError
@@ -50,7 +56,7 @@ from continuum.pressure import PressureDivergence
 from continuum.radial import R0, NoRadialSolution, ring_radii
 from continuum.radial import radius as radial_radius
 from continuum.rings import ring_table
-from continuum.simulation import Config, Simulation, run
+from continuum.simulation import Simulation, run
 from continuum.state import State, StepRecord
 
 try:

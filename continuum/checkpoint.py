@@ -22,8 +22,12 @@ not on how long the colony has grown; on load the first n rows of history.csv ar
 against it and read back (:func:`read_history`). A checkpoint saved elsewhere
 (``Simulation.save(path)``), and every checkpoint written before this, holds the rows.
 
-Safety (:func:`write_arrays`, :func:`read_arrays`, :func:`resume`): a checkpoint is written to
-a temporary file, flushed, read back and verified; only then the run folder's
+The functions, the particle engine's too: :func:`save_checkpoint` writes a :class:`Checkpoint`
+(configuration, state, history, frames, and here the AMG matrix and the run's bookkeeping),
+:func:`load_checkpoint` reads one back, :func:`resume_checkpoint` finds a run folder's.
+
+Safety (:func:`write_arrays`, :func:`read_arrays`, :func:`resume_checkpoint`): a checkpoint is
+written to a temporary file, flushed, read back and verified; only then the run folder's
 ``checkpoint.npz``, when intact, becomes ``checkpoint.prev.npz`` and the new file takes its name
 (os.replace). Loading never unpickles (allow_pickle=False), verifies the checksum and refuses
 anything damaged (emptied, cut short, bytes changed, an entry missing, an object array) with one
@@ -38,8 +42,8 @@ A checkpoint resumes under a configuration equal to the saved one up to ``EXECUT
 whose names are ignored) in ``meta``, without ``step``, and as finite volumes when their
 configuration has no ``psi_transport``.
 
-:class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step, so that
-``continuum.run`` can write a checkpoint of a whole step before stopping.
+:class:`StopRequest` (a context manager) defers SIGINT, SIGTERM and SIGHUP to the end of the
+current step, so that ``continuum.run`` can write a checkpoint of a whole step before stopping.
 """
 
 from __future__ import annotations
@@ -57,16 +61,18 @@ import signal
 import stat
 import threading
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from continuum.config import Config
 from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid, SizeDistribution
 from continuum.state import State
 
-__all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "CheckpointError", "save", "load",
-           "resume", "checkpoint_files", "history_record", "check_resumable", "STOP_SIGNALS",
+__all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "Checkpoint", "CheckpointError",
+           "save_checkpoint", "load_checkpoint", "resume_checkpoint", "checkpoint_config",
+           "checkpoint_files", "history_record", "check_resumable", "STOP_SIGNALS",
            "StopRequest"]
 
 log = logging.getLogger(__name__)
@@ -320,27 +326,47 @@ def resume_from(out: Path, load: Callable[[Path], tuple]) -> tuple[Path, tuple]:
 # ------------------------------------------------------------------ the continuum checkpoint
 
 
-def save(path: Path, config, state: State, amg: np.ndarray | None, history: list[dict] | dict,
-         frame_times=(), next_frame: float = float("inf"), done: bool = False) -> None:
-    """Write a checkpoint of ``state`` (format in the module docstring) to ``path`` safely.
+@dataclass
+class Checkpoint:
+    """What a checkpoint holds: everything the following steps of a run depend on.
 
-    Parameters
+    The first four attributes are the particle engine's ``Checkpoint``'s too.
+
+    Attributes
     ----------
-    path : Path
-        The checkpoint file (a failed write leaves the existing checkpoints as they were).
     config : Config
-        The run's configuration.
+        The configuration it ran with.
     state : State
-    amg : ndarray or None
-        ``PressureSolver.amg_state()``.
     history : list of dict, or dict
-        The history rows so far, kept in the checkpoint; or the :func:`history_record` of the
-        history.csv written beside ``path`` (a run folder), and then the checkpoint at
-        ``path`` becomes ``checkpoint.prev.npz`` (:func:`write_arrays`).
-    frame_times, next_frame, done
-        The run's output bookkeeping (module docstring).
+        The history rows so far; when saving into a run folder, the :func:`history_record` of
+        the history.csv written beside it (then the checkpoint at the path becomes
+        ``checkpoint.prev.npz``, :func:`write_arrays`). Loaded: the rows.
+    frames : list of float
+        The times of the VTU frames written.
+    amg : ndarray or None
+        The matrix of the pressure solver's AMG hierarchy (``PressureSolver.amg_state()``).
+    next_frame : float
+        Time of the next frame.
+    done : bool
+        Whether the run's goal was reached.
     """
-    path = Path(path)
+
+    config: Config
+    state: State
+    history: list[dict] | dict
+    frames: list[float] = field(default_factory=list)
+    amg: np.ndarray | None = None
+    next_frame: float = math.inf
+    done: bool = False
+
+
+def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
+    """Write ``checkpoint`` (format in the module docstring) to ``path`` safely.
+
+    A failed write (e.g. a full disk) leaves the existing checkpoints as they were; a history
+    record (a run folder) keeps the checkpoint at ``path`` as ``checkpoint.prev.npz``.
+    """
+    path, state = Path(path), checkpoint.state
     scalars = {name: getattr(state, attr) for attr, name in _SCALARS.items()}
     scalars["step"] = state.step
     scalars["timings"] = dict(state.timings)
@@ -350,12 +376,13 @@ def save(path: Path, config, state: State, amg: np.ndarray | None, history: list
         arrays["psi_phase"] = state.sizes.phase
     if state.p_prev is not None:
         arrays["p_prev"] = state.p_prev
-    if amg is not None:
-        arrays["amg"] = amg
-    arrays["frame_times"] = np.asarray(frame_times, dtype=float)
-    meta = {"config": asdict(config), "colony": scalars, "history": history,
-            "next_frame": next_frame, "done": done}
-    previous = path.with_name(PREVIOUS) if isinstance(history, dict) else None
+    if checkpoint.amg is not None:
+        arrays["amg"] = checkpoint.amg
+    arrays["frame_times"] = np.asarray(checkpoint.frames, dtype=float)
+    meta = {"config": asdict(checkpoint.config), "colony": scalars,
+            "history": checkpoint.history, "next_frame": checkpoint.next_frame,
+            "done": checkpoint.done}
+    previous = path.with_name(PREVIOUS) if isinstance(checkpoint.history, dict) else None
     write_arrays(path, {"meta": np.array(json.dumps(meta)), **arrays}, previous)
     log.debug("checkpoint at t = %.6g written to %s", state.t, path)
 
@@ -433,22 +460,51 @@ def _bookkeeping(path: Path, meta: dict) -> tuple[float, bool]:
     return float(next_frame), done
 
 
-def load(path: Path, config=None, follow: bool = True) -> tuple:
-    """Read a checkpoint written by :func:`save`.
+def _saved_config(path: Path, arrays: dict) -> dict:
+    """The configuration fields a checkpoint holds (older ones: ``element`` P1)."""
+    meta = read_meta(path, arrays)
+    saved = checked(path, lambda: meta["config"])
+    if not isinstance(saved, dict):
+        raise damaged(path, "unexpected content (config)")
+    saved.setdefault("element", "P1")  # checkpoints from before Config.element solved with P1
+    return saved
+
+
+def _config(path: Path, saved: dict) -> Config:
+    """The Config of saved fields (CheckpointError when they are not Config's).
+
+    A value Config refuses raises its ValueError.
+    """
+    try:
+        return Config(**saved)
+    except TypeError:
+        raise damaged(path, "unexpected content (config)") from None
+
+
+def checkpoint_config(path: Path) -> Config:
+    """The configuration the checkpoint at ``path`` was written with."""
+    path = Path(path)
+    return _config(path, _saved_config(path, read_arrays(path)))
+
+
+def load_checkpoint(path: Path, config: Config | None = None, *,
+                    follow: bool = True) -> Checkpoint:
+    """The :class:`Checkpoint` written by :func:`save_checkpoint` at ``path``.
 
     Parameters
     ----------
     path : Path
     config : Config, optional
-        Checked against the saved configuration (:func:`check_resumable`); None: no check.
+        The configuration to continue with, checked against the saved one
+        (:func:`check_resumable`); None: the saved one.
     follow : bool
         False: a symbolic link is refused.
 
     Returns
     -------
-    (config_fields, state, amg, history, frame_times, next_frame, done)
-        ``config_fields`` the saved configuration (dict), ``amg`` the saved AMG matrix data or
-        None, ``frame_times`` the times of the frames written.
+    Checkpoint
+        ``config`` (the one given, else the saved one) and the saved state, history rows,
+        frame times, AMG matrix and bookkeeping.
 
     Raises
     ------
@@ -460,10 +516,7 @@ def load(path: Path, config=None, follow: bool = True) -> tuple:
     path = Path(path)
     arrays = read_arrays(path, follow)
     meta = read_meta(path, arrays)
-    saved = checked(path, lambda: meta["config"])
-    if not isinstance(saved, dict):
-        raise damaged(path, "unexpected content (config)")
-    saved.setdefault("element", "P1")  # checkpoints from before Config.element solved with P1
+    saved = _saved_config(path, arrays)
     if config is not None:
         check_resumable(path, saved, config)
     history = _history(path, checked(path, lambda: meta["history"]))
@@ -471,16 +524,19 @@ def load(path: Path, config=None, follow: bool = True) -> tuple:
     arrays.pop("frame_times", None)
     _check_arrays(path, arrays, checked(path, lambda: int(saved["n_length_cells"])))
     state = checked(path, lambda: _state(arrays, meta, saved, len(history) - 1))
-    return (saved, state, arrays.get("amg"), history, times, *_bookkeeping(path, meta))
+    next_frame, done = _bookkeeping(path, meta)
+    if config is None:
+        config = _config(path, saved)
+    return Checkpoint(config, state, history, times, arrays.get("amg"), next_frame, done)
 
 
-def resume(out: Path, config) -> tuple[Path, tuple]:
-    """(path, :func:`load` of it) of the run folder ``out``'s checkpoint (resume_from).
+def resume_checkpoint(out: Path, config: Config) -> tuple[Path, Checkpoint]:
+    """(path, :func:`load_checkpoint` of it) of the run folder ``out``'s checkpoint.
 
-    ``checkpoint.npz``, or ``checkpoint.prev.npz`` when that one is damaged; never through a
-    symbolic link.
+    ``checkpoint.npz``, or ``checkpoint.prev.npz`` when that one is damaged (resume_from);
+    never through a symbolic link.
     """
-    return resume_from(Path(out), lambda path: load(path, config, follow=False))
+    return resume_from(Path(out), lambda path: load_checkpoint(path, config, follow=False))
 
 
 def check_resumable(path: Path, saved: dict, config) -> None:
@@ -503,10 +559,17 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 class StopRequest:
     """SIGINT / SIGTERM / SIGHUP deferred to the end of the current step (main thread only).
 
-    ``install`` replaces the handlers; the first signal sets ``signum`` and puts the previous
-    handlers back, so the run can finish its step and write a checkpoint, while a second signal
-    acts at once. ``restore`` puts them back. (The twin of the particle engine's: the two
-    engines do not import each other.)
+    A context manager: entering installs the handlers; the first signal sets ``signum`` and
+    puts the previous handlers back, so the run can finish its step and write a checkpoint,
+    while a second signal acts at once; leaving puts them back. After the checkpoint,
+    :meth:`reraise` raises for the signal that came::
+
+        with StopRequest() as stop:
+            while ... and stop.signum is None:
+                ...  # steps
+        stop.reraise()
+
+    The twin of the particle engine's (the two engines do not import each other).
     """
 
     def __init__(self):
@@ -514,7 +577,7 @@ class StopRequest:
         self._previous = {}
 
     def install(self) -> StopRequest:
-        """Install the deferring handlers (in the main thread; elsewhere a no-op)."""
+        """Catch STOP_SIGNALS (from the main thread only; elsewhere a no-op); returns self."""
         if threading.current_thread() is threading.main_thread():
             for sig in STOP_SIGNALS:
                 self._previous[sig] = signal.signal(sig, self._handle)
@@ -525,13 +588,23 @@ class StopRequest:
         self.restore()
 
     def restore(self) -> None:
-        """Put the previous handlers back."""
+        """Put the previous signal handlers back."""
         for sig, handler in self._previous.items():
             signal.signal(sig, handler)
         self._previous = {}
 
-    def act(self) -> None:
-        """Raise for the signal received: KeyboardInterrupt (SIGINT), SystemExit(128 + signum)."""
+    def __enter__(self) -> StopRequest:
+        return self.install()
+
+    def __exit__(self, *exc) -> None:
+        self.restore()
+
+    def reraise(self) -> None:
+        """Re-raise the signal that came, after the final checkpoint.
+
+        KeyboardInterrupt for SIGINT, SystemExit(128 + signal) for SIGTERM and SIGHUP, nothing
+        when no signal came.
+        """
         if self.signum == signal.SIGINT:
             raise KeyboardInterrupt
         if self.signum is not None:

@@ -80,7 +80,7 @@ def state_from(config, boundary: ArrayLike,
     The polygon (checked, made counter-clockwise: continuum.mesh.check_polygon) is resampled
     at h = min(h_max, h_N(area)) and meshed as ``initial_state`` meshes the configured shape;
     G = 0 (module docstring), Psi0 from :func:`sizes_from`, p = 0 (u, g zero until the first
-    pressure solve). ``continuum.Simulation(config, initial=state)`` grows it.
+    pressure solve). ``continuum.Simulation(config, state=state)`` grows it.
 
     Raises
     ------

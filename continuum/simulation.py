@@ -1,18 +1,22 @@
-"""The continuum colony as a simulation: its configuration, the stepping, and a run.
+"""The continuum colony as a simulation: the stepping and a run (the engine contract).
 
 Model (model.md): on Omega(t), u = -grad p, div u = g = exp(-lam p), p = 0 on the boundary,
 the boundary moves with u; the growth phase G = int g dt and the size distribution Psi(x, l, t)
 are carried by the material. Initial condition: a disc of radius R0 = sqrt(b/pi) (or the given
 shape), G = 0, Psi0 a narrow smooth bump standing in for delta(l - 1) (continuum.sizes).
 
-:class:`Simulation` holds the :class:`~continuum.state.State` and the pressure solver.
-``Simulation.step`` is one time step: remesh when due (continuum.remesh), then Heun's RK2 for
-the nodes, G and Psi with two pressure solves (continuum.motion, continuum.velocity.darcy_flow),
-dt = courant * h / u_edge (continuum.motion.stable_dt) shortened so as to land on a goal;
-it returns a :class:`~continuum.state.StepRecord`. ``Simulation.advance`` steps to a radius or
-a time. :func:`run` is the loop of a run to ``config.radius`` or ``config.time`` that hands
-each step to the output writers (continuum.output), the checkpointer (continuum.checkpoint)
-and the progress bar.
+The contract, the particle engine's too (docs/DESIGN.md, "One contract for both engines";
+tests/test_contract.py): ``Simulation(config, state=None, out=None)`` holds the
+:class:`~continuum.state.State` (a copy of ``state``) and the pressure solver.
+``Simulation.step(time=None)`` is one time step: remesh when due (continuum.remesh), then
+Heun's RK2 for the nodes, G and Psi with two pressure solves (continuum.motion,
+continuum.velocity.darcy_flow), dt = courant * h / u_edge (continuum.motion.stable_dt) shortened
+so as not to pass ``time``; it returns a :class:`~continuum.state.StepRecord`.
+``Simulation.done(radius=None, time=None)`` says whether a goal is reached (:func:`reached`) and
+``Simulation.advance(radius=None, time=None)`` steps until the first of the goals is reached,
+the last step shortened to land on it. :func:`run` is the loop of a run to ``config.radius`` or
+``config.time`` that hands each step to the output writers (continuum.output), the
+checkpointer (continuum.checkpoint) and the progress bar, and writes the final files.
 
 Mesh size: boundary edge length h = min(h_max, h_N(area)) with h_N the size giving about
 ``n_nodes`` nodes on the current area (continuum.mesh.target_spacing): a fixed node count while
@@ -25,7 +29,7 @@ fixed seed (continuum.pressure.amg_hierarchy); Triangle's meshing is determinist
 independent of earlier calls; BLAS runs on one thread (limit_blas_threads).
 
 Checkpoints (``run(config, out)``): every ``checkpoint_seconds`` of wall time, after the last
-step of a call (``max_steps_this_call``) and after the step during which SIGINT or SIGTERM
+step of a call (``max_steps``) and after the step during which SIGINT, SIGTERM or SIGHUP
 arrived, history.csv and then ``out/checkpoint.npz`` are written (continuum.checkpoint: the
 state, the AMG matrix, the frame times, the rows and checksum of history.csv; verified, the one
 before kept as ``checkpoint.prev.npz``). ``run`` with the same configuration (up to
@@ -42,204 +46,66 @@ import logging
 import math
 import sys
 import time as _time
-from dataclasses import dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
-from continuum import checkpoint, mesh, shapes
+from continuum import checkpoint, mesh
 from continuum.budget import check_memory
-from continuum.fem import ELEMENTS
+from continuum.config import Config, config_fields  # noqa: F401 (older imports)
 from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
-from continuum.radial import R0
 from continuum.remesh import remesh, remesh_reason
-from continuum.sizes import (
-    TRANSPORT_REMAP,
-    TRANSPORTS,
-    CharacteristicSizes,
-    LengthGrid,
-    SizeDistribution,
-)
+from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid, SizeDistribution
 from continuum.state import State, StepRecord
 from continuum.velocity import darcy_flow
 
-__all__ = ["Config", "Simulation", "run", "config_fields"]
+# Config and config_fields live in continuum.config; imported here for older imports
+# (``from continuum.simulation import Config``), documented there.
+__all__ = ["Simulation", "run", "reached", "check_goal", "require_goal", "RADIUS_RTOL",
+           "TIME_TOL"]
 
 log = logging.getLogger(__name__)
 
+RADIUS_RTOL = 1e-7
+"""A radius goal R is reached at a colony radius >= R (1 - RADIUS_RTOL).
 
-def _number(v) -> bool:
-    """A finite int or float (a bool is no number here)."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return False
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an int beyond the range of floats
-        return False
+The last step of a radius goal lands on it by a linear extrapolation of dR/dt
+(``Simulation._dt``), within about 1e-9 relative below it (measured: -1.2e-9 for a disc at
+lam = 0 to radius 4.5); a tighter tolerance would add a step of that size. The particle
+engine uses the same tolerance."""
 
-
-#: The types of the fields' annotations: (test of a value, what the value must be).
-_TYPES = {
-    "float": (_number, "a number"),
-    "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
-    "str": (lambda v: isinstance(v, str), "a string"),
-    "bool": (lambda v: isinstance(v, bool), "true or false"),
-    "None": (lambda v: v is None, "None"),
-}
-
-_RULES = [  # (field, test, what the value must be), checked by Config.validate after the types
-    ("n_nodes", lambda v: v >= 50, "an integer >= 50"),
-    ("interior_coarsening", lambda v: v >= 1, ">= 1"),
-    ("courant", lambda v: 0 < v <= 1.0, "in (0, 1]"),
-    ("q_min", lambda v: 0 < v < 0.9, "in (0, 0.9)"),
-    ("stretch", lambda v: v > 1.1, "> 1.1"),
-    ("n_length_cells", lambda v: v >= 8, "an integer >= 8"),
-    ("psi_transport", lambda v: v in TRANSPORTS, " or ".join(map(repr, TRANSPORTS))),
-    ("element", lambda v: v in ELEMENTS, " or ".join(map(repr, ELEMENTS))),
-    ("output_every", lambda v: v >= 0, ">= 0"),
-    ("max_steps", lambda v: v > 0, "a positive integer"),
-    ("checkpoint_seconds", lambda v: v >= 0, ">= 0"),
-]
+TIME_TOL = 1e-12
+"""A time goal T is reached at t >= T - TIME_TOL max(1, T) (the particle engine's too)."""
 
 
-@dataclass
-class Config:
-    """Configuration of a continuum colony: the model, the numerics and the stop of ``run``.
+def reached(radius_now, t: float, radius: float | None, time: float | None) -> bool:
+    """Whether the first of the goals is reached (False when both goals are None).
 
-    Attributes
-    ----------
-    lam : float
-        Stress sensitivity lambda (finite).
-    radius : float or None
-        ``run`` stops when the colony radius sqrt(area/pi) reaches this value.
-    time : float or None
-        ``run`` stops at this time. ``run`` needs exactly one of ``radius`` and ``time``;
-        a :class:`Simulation` at most one (the default goal of ``advance``).
-    shape : str
-        Initial shape (continuum.shapes): "circle" (radius ``initial_radius``), "circle:R",
-        "ellipse:A,B", "rectangle:W,H[,ROUND]", "star:K,EPS[,R]" (R default
-        ``initial_radius``) or "polygon:FILE.csv" (closed polygon, columns x,y).
-    initial_radius : float
-        Radius of the initial ``circle`` and of ``star:K,EPS`` (default R0 = sqrt(b/pi), one
-        particle's area); the other shapes give their own sizes.
-    n_nodes : int
-        Target node count while the colony is small (h = h_N(area)).
-    h_max : float
-        Cap on the boundary mesh spacing h.
-    interior_coarsening : float
-        Interior mesh size up to this multiple of h (1 = uniform mesh).
-    grading : float
-        Growth of the interior mesh size with the distance d to the edge: min(c h, h + grading d).
-    courant : float
-        dt = courant * h_boundary / max u_boundary.
-    q_min : float
-        Remesh when a triangle's quality drops below this.
-    stretch : float
-        Remesh when boundary edges or the mean element size leave [h/stretch, stretch h].
-    n_length_cells : int
-        Cells of the log2-length grid of Psi.
-    bump_width : float
-        Half-width in s = log2 l of the initial bump standing in for delta(l - 1).
-    psi_transport : str
-        Transport of Psi in l: "characteristics-labels" (default: exact shift of per-node
-        windows in s = log2 l, continuum.sizes.CharacteristicSizes; a remesh interpolates the
-        rows by label, continuum.remesh: from a uniform Psi0 exact to round-off at radius 150),
-        "characteristics" (the same transport; a remesh remaps the cells conservatively in s,
-        which smears across rings: median error of the mean length 0.030 at radius 150) or
-        "finite-volume" (flux-limited Lax-Wendroff, continuum.sizes.SizeDistribution).
-    element : str
-        Lagrange element of the pressure: "P1" (default: hand-written assembly, equal to
-        scikit-fem's to round-off and faster; velocity by patch recovery and residual flux,
-        continuum.velocity) or "P2" (scikit-fem, continuum.fem; isoparametric at the boundary;
-        velocity from the element gradients at the vertices, one order more accurate; 6-12x
-        the cost per solve on the same mesh, docs/benchmarks.md).
-    output_every : float
-        Time between field frames (VTU); 0 writes only the first and last.
-    write_fields : bool
-        Write the VTU series (history, boundary and config are always written).
-    max_steps : int
-        Safety limit on the number of time steps.
-    checkpoint_seconds : float
-        Wall time between checkpoints when writing to a folder (an execution setting,
-        ``EXECUTION_FIELDS``: a checkpoint resumes under another value, with the same result).
+    Time T: t >= T - TIME_TOL max(1, T); radius R_goal: R >= R_goal (1 - RADIUS_RTOL).
+    ``radius_now``: the colony radius, or a function returning it (called only for a radius
+    goal). The twin of ``particles.simulation.reached``.
     """
+    if time is not None and t >= time - TIME_TOL * max(1.0, time):
+        return True
+    if radius is None:
+        return False
+    return (radius_now() if callable(radius_now) else radius_now) >= radius * (1 - RADIUS_RTOL)
 
-    lam: float = 0.0
-    radius: float | None = None
-    time: float | None = None
-    shape: str = "circle"
-    initial_radius: float = R0
-    n_nodes: int = 2000
-    h_max: float = 0.55
-    interior_coarsening: float = 2.5
-    grading: float = 0.05
-    courant: float = 0.6
-    q_min: float = 0.35
-    stretch: float = 1.5
-    n_length_cells: int = 40
-    bump_width: float = 0.08
-    psi_transport: str = "characteristics-labels"
-    element: str = "P1"
-    output_every: float = 1.0
-    write_fields: bool = True
-    max_steps: int = 200_000
-    checkpoint_seconds: float = 300.0
 
-    def validate(self, require_stop: bool = True) -> Config:
-        """Check the values; raises ValueError with a one-line message. Returns self.
+def check_goal(radius: float | None, time: float | None) -> None:
+    """ValueError unless each given goal is a positive finite number."""
+    for name, v in (("radius", radius), ("time", time)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                              or not (math.isfinite(v) and v > 0)):
+            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
 
-        ``require_stop``: exactly one of ``radius`` and ``time`` is required (else at most one).
-        Every field's type first (``type_mismatch``), then the goal, the values and the shape.
-        """
-        for field in fields(self):
-            value = getattr(self, field.name)
-            what = self.type_mismatch(field.name, value)
-            if what is not None:
-                raise ValueError(f"{field.name} must be {what}, got {value!r}")
-        if self.radius is not None and self.time is not None:
-            raise ValueError("give exactly one of radius and time, not both")
-        if require_stop and self.radius is None and self.time is None:
-            raise ValueError("give exactly one of radius and time")
-        positive = ["initial_radius", "h_max", "courant", "bump_width", "grading"]
-        positive += [name for name in ("radius", "time") if getattr(self, name) is not None]
-        rules = [(name, lambda v: v > 0, "a positive number") for name in positive]
-        for name, ok, what in rules + _RULES:
-            v = getattr(self, name)
-            if not ok(v):
-                raise ValueError(f"{name} must be {what}, got {v!r}")
-        polygon = self.initial_boundary()  # parses and checks the shape
-        if self.radius is not None:
-            r_init = mesh.colony_radius(polygon)
-            if self.radius < r_init:
-                raise ValueError(
-                    f"radius {self.radius} is smaller than the initial radius {r_init:.6g}"
-                )
-        return self
 
-    @classmethod
-    def type_mismatch(cls, name: str, value) -> str | None:
-        """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
-
-        The type is the field's annotation (``float | None``): float a finite int or float, never
-        a bool; int an int, not a bool; str a string; bool True or False only; None.
-        """
-        kinds = [kind.strip() for kind in cls.__dataclass_fields__[name].type.split("|")]
-        if any(_TYPES[kind][0](value) for kind in kinds):
-            return None
-        if "float" in kinds and isinstance(value, float):
-            return "a finite number"
-        return " or ".join(_TYPES[kind][1] for kind in kinds if kind != "None")
-
-    def initial_boundary(self) -> np.ndarray:
-        """A dense polygon of the initial shape (checked, counter-clockwise).
-
-        continuum.shapes.outline of ``shape`` (``circle`` of radius ``initial_radius``, and the
-        default R of ``star:K,EPS``); 256 vertices for a circle or an ellipse, the file's for
-        a polygon. ``line:N`` (particles only) is refused.
-        """
-        return shapes.outline(self.shape, radius=self.initial_radius)
+def require_goal(config: Config) -> None:
+    """ValueError unless ``config`` has a goal (``run`` needs one of ``radius`` and ``time``)."""
+    if config.radius is None and config.time is None:
+        raise ValueError("give exactly one of radius and time")
 
 
 def initial_state(config: Config) -> State:
@@ -269,22 +135,25 @@ def _target_spacing(config: Config, area: float) -> float:
 class Simulation:
     """A growing continuum colony that a script steps, inspects and saves.
 
+    The engine contract (the particle engine's ``Simulation`` has the same methods with the
+    same meaning; docs/DESIGN.md, tests/test_contract.py).
+
     Parameters
     ----------
     config : Config
         ``radius`` and ``time`` may both be None (they are the stop of :func:`run` and the
-        default goal of :meth:`advance`).
+        default goal of :meth:`advance` and :meth:`done`).
+    state : State, optional
+        The state at t = 0 instead of the configured shape and bump; a copy is grown (the
+        given object is not changed). continuum.initial.state_from builds one from a polygon
+        and a Psi0. A checkpoint in ``out`` takes precedence.
     out : path, optional
         Existing run folder. When given, the simulation resumes from ``out/checkpoint.npz`` if
         there is one (same configuration up to ``checkpoint.EXECUTION_FIELDS``), else writes
         config.json and the first VTU frame; :meth:`step` then writes a frame every
-        ``config.output_every`` of time, :meth:`advance` the final files at its goal
-        (history.csv, boundary.csv, the last frame), and :meth:`save` defaults to
-        ``out/checkpoint.npz``.
-    initial : State, optional
-        The state at t = 0 instead of the configured shape and bump (a copy is grown;
-        continuum.initial.state_from builds one from a polygon and a Psi0). A checkpoint in
-        ``out`` takes precedence.
+        ``config.output_every`` of time (not at a goal of :meth:`advance`), and :meth:`save`
+        defaults to ``out/checkpoint.npz``. The final files (history.csv, boundary.csv, the
+        last frame) are :func:`run`'s.
 
     Attributes
     ----------
@@ -297,12 +166,12 @@ class Simulation:
         The pressure solver (its AMG hierarchy is reused from step to step; a checkpoint
         saves its matrix).
     finished : bool
-        False when :func:`run` stopped before its goal (``max_steps_this_call`` or a signal).
+        False when :func:`run` stopped before its goal (``max_steps`` or a signal).
 
     Raises
     ------
     ValueError, BudgetError
-        Bad configuration or checkpoint, or a mesh too large for the memory (continuum.budget).
+        Bad checkpoint, or a mesh too large for the memory (continuum.budget).
     PressureDivergence
         No pressure solution on the initial shape.
 
@@ -314,23 +183,22 @@ class Simulation:
     >>> state = sim.advance(radius=5.0)
     """
 
-    def __init__(self, config: Config, out: Path | str | None = None,
-                 initial: State | None = None):
-        config.validate(require_stop=False)
+    def __init__(self, config: Config, state: State | None = None,
+                 out: Path | str | None = None):
         limit_blas_threads(1)
         self.config = config
         self.finished = True
         self.output = None if out is None else _Outputs(config, Path(out))
         if self.output is not None and checkpoint.checkpoint_files(self.output.out):
-            path, (_, state, amg, history, frame_times, next_frame, _) = checkpoint.resume(
-                self.output.out, config)
-            self._restore(state, amg, history)
-            self.output.resume(frame_times, next_frame)
-            log.info("resuming from %s at t = %.6g (step %d)", path, state.t, state.step)
+            path, saved = checkpoint.resume_checkpoint(self.output.out, config)
+            self._restore(saved.state, saved.amg, saved.history)
+            self.output.resume(saved.frames, saved.next_frame)
+            log.info("resuming from %s at t = %.6g (step %d)", path, saved.state.t,
+                     saved.state.step)
             return
         check_memory(config)
         self.solver = PressureSolver(config.lam, config.element)
-        self.state = initial_state(config) if initial is None else initial.copy()
+        self.state = initial_state(config) if state is None else state.copy()
         self.solver.set_mesh(self.state.triangles, len(self.state.points), self.state.n_boundary)
         self._solve_flow()
         self.history = [StepRecord.of(self.state, 0.0, None).row()]
@@ -387,36 +255,33 @@ class Simulation:
         self._remesh(_target_spacing(self.config, self.state.area))
 
     def _dt(self, radius: float | None, time: float | None) -> float:
-        """The stable dt (continuum.motion.stable_dt), shortened to land on the goal.
+        """The stable dt (continuum.motion.stable_dt), shortened to land on the first goal.
 
         Radius: dt = (R_goal - R) / (dR/dt) when R + dt dR/dt >= R_goal; time: T - t when
-        t + dt >= T.
+        t + dt >= T (1 - 1e-12).
         """
         s = self.state
         dt = stable_dt(s.boundary, s.u[: s.n_boundary], self.config.courant)
         if radius is not None:
             R, Rdot = s.radius, radius_rate(s.boundary, s.u[: s.n_boundary])
             if R + dt * Rdot >= radius:
-                return max((radius - R) / max(Rdot, 1e-300), 1e-14)
-        elif time is not None and s.t + dt >= time * (1 - 1e-12):
+                dt = max((radius - R) / max(Rdot, 1e-300), 1e-14)
+        if time is not None and s.t + dt >= time * (1 - 1e-12):
             return time - s.t
         return dt
 
     # ------------------------------------------------------------------ stepping
-    def step(self, radius: float | None = None, time: float | None = None) -> StepRecord:
-        """One time step; returns its record (also appended to ``history``).
+    def step(self, time: float | None = None) -> StepRecord:
+        """One time step, not past ``time``; returns its record (also appended to ``history``).
 
         Remesh when due (continuum.remesh), then a Heun step (continuum.motion.heun_step) of
-        the stable dt, shortened so as not to pass ``radius`` or ``time`` when given. With an
-        output folder, a VTU frame when one is due (not at the goal: :meth:`advance` and
-        :func:`run` write the last frame), and history.csv if the step fails.
+        the stable dt, shortened to land on ``time`` when given. With an output folder, a VTU
+        frame when one is due, and history.csv if the step fails.
 
         Parameters
         ----------
-        radius : float, optional
-            Colony radius R = sqrt(A/pi) not to pass (at most one of ``radius`` and ``time``).
         time : float, optional
-            Time t not to pass.
+            Time t not to pass (ValueError when it is reached already).
 
         Returns
         -------
@@ -428,8 +293,17 @@ class Simulation:
         PressureDivergence
             No pressure solution, or elements invert even for tiny steps.
         """
-        if radius is not None and time is not None:
-            raise ValueError("give at most one of radius and time")
+        check_goal(None, time)
+        if self._reached(None, time):
+            raise ValueError(f"time {time:g} is reached already (t = {self.state.t:.17g})")
+        return self._step(None, time)
+
+    def _step(self, radius: float | None, time: float | None) -> StepRecord:
+        """:meth:`step`, shortened also so as not to pass the colony radius ``radius``.
+
+        The frame due at the end of the step is not written when the step reaches its goal
+        (:func:`run` writes the last frame).
+        """
         try:
             reason = self._remesh_if_due()
             dt = heun_step(self.state, self._flow, self._dt(radius, time), self.config.lam)
@@ -440,30 +314,33 @@ class Simulation:
         record = StepRecord.of(self.state, dt, reason)
         self.history.append(record.row())
         if self.output is not None:
-            self.output.after_step(self, self.done(radius, time))
+            self.output.after_step(self, self._reached(radius, time))
         return record
 
     def done(self, radius: float | None = None, time: float | None = None) -> bool:
-        """Whether the colony has reached the goal.
+        """Whether the first of the goals is reached (both None: the configuration's goal).
 
-        True once the colony radius >= ``radius`` (to 1e-7 relative) or t >= ``time`` (to
-        1e-12 relative); False when both are None.
+        The colony radius R = sqrt(A/pi) >= ``radius`` (1 - RADIUS_RTOL), or
+        t >= ``time`` - TIME_TOL max(1, ``time``) (:func:`reached`).
+
+        Raises
+        ------
+        ValueError
+            No goal given and none in the configuration, or a goal not a positive number.
         """
-        if radius is not None:
-            return self.state.radius >= radius * (1 - 1e-7)
-        return time is not None and self.state.t >= time * (1 - 1e-12)
+        return self._reached(*self._goal(radius, time))
+
+    def _reached(self, radius: float | None, time: float | None) -> bool:
+        """:func:`reached` of the current state (False without a goal)."""
+        return reached(lambda: self.state.radius, self.state.t, radius, time)
 
     def _goal(self, radius: float | None, time: float | None) -> tuple[float | None, float | None]:
-        """The goal of :meth:`advance`: the given one, else the configuration's (checked)."""
+        """The goal of :meth:`advance` and :meth:`done`: the given one, else the config's."""
         if radius is None and time is None:
             radius, time = self.config.radius, self.config.time
             if radius is None and time is None:
                 raise ValueError("give radius or time (or set one in the Config)")
-        if radius is not None and time is not None:
-            raise ValueError("give at most one of radius and time")
-        for name, v in (("radius", radius), ("time", time)):
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+        check_goal(radius, time)
         return radius, time
 
     def _check_max_steps(self) -> None:
@@ -473,20 +350,20 @@ class Simulation:
 
     def advance(self, radius: float | None = None, time: float | None = None,
                 progress: bool = False) -> State:
-        """Step until the colony reaches ``radius`` or ``time`` (both None: the config's goal).
+        """Step until the colony reaches ``radius`` or ``time``, whichever comes first.
 
-        The steps are those of :func:`run` to the same goal, the last one shortened to land on
-        it: ``advance(radius=R)`` of a new simulation gives the bits of
-        ``run(Config(..., radius=R))``. With an output folder, the final files are written at
-        the goal (history.csv, boundary.csv, the last frame).
+        Both None: the configuration's goal. The steps are those of :func:`run` to the same
+        goal, the last one shortened to land on it: ``advance(radius=R)`` of a new simulation
+        gives the bits of ``run(Config(..., radius=R))``. No step when the goal is reached
+        already. With an output folder the frames are written as :meth:`step` writes them; the
+        final files are :func:`run`'s (or :meth:`save`'s history.csv).
 
         Parameters
         ----------
         radius : float, optional
             Goal for the colony radius R = sqrt(A/pi).
         time : float, optional
-            Goal for t (at most one of ``radius`` and ``time``; both None: ``Config.radius`` /
-            ``Config.time``).
+            Goal for t.
         progress : bool
             tqdm progress bar (only when stderr is a terminal).
 
@@ -497,20 +374,18 @@ class Simulation:
 
         Raises
         ------
+        ValueError
+            No goal (:meth:`done`).
         RuntimeError
             ``config.max_steps`` steps taken.
         PressureDivergence
             No pressure solution (e.g. lam < 0 beyond the critical size).
         """
         radius, time = self._goal(radius, time)
-        steps = 0
         with _ProgressBar(self, radius, time, progress) as bar:
-            while not self.done(radius, time):
+            while not self._reached(radius, time):
                 self._check_max_steps()
-                bar.show(self.step(radius, time))
-                steps += 1
-        if self.output is not None and steps:
-            self.output.finish(self)
+                bar.show(self._step(radius, time))
         return self.state
 
     @property
@@ -543,8 +418,9 @@ class Simulation:
             self.output.write_history(self)
             history = checkpoint.history_record(self.output.out / checkpoint.HISTORY,
                                                 len(self.history))
-        checkpoint.save(path, self.config, self.state, self.solver.amg_state(), history,
-                        frame_times, next_frame, self.done(self.config.radius, self.config.time))
+        checkpoint.save_checkpoint(path, checkpoint.Checkpoint(
+            self.config, self.state, history, frame_times, self.solver.amg_state(), next_frame,
+            self._reached(self.config.radius, self.config.time)))
         return path
 
     @classmethod
@@ -553,16 +429,14 @@ class Simulation:
 
         ``config``: the configuration to continue with, equal to the saved one up to
         ``checkpoint.EXECUTION_FIELDS`` (ValueError otherwise); None: the saved one. The
-        result writes no output.
+        result writes no output; stepping it gives the bits the saved simulation would have.
         """
-        saved, state, amg, history, *_ = checkpoint.load(Path(path), config)
+        saved = checkpoint.load_checkpoint(Path(path), config)
         sim = cls.__new__(cls)
-        if config is None:
-            config = checkpoint.checked(Path(path), lambda: Config(**saved))
-        sim.config = config.validate(require_stop=False)
+        sim.config = saved.config
         sim.finished, sim.output = True, None
         limit_blas_threads(1)
-        sim._restore(state, amg, history)
+        sim._restore(saved.state, saved.amg, saved.history)
         return sim
 
 
@@ -652,22 +526,17 @@ class _Outputs:
 # ---------------------------------------------------------------------------- run
 
 
-def run(
-    config: Config,
-    out: Path | str | None = None,
-    progress: bool = False,
-    max_steps_this_call: int | None = None,
-    initial: State | None = None,
-) -> Simulation:
+def run(config: Config, out: Path | str | None = None, progress: bool = False,
+        state: State | None = None, max_steps: int | None = None) -> Simulation:
     """Grow the colony until ``config.radius`` or ``config.time``; optionally write ``out``.
 
-    The loop over :meth:`Simulation.step` that hands each step to the run folder's writers,
-    the checkpointer and the progress bar.
+    The loop over the steps of a :class:`Simulation` that hands each step to the run folder's
+    writers, the checkpointer and the progress bar, and writes the final files at the goal.
 
     Parameters
     ----------
     config : Config
-        With exactly one of ``radius`` and ``time``.
+        With one of ``radius`` and ``time``.
     out : Path, optional
         Existing folder: config.json, history.csv, boundary.csv, fields.pvd + fields/, and
         checkpoint.npz every ``config.checkpoint_seconds``. If it holds a checkpoint of the
@@ -676,11 +545,13 @@ def run(
         checkpoint.npz after a finished run.
     progress : bool
         Show a tqdm progress bar (only when stderr is a terminal).
-    max_steps_this_call : int, optional
+    state : State, optional
+        The state at t = 0 of a new run (:class:`Simulation`; copied); unused when ``out``
+        holds a checkpoint.
+    max_steps : int, optional
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
-        the returned simulation has ``finished = False``.
-    initial : State, optional
-        The state at t = 0 (:class:`Simulation`).
+        the returned simulation has ``finished = False``. (``Config.max_steps`` is another
+        thing: the most steps a run may take in all, an error beyond.)
 
     Returns
     -------
@@ -690,47 +561,44 @@ def run(
 
     SIGINT, SIGTERM or SIGHUP in the main thread ends the run after the current step (remeshing
     and output included) with a checkpoint of that step, then raises KeyboardInterrupt (SIGINT)
-    or SystemExit(128 + signum) (SIGTERM, SIGHUP); a second signal acts at once.
+    or SystemExit(128 + signum) (SIGTERM, SIGHUP); a second signal acts at once
+    (checkpoint.StopRequest).
 
     Raises
     ------
     ValueError
-        Bad configuration, or a checkpoint of another configuration in ``out``.
+        No goal in ``config``, or a checkpoint of another configuration in ``out``.
     BudgetError
         The mesh would not fit in memory.
     PressureDivergence
         No pressure solution (e.g. lam < 0 beyond the critical size).
     """
-    config.validate()
-    stop = checkpoint.StopRequest().install()
-    try:
-        sim = Simulation(config, out, initial)
-        _steps(sim, progress, max_steps_this_call, stop)
-    finally:
-        stop.restore()
-    stop.act()
+    require_goal(config)
+    with checkpoint.StopRequest() as stop:
+        sim = Simulation(config, state, out)
+        _steps(sim, progress, max_steps, stop)
+    stop.reraise()
     return sim
 
 
-def _steps(sim: Simulation, progress: bool, max_steps_this_call: int | None,
+def _steps(sim: Simulation, progress: bool, max_steps: int | None,
            stop: checkpoint.StopRequest) -> None:
     """The loop of ``run``.
 
-    Step until the goal, a stop request or ``max_steps_this_call`` steps; history.csv and a
-    checkpoint every ``checkpoint_seconds`` and when stopping; the final files at the goal.
+    Step until the goal, a stop request or ``max_steps`` steps; history.csv and a checkpoint
+    every ``checkpoint_seconds`` and when stopping; the final files at the goal.
     """
     config = sim.config
     goal = {"radius": config.radius, "time": config.time}
     last_checkpoint = _time.monotonic()
     steps_here = 0
     with _ProgressBar(sim, progress=progress, **goal) as bar:
-        while not sim.done(**goal):
+        while not sim._reached(**goal):
             sim._check_max_steps()
-            bar.show(sim.step(**goal))
+            bar.show(sim._step(**goal))
             steps_here += 1
-            done = sim.done(**goal)
-            pause = not done and max_steps_this_call is not None
-            pause = pause and steps_here >= max_steps_this_call
+            done = sim._reached(**goal)
+            pause = not done and max_steps is not None and steps_here >= max_steps
             due = not done and _time.monotonic() - last_checkpoint >= config.checkpoint_seconds
             if sim.output is not None and (stop.signum is not None or pause or due):
                 sim.save()  # history.csv, then the checkpoint
@@ -738,10 +606,5 @@ def _steps(sim: Simulation, progress: bool, max_steps_this_call: int | None,
             if stop.signum is not None or pause:
                 sim.finished = done
                 break
-    if sim.output is not None and sim.done(**goal):
+    if sim.output is not None and sim._reached(**goal):
         sim.output.finish(sim)
-
-
-def config_fields() -> list[str]:
-    """Names of the Config fields (for the command line)."""
-    return [f.name for f in fields(Config)]

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import copy
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -37,7 +37,7 @@ from continuum import mesh
 from continuum.growth import mean_length
 from continuum.sizes import CharacteristicSizes, SizeDistribution
 
-__all__ = ["State", "StepRecord", "REMESH_CODES", "TIMING_STAGES"]
+__all__ = ["State", "StepRecord", "HISTORY_COLUMNS", "REMESH_CODES", "TIMING_STAGES"]
 
 TIMING_STAGES = ("meshing", "assembly", "amg_setup", "krylov", "remeshing", "transport")
 """Stages of the accumulated wall-clock seconds in ``State.timings``."""
@@ -174,25 +174,37 @@ def sample_fields(points: np.ndarray, triangles: np.ndarray, fields: dict,
     return out
 
 
+HISTORY_COLUMNS = ("t", "radius", "area", "max_pressure", "n_nodes", "n_boundary", "n_remesh",
+                   "dt", "h", "min_quality", "newton_iterations", "krylov_iterations", "remesh")
+"""The columns of history.csv, in their order (``StepRecord.row``)."""
+
+
 @dataclass(frozen=True)
 class StepRecord:
     """What one time step did and where it left the colony: one row of history.csv.
 
+    The first four attributes (step, t, dt, radius) are the particle engine's
+    ``StepRecord``'s too.
+
     Attributes
     ----------
+    step : int
+        Steps taken so far, this one included (not in history.csv).
     t : float
         Time after the step.
-    radius, area : float
-        Colony radius sqrt(A/pi) and area A.
+    dt : float
+        The step taken (halved from the planned one while elements invert; 0 for the initial
+        record).
+    radius : float
+        Colony radius sqrt(A/pi) after the step (what a radius goal compares).
+    area : float
+        Colony area A.
     max_pressure : float
         Largest nodal pressure.
     n_nodes, n_boundary : int
         Mesh nodes, boundary nodes.
     n_remesh : int
         Remeshes so far.
-    dt : float
-        The step taken (halved from the planned one while elements invert; 0 for the initial
-        record).
     h : float
         Boundary spacing of the current mesh when it was built.
     min_quality : float
@@ -201,52 +213,49 @@ class StepRecord:
         Newton and Krylov iterations of all pressure solves so far (cumulative).
     remesh : str or None
         Why the mesh was rebuilt before this step ("quality", "boundary", "size"), or None.
-    step : int
-        Steps taken so far (not in history.csv).
     """
 
+    step: int
     t: float
+    dt: float
     radius: float
     area: float
     max_pressure: float
     n_nodes: int
     n_boundary: int
     n_remesh: int
-    dt: float
     h: float
     min_quality: float
     newton_iterations: int
     krylov_iterations: int
     remesh: str | None
-    step: int
 
     @classmethod
     def of(cls, state: State, dt: float, remesh: str | None) -> StepRecord:
         """The record of ``state`` after a step of size dt (remeshed first for ``remesh``)."""
         area = state.area
         return cls(
+            step=state.step,
             t=state.t,
+            dt=dt,
             radius=math.sqrt(area / math.pi),
             area=area,
             max_pressure=float(state.p.max()),
             n_nodes=len(state.points),
             n_boundary=state.n_boundary,
             n_remesh=state.n_remesh,
-            dt=dt,
             h=state.h_mesh,
             min_quality=float(mesh.triangle_quality(state.points, state.triangles).min()),
             newton_iterations=state.newton,
             krylov_iterations=state.krylov,
             remesh=remesh,
-            step=state.step,
         )
 
     def row(self) -> dict:
-        """The history.csv row: every attribute but ``step``.
+        """The history.csv row: every attribute but ``step``, in the order of HISTORY_COLUMNS.
 
         ``remesh`` as its code (``REMESH_CODES``: 0 none, 1 quality, 2 boundary, 3 size).
         """
-        row = asdict(self)
-        del row["step"]
+        row = {name: getattr(self, name) for name in HISTORY_COLUMNS}
         row["remesh"] = REMESH_CODES[self.remesh]
         return row

@@ -11,12 +11,15 @@ colony measures.
 >>> state = sim.advance(radius=6.0)
 >>> print(state.n, state.t, state.stress.max())  # doctest: +SKIP
 
-Modules by concept: ``config`` (Config), ``state`` (ParticleState), ``neighbours`` (cell
-lists), ``geometry`` (contacts, D gamma, the axial stress sigma = G gamma), ``contact_solver``,
-``apgd``, ``twolevel`` (the per-step convex problem), ``growth`` (growth law, division rule),
-``stepping`` (one step, halving, adaptive dt), ``simulation`` (Simulation, run),
-``checkpoint``, ``output`` (files), ``packings`` (initial configurations), ``measures``
-(colony radii).
+The same contract as ``continuum`` (``Config``, ``Simulation(config, state=None, out=None)``
+with ``step``, ``done``, ``advance``, ``save``, ``load``; ``run``; docs/DESIGN.md).
+
+Modules by concept: ``config`` (Config), ``state`` (ParticleState, StepRecord), ``neighbours``
+(cell lists), ``geometry`` (contacts, D gamma, the axial stress sigma = G gamma),
+``contact_solver``, ``apgd``, ``twolevel`` (the per-step convex problem), ``growth`` (growth
+law, division rule), ``stepping`` (one step, halving, adaptive dt), ``simulation``
+(Simulation, run), ``checkpoint`` (save_checkpoint, load_checkpoint, StopRequest), ``output``
+(files), ``packings`` (initial configurations), ``measures`` (colony radii).
 """
 
 from __future__ import annotations
@@ -30,8 +33,8 @@ from .growth import divide, grow
 from .measures import enclosing_radius, hull_radius
 from .output import read_trajectory
 from .packings import fill_outline, from_csv, line, ring_packing, single_cell
-from .simulation import ParticleLimitError, Simulation, StepRecord, run
-from .state import ParticleState
+from .simulation import ParticleLimitError, Simulation, run
+from .state import ParticleState, StepRecord
 from .stepping import OverlapError
 
 try:

@@ -13,6 +13,10 @@ are checked against it and read back (:func:`read_history`).  A checkpoint saved
 (``Simulation.save(path)``), and every checkpoint written before this, holds the rows in
 ``meta``.
 
+The functions, the continuum engine's too: :func:`save_checkpoint` writes a :class:`Checkpoint`
+(configuration, state, history, frames), :func:`load_checkpoint` reads one back,
+:func:`resume_checkpoint` finds a run folder's.
+
 Safety (:func:`write_arrays`, :func:`read_arrays`, :func:`resume_checkpoint`): a checkpoint is
 written to a temporary file, flushed, read back and verified; only then the run folder's
 ``checkpoint.npz``, when intact, becomes ``checkpoint.prev.npz`` and the new file takes its name
@@ -46,7 +50,7 @@ import signal
 import stat
 import threading
 from collections.abc import Callable
-from dataclasses import asdict
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -54,6 +58,10 @@ import numpy as np
 from .config import EXECUTION_FIELDS, STEP_POLICY_FIELDS, Config, upgrade
 from .geometry import canonical_keys
 from .state import PARTICLE_ARRAYS, ParticleState
+
+__all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "Checkpoint", "CheckpointError",
+           "save_checkpoint", "load_checkpoint", "resume_checkpoint", "checkpoint_config",
+           "checkpoint_files", "history_record", "STOP_SIGNALS", "StopRequest"]
 
 log = logging.getLogger(__name__)
 
@@ -300,20 +308,43 @@ def resume_from(out: Path, load: Callable[[Path], tuple]) -> tuple[Path, tuple]:
 # ------------------------------------------------------------------ the particle checkpoint
 
 
-def save_checkpoint(path: Path, config: Config, state: ParticleState, history: list[dict] | dict,
-                    frames=NO_FRAMES) -> None:
-    """Write ``state`` (with ``config``, ``history`` and ``frames``) to ``path`` safely.
+@dataclass
+class Checkpoint:
+    """What a checkpoint holds: everything the following steps of a run depend on.
 
-    ``history``: the rows, kept in the checkpoint; or the :func:`history_record` of the
-    history.csv written beside ``path`` (a run folder), and then the checkpoint at ``path``
-    becomes ``checkpoint.prev.npz`` (:func:`write_arrays`).  A failed write (e.g. a full disk)
-    leaves the previous checkpoints as they were.
+    The first four attributes are the continuum engine's ``Checkpoint``'s too.
+
+    Attributes
+    ----------
+    config : Config
+        The configuration it ran with.
+    state : ParticleState
+    history : list of dict, or dict
+        The history rows so far; when saving into a run folder, the :func:`history_record` of
+        the history.csv written beside it (then the checkpoint at the path becomes
+        ``checkpoint.prev.npz``, :func:`write_arrays`). Loaded: the rows.
+    frames : list of int
+        The trajectory bookkeeping: [frames written, step of the last frame] (NO_FRAMES: none).
     """
+
+    config: Config
+    state: ParticleState
+    history: list[dict] | dict
+    frames: list[int] = field(default_factory=lambda: list(NO_FRAMES))
+
+
+def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
+    """Write ``checkpoint`` (format in the module docstring) to ``path`` safely.
+
+    A failed write (e.g. a full disk) leaves the existing checkpoints as they were; a history
+    record (a run folder) keeps the checkpoint at ``path`` as ``checkpoint.prev.npz``.
+    """
+    path, config, state = Path(path), checkpoint.config, checkpoint.state
     dt_next = config.dt if state.dt_next is None else state.dt_next
     meta = {"config": asdict(config), "t": state.t, "step": state.step, "next_id": state.next_id,
-            "rng": state.rng.bit_generator.state, "history": history, "frames": list(frames),
-            "dt_next": dt_next}
-    previous = path.with_name(PREVIOUS) if isinstance(history, dict) else None
+            "rng": state.rng.bit_generator.state, "history": checkpoint.history,
+            "frames": list(checkpoint.frames), "dt_next": dt_next}
+    previous = path.with_name(PREVIOUS) if isinstance(checkpoint.history, dict) else None
     write_arrays(path, {"meta": np.array(json.dumps(meta)), "warm_keys": state.warm_keys,
                         "warm_gamma": state.warm_gamma, **state.arrays()}, previous)
     log.debug("checkpoint at t = %.6g (step %d) written to %s", state.t, state.step, path)
@@ -327,11 +358,21 @@ def _saved_config(path: Path, meta: dict) -> dict:
     return saved
 
 
+def _config(path: Path, saved: dict) -> Config:
+    """The Config of saved fields (CheckpointError when they are not Config's).
+
+    A value Config refuses raises its ValueError.
+    """
+    try:
+        return Config(**saved)
+    except TypeError:
+        raise damaged(path, "unexpected content (config)") from None
+
+
 def checkpoint_config(path: Path) -> Config:
     """The configuration the checkpoint at ``path`` was written with."""
     path = Path(path)
-    meta = read_meta(path, read_arrays(path))
-    return checked(path, lambda: Config(**_saved_config(path, meta)))
+    return _config(path, _saved_config(path, read_meta(path, read_arrays(path))))
 
 
 def _check_config(path: Path, saved: dict, config: Config, change_step_policy: bool) -> None:
@@ -392,41 +433,45 @@ def _frames(path: Path, saved) -> list[int]:
     return saved
 
 
-def load_checkpoint(path: Path, config: Config, change_step_policy: bool = False,
-                    follow: bool = True) -> tuple[ParticleState, list[dict], list[int]]:
-    """(state, history, frames) saved by :func:`save_checkpoint`, for ``config``.
+def load_checkpoint(path: Path, config: Config | None = None, *, follow: bool = True,
+                    change_step_policy: bool = False) -> Checkpoint:
+    """The :class:`Checkpoint` written by :func:`save_checkpoint` at ``path``.
 
-    Raises CheckpointError when the file is damaged (or its history.csv does not hold the rows
-    it recorded), ValueError when ``config`` differs from the checkpoint's in a field other
-    than ``EXECUTION_FIELDS`` (and ``STEP_POLICY_FIELDS`` with ``change_step_policy``).  A
-    checkpoint written before the lineage was tracked has no ``parent`` and ``generation``
-    arrays: the particles then present are loaded as initial ones (parent -1, generation 0),
-    and their daughters count generations from them.  With ``change_step_policy`` the next
-    step follows ``config``'s policy: ``dt_next`` is ``config.dt`` with a fixed step, else the
-    saved ``dt_next`` capped at ``config.dt``.  ``follow`` False: a symbolic link is refused.
+    ``config``: the configuration to continue with, equal to the checkpoint's up to
+    ``EXECUTION_FIELDS`` (and ``STEP_POLICY_FIELDS`` with ``change_step_policy``; ValueError
+    otherwise); None: the checkpoint's.  Raises CheckpointError when the file is damaged (or
+    its history.csv does not hold the rows it recorded).  A checkpoint written before the
+    lineage was tracked has no ``parent`` and ``generation`` arrays: the particles then
+    present are loaded as initial ones (parent -1, generation 0), and their daughters count
+    generations from them.  With ``change_step_policy`` the next step follows ``config``'s
+    policy: ``dt_next`` is ``config.dt`` with a fixed step, else the saved ``dt_next`` capped
+    at ``config.dt``.  ``follow`` False: a symbolic link is refused.
     """
     path = Path(path)
     arrays = read_arrays(path, follow)
     meta = read_meta(path, arrays)
-    _check_config(path, _saved_config(path, meta), config, change_step_policy)
+    saved = _saved_config(path, meta)
+    if config is None:
+        config = _config(path, dict(saved))
+    _check_config(path, saved, config, change_step_policy)
     state = checked(path, lambda: _state(path, arrays, meta, config))
     frames = _frames(path, checked(path, lambda: meta["frames"]))
     history = _history(path, checked(path, lambda: meta["history"]))
     if change_step_policy:
         state.dt_next = (config.dt if config.step_control == "fixed"
                          else min(state.dt_next, config.dt))
-    return state, history, frames
+    return Checkpoint(config, state, history, frames)
 
 
-def resume_checkpoint(out: Path, config: Config, change_step_policy: bool = False
-                      ) -> tuple[Path, tuple[ParticleState, list[dict], list[int]]]:
-    """(path, (state, history, frames)) of the run folder ``out``'s checkpoint (resume_from).
+def resume_checkpoint(out: Path, config: Config, *, change_step_policy: bool = False
+                      ) -> tuple[Path, Checkpoint]:
+    """(path, :func:`load_checkpoint` of it) of the run folder ``out``'s checkpoint.
 
-    ``checkpoint.npz``, or ``checkpoint.prev.npz`` when that one is damaged; never through a
-    symbolic link.
+    ``checkpoint.npz``, or ``checkpoint.prev.npz`` when that one is damaged (resume_from);
+    never through a symbolic link.
     """
-    return resume_from(Path(out), lambda path: load_checkpoint(path, config, change_step_policy,
-                                                               follow=False))
+    return resume_from(Path(out), lambda path: load_checkpoint(
+        path, config, follow=False, change_step_policy=change_step_policy))
 
 
 STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
@@ -436,10 +481,17 @@ STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 class StopRequest:
     """SIGINT / SIGTERM / SIGHUP deferred to the end of the current step (main thread only).
 
-    ``install`` replaces the handlers; the first signal sets ``signum`` and puts the previous
-    handlers back, so the run can write a checkpoint of a whole step before stopping, while a
-    second signal acts at once. ``restore`` puts them back when no signal came.  Also a
-    context manager (install on entry, restore on exit).
+    A context manager: entering installs the handlers; the first signal sets ``signum`` and
+    puts the previous handlers back, so the run can finish its step and write a checkpoint,
+    while a second signal acts at once; leaving puts them back. After the checkpoint,
+    :meth:`reraise` raises for the signal that came::
+
+        with StopRequest() as stop:
+            while ... and stop.signum is None:
+                ...  # steps
+        stop.reraise()
+
+    The twin of the continuum engine's (the two engines do not import each other).
     """
 
     def __init__(self):
@@ -447,7 +499,7 @@ class StopRequest:
         self._previous = {}
 
     def install(self) -> StopRequest:
-        """Catch STOP_SIGNALS (from the main thread only); returns self."""
+        """Catch STOP_SIGNALS (from the main thread only; elsewhere a no-op); returns self."""
         if threading.current_thread() is threading.main_thread():
             for sig in STOP_SIGNALS:
                 self._previous[sig] = signal.signal(sig, self._handle)

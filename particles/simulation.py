@@ -4,9 +4,16 @@ In the manner of Dedalus's solver (``step``, ``evolve``) and JAX-MD's ``init_fn`
 one explicit mutable state (``state.ParticleState``), a ``step()`` that advances it by one
 time step (stepping.robust_step: detect, solve, move and grow, re-solve, halving; then the
 division rule and the spatial order, stepping.divide_in_order) and returns a typed
-:class:`StepRecord` of what happened, and
+:class:`~particles.state.StepRecord` of what happened, and
 :func:`run`, a short loop that hands each step to the output writers (output.RunOutput), the
-checkpointer (checkpoint.py) and the progress bar.
+checkpointer (checkpoint.py) and the progress bar, and writes the final files.
+
+The contract, the continuum engine's too (docs/DESIGN.md, "One contract for both engines";
+tests/test_contract.py): ``Simulation(config, state=None, out=None)`` (``state`` copied),
+``step(time=None)`` (one step, not past ``time``), ``done(radius=None, time=None)`` and
+``advance(radius=None, time=None)`` (the first goal reached stops, :func:`reached`; both None:
+the configuration's), ``save(path=None)``, ``Simulation.load(path, config=None)``, and
+``run(config, out=None, progress=False, state=None, max_steps=None)``.
 
 >>> import particles
 >>> sim = particles.Simulation(particles.Config(lam=1e-2, seed=1))
@@ -17,9 +24,9 @@ checkpointer (checkpoint.py) and the progress bar.
 from __future__ import annotations
 
 import logging
+import math
 import sys
 import time as _time
-from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
@@ -28,8 +35,8 @@ from tqdm import tqdm
 from .checkpoint import (
     HISTORY,
     NO_FRAMES,
+    Checkpoint,
     StopRequest,
-    checkpoint_config,
     checkpoint_files,
     history_record,
     load_checkpoint,
@@ -39,85 +46,54 @@ from .checkpoint import (
 from .config import STEP_POLICY_FIELDS, Config
 from .output import RunOutput, write_config, write_history
 from .packings import from_csv, single_cell
-from .state import ParticleState
+from .state import ParticleState, StepRecord
 from .stepping import Detections, detect, divide_in_order, next_dt, robust_step
 
 log = logging.getLogger(__name__)
 
-__all__ = ["ParticleLimitError", "Simulation", "StepRecord", "check_initial", "initial_state",
-           "run"]
+# StepRecord lives in particles.state; imported here for older imports
+# (``from particles.simulation import StepRecord``), documented there.
+__all__ = ["ParticleLimitError", "Simulation", "check_initial", "initial_state", "run",
+           "reached", "check_goal", "require_goal", "RADIUS_RTOL", "TIME_TOL"]
+
+RADIUS_RTOL = 1e-7
+"""A radius goal R is reached at an enclosing radius >= R (1 - RADIUS_RTOL) (the continuum
+engine's tolerance, whose last step lands on R by an extrapolation good to about 1e-9)."""
+
+TIME_TOL = 1e-12
+"""A time goal T is reached at t >= T - TIME_TOL max(1, T) (the continuum engine's too)."""
+
+
+def reached(radius_now, t: float, radius: float | None, time: float | None) -> bool:
+    """Whether the first of the goals is reached (False when both goals are None).
+
+    Time T: t >= T - TIME_TOL max(1, T); radius R_goal: R >= R_goal (1 - RADIUS_RTOL).
+    ``radius_now``: the colony radius, or a function returning it (called only for a radius
+    goal). The twin of ``continuum.simulation.reached``.
+    """
+    if time is not None and t >= time - TIME_TOL * max(1.0, time):
+        return True
+    if radius is None:
+        return False
+    return (radius_now() if callable(radius_now) else radius_now) >= radius * (1 - RADIUS_RTOL)
+
+
+def check_goal(radius: float | None, time: float | None) -> None:
+    """ValueError unless each given goal is a positive finite number."""
+    for name, v in (("radius", radius), ("time", time)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                              or not (math.isfinite(v) and v > 0)):
+            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+
+
+def require_goal(config: Config) -> None:
+    """ValueError unless ``config`` has a goal (``run`` needs one of ``radius`` and ``time``)."""
+    if config.radius is None and config.time is None:
+        raise ValueError("give exactly one of radius and time")
 
 
 class ParticleLimitError(RuntimeError):
     """The colony exceeded ``Config.max_particles``."""
-
-
-@dataclass(frozen=True)
-class StepRecord:
-    """What one step did: the row of history.csv (output.HISTORY_COLUMNS).
-
-    Attributes
-    ----------
-    step : int
-        Steps since t = 0, this one included.
-    t, dt : float
-        Time after the step and the step's length.
-    radius, hull_radius : float
-        Enclosing and hull radius of the colony after the step (measures.py).
-    n_particles : int
-        N after the step's divisions.
-    max_stress, mean_stress : float
-        Largest and mean axial stress sigma.
-    max_overlap : float
-        Largest real overlap b - d after the re-solve passes (<= ``Config.tol``).
-    iterations, pass_iterations, failed_iterations : int
-        Solver iterations of the main solves and passes together, of the passes alone, and of
-        attempts that failed and were redone as half steps.
-    passes : int
-        Re-solve passes.
-    n_contacts : int
-        Contacts of the (last) main solve.
-    residual : float
-        Largest final residual of the main solves.
-    total_length : float
-        sum_n l_n.
-    divisions : int
-        Particles that divided.
-    substeps : int
-        1, or the number of half steps the step was redone as.
-    max_rotation, max_displacement : float
-        Largest turn ``abs(delta theta)`` and displacement ``norm(delta x)`` of a particle in
-        the step (in a sub-step when the step was halved).
-    main_overlap : float
-        Largest real overlap after the main solve's move, before the re-solve passes: the error
-        of the step's linearised contacts.
-    """
-
-    step: int
-    t: float
-    dt: float
-    radius: float
-    hull_radius: float
-    n_particles: int
-    max_stress: float
-    mean_stress: float
-    max_overlap: float
-    iterations: int
-    pass_iterations: int
-    failed_iterations: int
-    passes: int
-    n_contacts: int
-    residual: float
-    total_length: float
-    divisions: int
-    substeps: int
-    max_rotation: float
-    max_displacement: float
-    main_overlap: float
-
-    def row(self) -> dict:
-        """The history row (a dict of the fields in their order, as checkpoints store it)."""
-        return asdict(self)
 
 
 def initial_state(config: Config) -> ParticleState:
@@ -137,9 +113,9 @@ def check_initial(config: Config, require_stop: bool = True,
                   state: ParticleState | None = None) -> ParticleState:
     """The initial state of ``config``, checked before any step.
 
-    Checks a valid configuration (``Config.validate(require_stop)``), no overlap beyond
-    ``config.tol`` (every gap phi_k >= -tol), and a ``radius`` goal larger than the initial
-    colony radius.
+    Checks a goal (with ``require_stop``), no overlap beyond ``config.tol`` (every gap
+    phi_k >= -tol), and a ``radius`` goal larger than the initial colony radius (the
+    configuration itself was checked when it was made).
 
     Parameters
     ----------
@@ -147,7 +123,7 @@ def check_initial(config: Config, require_stop: bool = True,
         The configuration; its ``init`` file (or one cell) gives the state when ``state`` is
         None.
     require_stop : bool
-        Require exactly one of ``radius`` and ``time`` (as :func:`run` does).
+        Require one of ``radius`` and ``time`` (as :func:`run` does).
     state : ParticleState, optional
         The initial state to check (e.g. of ``config.shape``).
 
@@ -161,7 +137,8 @@ def check_initial(config: Config, require_stop: bool = True,
     ValueError
         With a one-line message, when a check fails.
     """
-    config.validate(require_stop)
+    if require_stop:
+        require_goal(config)
     state = initial_state(config) if state is None else state
     c = detect(state, 0.0)
     if c.gap.size and c.gap.min() < -config.tol:
@@ -181,24 +158,30 @@ def check_initial(config: Config, require_stop: bool = True,
 class Simulation:
     """A growing, dividing colony stepped in time.
 
+    The engine contract (the continuum engine's ``Simulation`` has the same methods with the
+    same meaning; docs/DESIGN.md, tests/test_contract.py).
+
     Parameters
     ----------
     config : Config
         ``radius`` and ``time`` may both be None (they are the stop of :func:`run` and the
-        default stop of :meth:`advance`).
+        default goal of :meth:`advance` and :meth:`done`).
+    state : ParticleState, optional
+        Initial state (default: ``config.init`` or one cell, checked by :func:`check_initial`;
+        required for a ``config.shape``, e.g. from cases.shapes.initial_particles).  A copy
+        is grown (the given object is not changed); its ``rng`` seeded with ``config.seed``
+        when None.  A checkpoint in ``out`` takes precedence.
     out : path, optional
         Existing run folder.  When given, the simulation resumes from ``out/checkpoint.npz``
         if there is one (same configuration up to ``EXECUTION_FIELDS``, and
         ``STEP_POLICY_FIELDS`` with ``change_step_policy``; ``checkpoint.prev.npz`` when that
         one is damaged: checkpoint.resume_checkpoint), else writes config.json and the
-        trajectory's first frame; :meth:`advance` then writes a frame every
+        trajectory's first frame; :meth:`step` then writes a frame every
         ``config.output_every`` steps and :meth:`save` defaults to ``out/checkpoint.npz``.
-    state : ParticleState, optional
-        Initial state (default: ``config.init`` or one cell, checked by :func:`check_initial`;
-        required for a ``config.shape``, e.g. from cases.shapes.initial_particles).
-        Its ``rng`` is seeded with ``config.seed`` when None.
+        The final files (history.csv, particles.csv, the last frame) are :func:`run`'s.
     change_step_policy : bool
-        See ``out``; config.json then records the change (output.write_config).
+        See ``out``; config.json then records the change (output.write_config).  (Particles
+        only: the continuum has no step policy.)
 
     Attributes
     ----------
@@ -210,12 +193,11 @@ class Simulation:
     output : output.RunOutput or None
         The writers of ``out``.
     finished : bool
-        False when :func:`run` stopped before its goal (``stop_after`` or a signal).
+        False when :func:`run` stopped before its goal (``max_steps`` or a signal).
     """
 
-    def __init__(self, config: Config, out: str | Path | None = None,
-                 state: ParticleState | None = None, *, change_step_policy: bool = False):
-        config.validate(require_stop=False)
+    def __init__(self, config: Config, state: ParticleState | None = None,
+                 out: str | Path | None = None, *, change_step_policy: bool = False):
         self.config = config
         self.history: list[dict] = []
         self.finished = True
@@ -228,15 +210,16 @@ class Simulation:
                 raise ValueError(f"output folder does not exist: {out}")
             self.output = RunOutput(out, config.output_every)
         if out is not None and checkpoint_files(out):
-            checkpoint, (self.state, self.history, frames) = resume_checkpoint(
-                out, config, change_step_policy)
-            self.output.resume(frames)
-            log.info("resuming from %s at t = %.6g (step %d, %d particles)", checkpoint,
+            path, saved = resume_checkpoint(out, config, change_step_policy=change_step_policy)
+            self.state, self.history = saved.state, saved.history
+            self.output.resume(saved.frames)
+            log.info("resuming from %s at t = %.6g (step %d, %d particles)", path,
                      self.state.t, self.state.step, self.state.n)
             if change_step_policy:
                 write_config(out, config, step=self.state.step, policy=STEP_POLICY_FIELDS)
             return
-        self.state = check_initial(config, require_stop=False) if state is None else state
+        self.state = (check_initial(config, require_stop=False) if state is None
+                      else state.copy())
         if self.state.rng is None:
             self.state.rng = np.random.default_rng(config.seed)
         if self.state.dt_next is None:
@@ -245,27 +228,27 @@ class Simulation:
             self.output.start(config, self.state)
 
     @classmethod
-    def load(cls, path: str | Path, config: Config | None = None,
+    def load(cls, path: str | Path, config: Config | None = None, *,
              change_step_policy: bool = False) -> Simulation:
         """The simulation saved at ``path`` (:meth:`save`, or a run's checkpoint.npz).
 
-        ``config`` None: the checkpoint's own configuration.  Older checkpoints load
-        (checkpoint.py).  The result writes no output (``output`` None).
+        ``config``: the configuration to continue with, equal to the saved one up to
+        ``EXECUTION_FIELDS`` (and ``STEP_POLICY_FIELDS`` with ``change_step_policy``;
+        ValueError otherwise); None: the saved one.  Older checkpoints load (checkpoint.py).
+        The result writes no output (``output`` None); stepping it gives the bits the saved
+        simulation would have.
         """
-        path = Path(path)
-        if config is None:
-            config = checkpoint_config(path)
-        config.validate(require_stop=False)
-        state, history, frames = load_checkpoint(path, config, change_step_policy)
-        sim = cls(config, state=state)
-        sim.history, sim._frames = history, frames
+        saved = load_checkpoint(Path(path), config, change_step_policy=change_step_policy)
+        sim = cls(saved.config, state=saved.state)
+        sim.history, sim._frames = saved.history, saved.frames
         return sim
 
     def save(self, path: str | Path | None = None) -> Path:
         """Write a checkpoint (checkpoint.py; atomic) to ``path``, default out/checkpoint.npz.
 
-        The run folder's checkpoint: history.csv first, which the checkpoint refers to (its
-        size stays that of the colony), and the checkpoint it replaces kept as
+        :meth:`load` (and :func:`run` on its folder) continues from it bit-identically.  The
+        run folder's checkpoint: history.csv first, which the checkpoint refers to (its size
+        stays that of the colony), and the checkpoint it replaces kept as
         checkpoint.prev.npz.  Elsewhere the checkpoint holds the history rows.
         """
         if path is None:
@@ -278,32 +261,47 @@ class Simulation:
         if self.output is not None and path == self.output.checkpoint:
             write_history(self.output.out, self.history)
             history = history_record(self.output.out / HISTORY, len(self.history))
-        save_checkpoint(path, self.config, self.state, history, frames)
+        save_checkpoint(path, Checkpoint(self.config, self.state, history, frames))
         return path
 
     def done(self, radius: float | None = None, time: float | None = None) -> bool:
-        """Whether the goal is reached: t >= ``time`` (to 1e-12), else radius >= ``radius``.
+        """Whether the first of the goals is reached (both None: the configuration's goal).
 
-        Without ``time``, the colony's enclosing radius is compared with ``radius``; False when
-        both are None.
+        The enclosing radius >= ``radius`` (1 - RADIUS_RTOL), or
+        t >= ``time`` - TIME_TOL max(1, ``time``) (:func:`reached`).
+
+        Raises
+        ------
+        ValueError
+            No goal given and none in the configuration, or a goal not a positive number.
         """
-        if time is not None:
-            return self.state.t >= time - 1e-12
-        if radius is not None:
-            return self.state.enclosing_radius() >= radius
-        return False
+        return self._reached(*self._goal(radius, time))
 
-    def step(self, until: float | None = None) -> StepRecord:
-        """Advance the state by one step, divisions included; return its record.
+    def _reached(self, radius: float | None, time: float | None) -> bool:
+        """:func:`reached` of the current state (False without a goal)."""
+        return reached(self.state.enclosing_radius, self.state.t, radius, time)
+
+    def _goal(self, radius: float | None, time: float | None) -> tuple[float | None, float | None]:
+        """The goal of :meth:`advance` and :meth:`done`: the given one, else the config's."""
+        if radius is None and time is None:
+            radius, time = self.config.radius, self.config.time
+            if radius is None and time is None:
+                raise ValueError("give radius or time (or set one in the Config)")
+        check_goal(radius, time)
+        return radius, time
+
+    def step(self, time: float | None = None) -> StepRecord:
+        """Advance the state by one step, not past ``time``, divisions included; its record.
 
         The step has length ``state.dt_next`` (``Config.dt``, or adapted by
-        ``Config.step_control``: stepping.next_dt), shortened to land on ``until`` when that is
-        nearer.
+        ``Config.step_control``: stepping.next_dt), shortened to land on ``time`` when that is
+        nearer.  With an output folder, a trajectory frame every ``Config.output_every``
+        steps.
 
         Parameters
         ----------
-        until : float, optional
-            A time to land on: the step is shortened to end at ``until`` when that is nearer.
+        time : float, optional
+            Time t not to pass (ValueError when it is reached already).
 
         Returns
         -------
@@ -317,10 +315,13 @@ class Simulation:
         OverlapError, ContactSolveError
             When a step fails even as 16 sub-steps.
         """
+        check_goal(None, time)
+        if self._reached(None, time):
+            raise ValueError(f"time {time:g} is reached already (t = {self.state.t:.17g})")
         config, st = self.config, self.state
         dt = st.dt_next
-        if until is not None and until - st.t < dt * (1 + 1e-9):
-            dt = until - st.t
+        if time is not None and time - st.t < dt * (1 + 1e-9):
+            dt = time - st.t
         info, st.warm = robust_step(st, config, dt, st.warm, detections=self._detections)
         st.dt_next = next_dt(dt, info, config.dt, config.step_control)
         divisions = divide_in_order(st, st.rng, config.division_noise)
@@ -343,23 +344,26 @@ class Simulation:
         if st.n > config.max_particles:
             raise ParticleLimitError(
                 f"colony has {st.n} particles > max_particles {config.max_particles}")
+        if self.output is not None:
+            self.output.after_step(st)
         return record
 
     def advance(self, radius: float | None = None, time: float | None = None,
                 progress: bool = False) -> ParticleState:
-        """Step until the enclosing radius reaches ``radius`` or t reaches ``time``.
+        """Step until the enclosing radius reaches ``radius`` or t ``time``, whichever first.
 
-        The last step is shortened to land on ``time``.  With an output folder, a trajectory
-        frame every ``Config.output_every`` steps (no checkpoint, history or final files:
-        :func:`run` writes those).
+        Both None: the configuration's goal.  The last step is shortened to land on ``time``;
+        ``advance`` of a new simulation gives the bits of ``run`` to the same goal.  No step
+        when the goal is reached already.  With an output folder the frames are written as
+        :meth:`step` writes them; the final files are :func:`run`'s (or :meth:`save`'s
+        history.csv).
 
         Parameters
         ----------
         radius : float, optional
             Goal for the enclosing radius R (measures.enclosing_radius).
         time : float, optional
-            Goal for t; takes precedence over ``radius``.  Both None: ``Config.radius`` /
-            ``Config.time``.
+            Goal for t.
         progress : bool
             A tqdm progress bar when stderr is a terminal, else a log line every
             PROGRESS_SECONDS.
@@ -368,16 +372,16 @@ class Simulation:
         -------
         ParticleState
             ``state``, advanced in place.
+
+        Raises
+        ------
+        ValueError
+            No goal (:meth:`done`).
         """
-        if radius is None and time is None:
-            radius, time = self.config.radius, self.config.time
-        if radius is None and time is None:
-            raise ValueError("give radius or time (or set one in the Config)")
+        radius, time = self._goal(radius, time)
         with _ProgressBar(self.config.lam, radius, time, progress) as bar:
-            while not self.done(radius, time):
-                bar.show(self.step(until=time))
-                if self.output is not None:
-                    self.output.after_step(self.state)
+            while not self._reached(radius, time):
+                bar.show(self.step(time))
         return self.state
 
 
@@ -439,36 +443,38 @@ class _Checkpointer:
 
 
 def run(config: Config, out: str | Path | None = None, progress: bool = False,
-        stop_after: int | None = None, change_step_policy: bool = False,
-        state: ParticleState | None = None) -> Simulation:
+        state: ParticleState | None = None, max_steps: int | None = None, *,
+        change_step_policy: bool = False) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
-    SIGINT (Ctrl-C), SIGTERM (e.g. a batch system's time limit) or SIGHUP (a closed terminal)
-    in the main thread ends the run after the current step, with a checkpoint of that step
-    written (then KeyboardInterrupt, or SystemExit(128 + signal) for SIGTERM and SIGHUP); a
-    second signal interrupts at once.
+    The loop over the steps of a :class:`Simulation` that hands each step to the writers, the
+    checkpointer and the progress bar, and writes the final files.  SIGINT (Ctrl-C), SIGTERM
+    (e.g. a batch system's time limit) or SIGHUP (a closed terminal) in the main thread ends
+    the run after the current step, with a checkpoint of that step written (then
+    KeyboardInterrupt, or SystemExit(128 + signal) for SIGTERM and SIGHUP); a second signal
+    interrupts at once (checkpoint.StopRequest).
 
     Parameters
     ----------
     config : Config
-        With exactly one of ``radius`` and ``time``.
+        With one of ``radius`` and ``time``.
     out : Path, optional
         Existing folder for config.json, history.csv, particles.csv, trajectory.gsd and
         checkpoint.npz.  If it holds a checkpoint of the same configuration the run resumes from
         it, with the same result as an uninterrupted run.
     progress : bool
         A tqdm progress bar when stderr is a terminal, else a log line every PROGRESS_SECONDS.
-    stop_after : int, optional
+    state : ParticleState, optional
+        Initial state of a new run (default: ``config.init`` or one cell; needed for a
+        ``config.shape``; copied); unused when ``out`` holds a checkpoint.
+    max_steps : int, optional
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
         the returned simulation has ``finished = False``.
     change_step_policy : bool
         Resume from a checkpoint written with other STEP_POLICY_FIELDS values (config.json then
         holds the new values and, under ``step_policy_changes``, the step and the old and new
         values of each change; the result differs from an uninterrupted run's within the
-        time-stepping error).
-    state : ParticleState, optional
-        Initial state of a new run (default: ``config.init`` or one cell; needed for a
-        ``config.shape``); unused when ``out`` holds a checkpoint.
+        time-stepping error).  Particles only.
 
     Returns
     -------
@@ -478,26 +484,26 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     Raises
     ------
     ValueError
-        Bad configuration or mismatched checkpoint.
+        No goal in ``config``, or a mismatched checkpoint.
     OverlapError, ParticleLimitError, ContactSolveError
         A step failed (see their docstrings).
     """
-    config.validate()
-    sim = Simulation(config, out, state=state, change_step_policy=change_step_policy)
+    require_goal(config)
     goal = {"radius": config.radius, "time": config.time}
-    checkpointer = None if sim.output is None else _Checkpointer(sim)
     steps = 0
-    with StopRequest() as stop, _ProgressBar(config.lam, progress=progress, **goal) as bar:
-        while not sim.done(**goal):
-            bar.show(sim.step(until=config.time))
-            steps += 1
-            if sim.output is not None:
-                sim.output.after_step(sim.state)
-                checkpointer.after_step()
-            asked = stop.signum is not None or (stop_after is not None and steps >= stop_after)
-            if asked and not sim.done(**goal):
-                sim.finished = False
-                break
+    with StopRequest() as stop:
+        sim = Simulation(config, state, out, change_step_policy=change_step_policy)
+        checkpointer = None if sim.output is None else _Checkpointer(sim)
+        with _ProgressBar(config.lam, progress=progress, **goal) as bar:
+            while not sim._reached(**goal):
+                bar.show(sim.step(config.time))
+                steps += 1
+                if checkpointer is not None:
+                    checkpointer.after_step()
+                asked = stop.signum is not None or (max_steps is not None and steps >= max_steps)
+                if asked and not sim._reached(**goal):
+                    sim.finished = False
+                    break
     if sim.output is not None:
         sim.output.ensure_space(sim.state)
         if sim.finished:

@@ -1,4 +1,7 @@
-"""The state of a particle simulation: one mutable object, what a checkpoint saves.
+"""The state of a particle simulation and the record of one step (``StepRecord``).
+
+The state is one mutable object, what a checkpoint saves; a step's record is one row of
+history.csv.
 
 Particle n: centre (x_n, y_n), angle theta_n (axis p_n = (cos, sin)), tip-to-tip length l_n,
 axial stress sigma_n = (G gamma)_n (``stress``, geometry.axial_stress; the load of the growth
@@ -14,14 +17,14 @@ contact identity (the warm start) and the length of the next step (adaptive dt).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
 from .geometry import B
 from .measures import enclosing_radius, hull_radius
 
-__all__ = ["B", "ParticleState"]
+__all__ = ["B", "ParticleState", "StepRecord"]
 
 #: Per-particle arrays of a state, by attribute name (what checkpoints and copies hold).
 PARTICLE_ARRAYS = ("x", "y", "theta", "length", "stress", "ids", "parent", "generation")
@@ -167,3 +170,77 @@ class ParticleState:
     def arrays(self) -> dict[str, np.ndarray]:
         """The per-particle arrays by attribute name (what a checkpoint saves)."""
         return {k: getattr(self, k) for k in PARTICLE_ARRAYS}
+
+
+@dataclass(frozen=True)
+class StepRecord:
+    """What one step did: the row of history.csv (output.HISTORY_COLUMNS).
+
+    The first four attributes (step, t, dt, radius) are the continuum engine's
+    ``StepRecord``'s too.
+
+    Attributes
+    ----------
+    step : int
+        Steps since t = 0, this one included.
+    t, dt : float
+        Time after the step and the step's length.
+    radius : float
+        Enclosing radius of the colony after the step (measures.enclosing_radius; what a
+        radius goal compares).
+    hull_radius : float
+        Hull radius sqrt(convex hull area / pi) after the step (measures.hull_radius).
+    n_particles : int
+        N after the step's divisions.
+    max_stress, mean_stress : float
+        Largest and mean axial stress sigma.
+    max_overlap : float
+        Largest real overlap b - d after the re-solve passes (<= ``Config.tol``).
+    iterations, pass_iterations, failed_iterations : int
+        Solver iterations of the main solves and passes together, of the passes alone, and of
+        attempts that failed and were redone as half steps.
+    passes : int
+        Re-solve passes.
+    n_contacts : int
+        Contacts of the (last) main solve.
+    residual : float
+        Largest final residual of the main solves.
+    total_length : float
+        sum_n l_n.
+    divisions : int
+        Particles that divided.
+    substeps : int
+        1, or the number of half steps the step was redone as.
+    max_rotation, max_displacement : float
+        Largest turn ``abs(delta theta)`` and displacement ``norm(delta x)`` of a particle in
+        the step (in a sub-step when the step was halved).
+    main_overlap : float
+        Largest real overlap after the main solve's move, before the re-solve passes: the error
+        of the step's linearised contacts.
+    """
+
+    step: int
+    t: float
+    dt: float
+    radius: float
+    hull_radius: float
+    n_particles: int
+    max_stress: float
+    mean_stress: float
+    max_overlap: float
+    iterations: int
+    pass_iterations: int
+    failed_iterations: int
+    passes: int
+    n_contacts: int
+    residual: float
+    total_length: float
+    divisions: int
+    substeps: int
+    max_rotation: float
+    max_displacement: float
+    main_overlap: float
+
+    def row(self) -> dict:
+        """The history row (a dict of the fields in their order, as checkpoints store it)."""
+        return asdict(self)

@@ -58,7 +58,7 @@ import numpy as np
 import particles.stepping as stepping
 from cases import analysis as A
 from particles import Config, run
-from particles.checkpoint import checkpoint_config, load_checkpoint
+from particles.checkpoint import load_checkpoint
 from particles.neighbours import spatial_order
 
 COLUMNS = ("lam", "policy", "uncapped", "cpu_s", "wall_s", "steps", "halved", "main_iterations",
@@ -105,7 +105,6 @@ def measure(lam: float, radius: float, policy: str, uncapped: bool = False) -> d
     """One colony from one cell to ``radius`` under ``policy``; its costs and result."""
     control, dt, target = parse_policy(policy)
     config = Config(lam=lam, radius=radius, dt=dt, step_control=control)
-    config.validate()
     floor = stepping.PASS_ITERATION_FLOOR
     if uncapped:
         stepping.PASS_ITERATION_FLOOR = config.max_iterations
@@ -141,8 +140,8 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,  # noqa: 
     (particles.neighbours.spatial_order), as a run of this version holds them after its last
     division (a checkpoint written before 2026-12-02 holds them in the order of birth).
     """
-    config = checkpoint_config(Path(path))
-    state, history, _ = load_checkpoint(Path(path), config)
+    saved = load_checkpoint(Path(path))
+    config, state, history = saved.config, saved.state, saved.history
     if reorder:
         state.permute(spatial_order(state.x, state.y))
     t0, rng, warm = state.t, state.rng, state.warm

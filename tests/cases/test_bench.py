@@ -95,7 +95,7 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     full.mkdir()
     part.mkdir()
     a = run(cfg, full)
-    run(cfg, part, stop_after=150)
+    run(cfg, part, max_steps=150)
     rows = bench_timestep.main(["--checkpoint", str(part / "checkpoint.npz"), "--duration",
                                 "0.2", "--policies", "fixed:0.02", "fixed:0.01", "--out",
                                 str(tmp_path / "c.csv")])
@@ -116,7 +116,7 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     ofull.mkdir()
     opart.mkdir()
     b = run(ocfg, ofull)
-    run(ocfg, opart, stop_after=100)
+    run(ocfg, opart, max_steps=100)
     nxt = b.history[100:110]
     span = nxt[-1]["t"] - b.history[99]["t"]
     same, low = bench_timestep.main(["--checkpoint", str(opart / "checkpoint.npz"), "--duration",

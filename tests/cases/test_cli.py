@@ -166,7 +166,7 @@ def test_particles_resume_with_another_step_only_when_asked(tmp_path):
     out = tmp_path / "p"
     partial = tmp_path / "p.partial"
     partial.mkdir()
-    run(Config(lam=1e-2, radius=3.0, seed=3), partial, stop_after=20)
+    run(Config(lam=1e-2, radius=3.0, seed=3), partial, max_steps=20)
     args = ("particles", "--lam", "1e-2", "--radius", "3", "--seed", "3", "--dt", "0.005",
             "--out", str(out), "--quiet")
     res = _colony(*args)

@@ -131,7 +131,7 @@ def test_stage_of_another_engine_is_refused_until_overwrite(colony, tmp_path):
     partial.mkdir()
     from particles import Config, run
 
-    run(Config(lam=1e-2, radius=3.0), partial, stop_after=5)
+    run(Config(lam=1e-2, radius=3.0), partial, max_steps=5)
     before = tree(partial)
     status, err = colony(*SMALL_CONTINUUM, "--out", str(out))
     one_line_error(status, err, "stopped particles run", "--overwrite")
@@ -146,7 +146,7 @@ def test_stage_of_another_configuration_is_refused(colony, tmp_path):
     partial.mkdir()
     from particles import Config, run
 
-    run(Config(lam=2e-2, radius=2.0), partial, stop_after=5)
+    run(Config(lam=2e-2, radius=2.0), partial, max_steps=5)
     status, err = colony(*SMALL_PARTICLES, "--out", str(out))
     one_line_error(status, err, "differs in lam", "--overwrite")
     assert (partial / "checkpoint.npz").exists()
@@ -213,7 +213,7 @@ def test_failed_checkpoint_write_leaves_the_previous_one(tmp_path, monkeypatch):
     import particles
     import particles.checkpoint as sim
 
-    particles.run(particles.Config(lam=1e-2, radius=3.0), tmp_path, stop_after=5)
+    particles.run(particles.Config(lam=1e-2, radius=3.0), tmp_path, max_steps=5)
     before = (tmp_path / "checkpoint.npz").read_bytes()
 
     def full(*args, **kwargs):
@@ -221,7 +221,7 @@ def test_failed_checkpoint_write_leaves_the_previous_one(tmp_path, monkeypatch):
 
     monkeypatch.setattr(sim.np, "savez", full)
     with pytest.raises(OSError):
-        particles.run(particles.Config(lam=1e-2, radius=3.0), tmp_path, stop_after=3)
+        particles.run(particles.Config(lam=1e-2, radius=3.0), tmp_path, max_steps=3)
     assert (tmp_path / "checkpoint.npz").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir() if ".tmp" in p.name) == []
 

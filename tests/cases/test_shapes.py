@@ -102,13 +102,13 @@ def test_resume_checks_the_shape(colony, tmp_path):
     stage = rundir.partial_of(tmp_path / "run")
     stage.mkdir()
     config = particles.Config(lam=1e-2, time=1.0, shape="line:3")
-    sim = particles.run(config, stage, stop_after=1, state=initial_particles("line:3"))
+    sim = particles.run(config, stage, max_steps=1, state=initial_particles("line:3"))
     assert not sim.finished and (stage / "checkpoint.npz").exists()
     status, err = colony("particles", "--lam", "1e-2", "--time", "1", "--shape", "line:4",
                          "--out", str(tmp_path / "run"))
     one_line_error(status, err, "differs in shape")
     with pytest.raises(ValueError, match="differs in shape"):  # and the engine's own check
-        particles.Simulation(particles.Config(lam=1e-2, time=1.0, shape="line:4"), stage)
+        particles.Simulation(particles.Config(lam=1e-2, time=1.0, shape="line:4"), out=stage)
 
 
 def test_sweep_runs_a_particle_shape(tmp_path):

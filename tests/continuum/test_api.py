@@ -98,26 +98,36 @@ def test_advance_by_time_equals_run():
     assert state_bytes(sim) == state_bytes(ref)
 
 
-def test_simulation_with_folder_writes_the_run_files(tmp_path):
-    """Simulation(config, out).advance() writes what run(config, out) writes, byte for byte."""
+def test_simulation_with_folder_writes_the_frames_run_writes(tmp_path):
+    """Simulation(config, out=...).advance() writes run's frames, byte for byte.
+
+    Not the final files (run's: history.csv, boundary.csv, the last frame); save() writes
+    history.csv.
+    """
     a, b = tmp_path / "run", tmp_path / "sim"
     a.mkdir(), b.mkdir()
     run(Config(radius=GOAL, **SMALL), out=a)
-    Simulation(Config(radius=GOAL, **SMALL), out=b).advance()
+    sim = Simulation(Config(radius=GOAL, **SMALL), out=b)
+    sim.advance()
 
     def files(folder):
-        return {p.relative_to(folder): p.read_bytes() for p in sorted(folder.rglob("*"))
+        return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*"))
                 if p.is_file()}
 
-    assert files(a) == files(b)
-    assert (a / "fields" / "frame_00002.vtu").is_file()
+    ran, advanced = files(a), files(b)
+    last = max(name for name in ran if name.startswith("fields/frame_"))
+    assert last == "fields/frame_00008.vtu"  # the frame at the goal
+    assert set(ran) - set(advanced) == {"history.csv", "boundary.csv", last}
+    assert all(advanced[name] == ran[name] for name in advanced if name != "fields.pvd")
+    sim.save()
+    assert (b / "history.csv").read_bytes() == ran["history.csv"]
 
 
 @pytest.mark.parametrize("steps", [5, 14])  # an ordinary step; right after the first remesh
 def test_save_load_continues_bit_identically(reference, tmp_path, steps):
     sim = Simulation(Config(**SMALL))
     for _ in range(steps):
-        sim.step(radius=GOAL)
+        sim.step()
     path = sim.save(tmp_path / "colony.npz")
     copy = sim.state.copy()
     for config in (None, Config(**SMALL, checkpoint_seconds=1.0)):  # execution settings free
@@ -136,7 +146,7 @@ def test_run_resumes_from_a_saved_simulation(reference, tmp_path):
     """A Simulation saved as out/checkpoint.npz is resumed by run(config, out)."""
     sim = Simulation(Config(radius=GOAL, **SMALL))
     for _ in range(10):
-        sim.step(radius=GOAL)
+        sim.step()
     sim.save(tmp_path / "checkpoint.npz")
     resumed = run(Config(radius=GOAL, **SMALL), out=tmp_path)
     assert state_bytes(resumed) == state_bytes(reference)
@@ -151,8 +161,8 @@ def test_goals_and_configuration():
     sim = Simulation(Config(**SMALL))
     with pytest.raises(ValueError, match="give radius or time"):
         sim.advance()
-    with pytest.raises(ValueError, match="at most one"):
-        sim.advance(radius=2.0, time=1.0)
+    with pytest.raises(ValueError, match="give radius or time"):
+        sim.done()
     with pytest.raises(ValueError, match="positive"):
         sim.advance(time=math.nan)
     with pytest.raises(ValueError, match="no output folder"):

@@ -22,7 +22,7 @@ import pytest
 
 import continuum.output as output
 from continuum import Simulation, run
-from continuum.checkpoint import CHECKPOINT, PREVIOUS, CheckpointError, load
+from continuum.checkpoint import CHECKPOINT, PREVIOUS, CheckpointError, load_checkpoint
 from continuum.output import remove_frames_from
 from tests.particles.test_checkpoint_safety import BYTES, assert_one_line, rewrite
 
@@ -44,8 +44,8 @@ def reference(tmp_path_factory):
 def stopped(tmp_path_factory):
     """SMALL stopped after steps 8 and 15: checkpoint.prev.npz and checkpoint.npz."""
     out = tmp_path_factory.mktemp("stopped")
-    run(small_config(), out=out, max_steps_this_call=STOPS[0])
-    run(small_config(), out=out, max_steps_this_call=STOPS[1] - STOPS[0])
+    run(small_config(), out=out, max_steps=STOPS[0])
+    run(small_config(), out=out, max_steps=STOPS[1] - STOPS[0])
     return out
 
 
@@ -107,7 +107,7 @@ def test_a_damaged_checkpoint_is_refused_in_one_line(folder, kind):
     (folder / PREVIOUS).unlink()
     damage(path, kind)
     before = tree(folder)
-    for attempt in (lambda: load(path, small_config()), lambda: Simulation.load(path),
+    for attempt in (lambda: load_checkpoint(path, small_config()), lambda: Simulation.load(path),
                     lambda: run(small_config(), out=folder)):
         with pytest.raises(CheckpointError) as err:
             attempt()
@@ -225,7 +225,7 @@ def test_checkpoint_metadata_does_not_grow_with_the_steps(tmp_path):
     """After 5 and after 20 steps the checkpoint's meta has the same length (history.csv grows)."""
     lengths = []
     for steps in (5, 15):
-        run(small_config(), out=tmp_path, max_steps_this_call=steps)
+        run(small_config(), out=tmp_path, max_steps=steps)
         with np.load(tmp_path / CHECKPOINT) as z:
             lengths.append(len(str(z["meta"])))
     assert abs(lengths[1] - lengths[0]) < 50
@@ -248,7 +248,8 @@ def test_a_full_disk_stops_the_run_with_its_checkpoint_intact(reference, tmp_pat
     with pytest.raises(OSError) as err:
         run(small_config(checkpoint_seconds=0.0), out=tmp_path)
     assert err.value.errno == errno.ENOSPC and "no space left on" in str(err.value)
-    assert load(tmp_path / CHECKPOINT)[1].step > 0 and not list(tmp_path.rglob("*.tmp*"))
+    assert load_checkpoint(tmp_path / CHECKPOINT).state.step > 0
+    assert not list(tmp_path.rglob("*.tmp*"))
     monkeypatch.setattr(output.shutil, "disk_usage", real)
     state = run(small_config(checkpoint_seconds=0.0), out=tmp_path)
     assert_same_run(reference, tmp_path, state, skip=("config.json",))

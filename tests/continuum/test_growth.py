@@ -181,8 +181,7 @@ def test_negative_lam_past_critical_size_raises():
 @pytest.mark.parametrize(
     "kw,match",
     [
-        (dict(lam=0.0), "exactly one"),
-        (dict(lam=0.0, radius=1.0, time=1.0), "exactly one"),
+        (dict(lam=0.0, radius=1.0, time=1.0), "not both"),
         (dict(lam=float("nan"), time=1.0), "lam"),
         (dict(lam=0.0, time=-1.0), "time"),
         (dict(lam=0.0, radius=0.1), "smaller than the initial"),
@@ -196,8 +195,13 @@ def test_negative_lam_past_critical_size_raises():
     ],
 )
 def test_bad_config(kw, match):
-    with pytest.raises(ValueError, match=match):
-        Config(**kw).validate()
+    with pytest.raises(ValueError, match=match):  # when the configuration is made
+        Config(**kw)
+
+
+def test_a_run_needs_a_goal():
+    with pytest.raises(ValueError, match="exactly one"):
+        run(Config(lam=0.0))
 
 
 def test_polygon_shape_and_outputs(tmp_path):

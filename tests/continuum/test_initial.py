@@ -38,7 +38,7 @@ def test_a_simulation_grows_a_given_start():
     np.testing.assert_allclose(start.fields["mean_length_psi"],
                                cell_mean[(start.points[:, 0] * 10).astype(int)], rtol=1e-12)
     lbar0 = start.fields["mean_length_psi"].copy()
-    sim = Simulation(config, initial=start)
+    sim = Simulation(config, state=start)
     assert sim.state is not start and np.all(sim.state.G == 0)
     sim.advance(time=0.3)
     assert np.all(start.G == 0)  # the given state is not changed

@@ -277,7 +277,7 @@ def test_label_remap_checkpoint_resumes_bit_identically(tmp_path):
 def test_config_selects_the_transport():
     from continuum.sizes import SizeDistribution
 
-    assert Config().psi_transport == "characteristics-labels"
+    assert Config(lam=0.0).psi_transport == "characteristics-labels"
     default = Simulation(Config(lam=1e-2)).state.sizes
     assert isinstance(default, CharacteristicSizes) and default.remap == "labels"
     cells = Simulation(Config(lam=1e-2, psi_transport="characteristics")).state.sizes
@@ -287,7 +287,7 @@ def test_config_selects_the_transport():
     labels = Simulation(Config(lam=1e-2, psi_transport="characteristics-labels")).state.sizes
     assert labels.remap == "labels"
     with pytest.raises(ValueError, match="psi_transport"):
-        Config(lam=1e-2, psi_transport="upwind").validate(require_stop=False)
+        Config(lam=1e-2, psi_transport="upwind")
 
 
 def test_bad_input_is_rejected():

@@ -1,7 +1,7 @@
 """Continuum runs are deterministic, and a stopped run resumes to the uninterrupted result.
 
 Bit for bit: two runs of one configuration (in one process and in two processes), and a run
-stopped (``max_steps_this_call`` or SIGTERM) and resumed from its checkpoint against the
+stopped (``max_steps`` or SIGTERM) and resumed from its checkpoint against the
 uninterrupted run, compared file by file (history.csv, boundary.csv, config.json, fields.pvd,
 every VTU) and array by array (history, points, triangles, every field). The returned
 simulation is ``continuum.run``'s.
@@ -108,7 +108,7 @@ def test_global_random_state_untouched():
 def resumed_run(out: Path, stops: list[int]):
     """Run SMALL into ``out`` stopping after each count of ``stops`` steps, then to the end."""
     for n in stops:
-        state = run(small_config(), out=out, max_steps_this_call=n)
+        state = run(small_config(), out=out, max_steps=n)
         assert not state.finished
         assert (out / CHECKPOINT).is_file()
     return run(small_config(), out=out)
@@ -154,9 +154,9 @@ def test_stop_at_frame_step_resumes_bit_identical(reference, tmp_path):
     history = reference[1].history
     frames = frame_steps(history, SMALL["output_every"])
     assert len(frames) >= 3
-    run(small_config(), out=tmp_path, max_steps_this_call=frames[1])
+    run(small_config(), out=tmp_path, max_steps=frames[1])
     ckpt = (tmp_path / CHECKPOINT).read_bytes()
-    run(small_config(), out=tmp_path, max_steps_this_call=frames[2] - frames[1])
+    run(small_config(), out=tmp_path, max_steps=frames[2] - frames[1])
     (tmp_path / CHECKPOINT).write_bytes(ckpt)  # as if killed after frame 3 was written
     assert_same_run(reference, tmp_path, resumed_run(tmp_path, []))
 
@@ -168,7 +168,7 @@ def test_stop_after_every_step_resumes_bit_identical(reference, tmp_path):
     changes the bits after 17 of these 20 stops).
     """
     held = []
-    while not (state := run(small_config(), out=tmp_path, max_steps_this_call=1)).finished:
+    while not (state := run(small_config(), out=tmp_path, max_steps=1)).finished:
         with np.load(tmp_path / CHECKPOINT) as z:
             held.append("amg" in z.files)
     assert len(held) == len(reference[1].history) - 2 and any(held)
@@ -176,11 +176,11 @@ def test_stop_after_every_step_resumes_bit_identical(reference, tmp_path):
 
 
 def test_mismatched_configuration_refuses_to_resume(tmp_path):
-    run(small_config(), out=tmp_path, max_steps_this_call=2)
+    run(small_config(), out=tmp_path, max_steps=2)
     with pytest.raises(ValueError, match=r"differs in lam.*start afresh"):
         run(small_config(lam=2e-2), out=tmp_path)
     # an execution setting may differ
-    state = run(small_config(checkpoint_seconds=5.0), out=tmp_path, max_steps_this_call=1)
+    state = run(small_config(checkpoint_seconds=5.0), out=tmp_path, max_steps=1)
     assert len(state.history) == 4
 
 
@@ -197,7 +197,7 @@ def test_periodic_checkpoints_do_not_change_the_result(reference, tmp_path):
 
 def interrupt_at(monkeypatch, step: int, signum=signal.SIGINT) -> None:
     """Make the next run receive ``signum`` while it remeshes or steps its ``step``-th step."""
-    advance, calls = Simulation.step, [0]
+    advance, calls = Simulation._step, [0]
 
     def advance_and_signal(sim, *args, **kwargs):
         calls[0] += 1
@@ -205,7 +205,7 @@ def interrupt_at(monkeypatch, step: int, signum=signal.SIGINT) -> None:
             signal.raise_signal(signum)
         return advance(sim, *args, **kwargs)
 
-    monkeypatch.setattr(Simulation, "step", advance_and_signal)
+    monkeypatch.setattr(Simulation, "_step", advance_and_signal)
 
 
 @pytest.mark.parametrize("where", ["remesh", "last"])

@@ -50,8 +50,8 @@ def reference(tmp_path_factory):
 def stopped(tmp_path_factory):
     """A run stopped twice (steps 20 and 35): checkpoint.npz and checkpoint.prev.npz."""
     out = tmp_path_factory.mktemp("stopped")
-    run(CFG, out, stop_after=20)
-    run(CFG, out, stop_after=15)
+    run(CFG, out, max_steps=20)
+    run(CFG, out, max_steps=15)
     return out
 
 
@@ -244,11 +244,11 @@ def test_a_damaged_checkpoint_is_not_kept_as_the_previous_one(folder):
     """
     damage(folder / CHECKPOINT, "bytes zeroed")
     previous = (folder / PREVIOUS).read_bytes()
-    run(CFG, folder, stop_after=5)
+    run(CFG, folder, max_steps=5)
     assert (folder / PREVIOUS).read_bytes() == previous
-    assert load_checkpoint(folder / CHECKPOINT, CFG)[0].step == 25
-    run(CFG, folder, stop_after=5)  # now an intact checkpoint becomes the previous one
-    assert load_checkpoint(folder / PREVIOUS, CFG)[0].step == 25
+    assert load_checkpoint(folder / CHECKPOINT, CFG).state.step == 25
+    run(CFG, folder, max_steps=5)  # now an intact checkpoint becomes the previous one
+    assert load_checkpoint(folder / PREVIOUS, CFG).state.step == 25
 
 
 def test_both_checkpoints_damaged_are_named(folder):
@@ -272,9 +272,9 @@ def test_checkpoint_size_does_not_grow_with_the_steps(tmp_path):
     The history (300 bytes a step) is in history.csv.
     """
     cfg = Config(lam=1e-2, time=10.0, dt=0.01, seed=1)
-    run(cfg, tmp_path, stop_after=40)
+    run(cfg, tmp_path, max_steps=40)
     meta40, rest40 = meta_length(tmp_path / CHECKPOINT)
-    run(cfg, tmp_path, stop_after=120)
+    run(cfg, tmp_path, max_steps=120)
     meta160, rest160 = meta_length(tmp_path / CHECKPOINT)
     assert abs(meta160 - meta40) < 50 and abs(rest160 - rest40) < 200
     assert (tmp_path / "history.csv").stat().st_size > 120 * 200

@@ -101,7 +101,7 @@ def test_resumed_run_has_the_lineage_of_an_uninterrupted_one(tmp_path):
     full.mkdir()
     part.mkdir()
     a = run(cfg, full).state
-    assert not run(cfg, part, stop_after=120).finished
+    assert not run(cfg, part, max_steps=120).finished
     b = run(cfg, part).state
     for k in ("ids", "parent", "generation"):
         np.testing.assert_array_equal(getattr(a, k), getattr(b, k))
@@ -128,7 +128,7 @@ def test_checkpoint_without_lineage_resumes_counting_from_its_particles(tmp_path
     full.mkdir()
     old.mkdir()
     a = run(cfg, full).state
-    run(cfg, old, stop_after=120)
+    run(cfg, old, max_steps=120)
     ck = old / "checkpoint.npz"
     with np.load(ck) as z:
         arrays = dict(z)

@@ -1,0 +1,205 @@
+"""Configuration of a continuum colony: ``Config`` (a frozen dataclass) and its validation.
+
+One configuration object per run: the model parameter ``lam``, the stop of a run (``radius`` or
+``time``), the initial shape, the mesh, the time step, the size grid, outputs and execution
+settings; ``continuum.output.write_config`` writes it to config.json next to the results. A
+``Config`` is checked once, when it is made (``__post_init__`` calls :meth:`Config.validate`):
+a one-line ValueError names the field. It is frozen; a changed copy is
+``dataclasses.replace(config, field=value)`` (validated again). Which fields a checkpoint may
+resume under other values: ``continuum.checkpoint.EXECUTION_FIELDS``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from continuum import mesh, shapes
+from continuum.fem import ELEMENTS
+from continuum.radial import R0
+from continuum.sizes import TRANSPORTS
+
+__all__ = ["Config", "config_fields"]
+
+
+def _number(v) -> bool:
+    """A finite int or float (a bool is no number here)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an int beyond the range of floats
+        return False
+
+
+#: The types of the fields' annotations: (test of a value, what the value must be).
+_TYPES = {
+    "float": (_number, "a number"),
+    "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
+    "str": (lambda v: isinstance(v, str), "a string"),
+    "bool": (lambda v: isinstance(v, bool), "true or false"),
+    "None": (lambda v: v is None, "None"),
+}
+
+_RULES = [  # (field, test, what the value must be), checked by Config.validate after the types
+    ("n_nodes", lambda v: v >= 50, "an integer >= 50"),
+    ("interior_coarsening", lambda v: v >= 1, ">= 1"),
+    ("courant", lambda v: 0 < v <= 1.0, "in (0, 1]"),
+    ("q_min", lambda v: 0 < v < 0.9, "in (0, 0.9)"),
+    ("stretch", lambda v: v > 1.1, "> 1.1"),
+    ("n_length_cells", lambda v: v >= 8, "an integer >= 8"),
+    ("psi_transport", lambda v: v in TRANSPORTS, " or ".join(map(repr, TRANSPORTS))),
+    ("element", lambda v: v in ELEMENTS, " or ".join(map(repr, ELEMENTS))),
+    ("output_every", lambda v: v >= 0, ">= 0"),
+    ("max_steps", lambda v: v > 0, "a positive integer"),
+    ("checkpoint_seconds", lambda v: v >= 0, ">= 0"),
+]
+
+
+@dataclass(frozen=True)
+class Config:
+    """Configuration of a continuum colony: the model, the numerics and the stop of ``run``.
+
+    Validated when made (:meth:`validate`; ValueError); frozen (``dataclasses.replace`` makes
+    a changed copy).
+
+    Attributes
+    ----------
+    lam : float
+        Stress sensitivity lambda (finite); required.
+    radius, time : float or None
+        The goal of a run: the colony radius sqrt(area/pi) or the time t to reach. At most one;
+        :func:`~continuum.simulation.run` needs one, a
+        :class:`~continuum.simulation.Simulation` stepped by hand none (``advance()`` without
+        arguments goes to this goal).
+    shape : str
+        Initial shape (continuum.shapes): "circle" (radius ``initial_radius``), "circle:R",
+        "ellipse:A,B", "rectangle:W,H[,ROUND]", "star:K,EPS[,R]" (R default
+        ``initial_radius``) or "polygon:FILE.csv" (closed polygon, columns x,y).
+    initial_radius : float
+        Radius of the initial ``circle`` and of ``star:K,EPS`` (default R0 = sqrt(b/pi), one
+        particle's area); the other shapes give their own sizes.
+    n_nodes : int
+        Target node count while the colony is small (h = h_N(area)).
+    h_max : float
+        Cap on the boundary mesh spacing h.
+    interior_coarsening : float
+        Interior mesh size up to this multiple of h (1 = uniform mesh).
+    grading : float
+        Growth of the interior mesh size with the distance d to the edge: min(c h, h + grading d).
+    courant : float
+        dt = courant * h_boundary / max u_boundary.
+    q_min : float
+        Remesh when a triangle's quality drops below this.
+    stretch : float
+        Remesh when boundary edges or the mean element size leave [h/stretch, stretch h].
+    n_length_cells : int
+        Cells of the log2-length grid of Psi.
+    bump_width : float
+        Half-width in s = log2 l of the initial bump standing in for delta(l - 1).
+    psi_transport : str
+        Transport of Psi in l: "characteristics-labels" (default: exact shift of per-node
+        windows in s = log2 l, continuum.sizes.CharacteristicSizes; a remesh interpolates the
+        rows by label, continuum.remesh: from a uniform Psi0 exact to round-off at radius 150),
+        "characteristics" (the same transport; a remesh remaps the cells conservatively in s,
+        which smears across rings: median error of the mean length 0.030 at radius 150) or
+        "finite-volume" (flux-limited Lax-Wendroff, continuum.sizes.SizeDistribution).
+    element : str
+        Lagrange element of the pressure: "P1" (default: hand-written assembly, equal to
+        scikit-fem's to round-off and faster; velocity by patch recovery and residual flux,
+        continuum.velocity) or "P2" (scikit-fem, continuum.fem; isoparametric at the boundary;
+        velocity from the element gradients at the vertices, one order more accurate; 6-12x
+        the cost per solve on the same mesh, docs/benchmarks.md).
+    output_every : float
+        Time between field frames (VTU); 0 writes only the first and last.
+    write_fields : bool
+        Write the VTU series (history, boundary and config are always written).
+    max_steps : int
+        Safety limit on the number of time steps.
+    checkpoint_seconds : float
+        Wall time between checkpoints when writing to a folder (an execution setting,
+        ``EXECUTION_FIELDS``: a checkpoint resumes under another value, with the same result).
+    """
+
+    lam: float
+    radius: float | None = None
+    time: float | None = None
+    shape: str = "circle"
+    initial_radius: float = R0
+    n_nodes: int = 2000
+    h_max: float = 0.55
+    interior_coarsening: float = 2.5
+    grading: float = 0.05
+    courant: float = 0.6
+    q_min: float = 0.35
+    stretch: float = 1.5
+    n_length_cells: int = 40
+    bump_width: float = 0.08
+    psi_transport: str = "characteristics-labels"
+    element: str = "P1"
+    output_every: float = 1.0
+    write_fields: bool = True
+    max_steps: int = 200_000
+    checkpoint_seconds: float = 300.0
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    def validate(self) -> None:
+        """Check the values; raises ValueError with a one-line message (called when made).
+
+        Every field's type first (``type_mismatch``), then the goal (at most one of ``radius``
+        and ``time``), the values and the shape.
+        """
+        for field in fields(self):
+            value = getattr(self, field.name)
+            what = self.type_mismatch(field.name, value)
+            if what is not None:
+                raise ValueError(f"{field.name} must be {what}, got {value!r}")
+        if self.radius is not None and self.time is not None:
+            raise ValueError("give at most one of radius and time, not both")
+        positive = ["initial_radius", "h_max", "courant", "bump_width", "grading"]
+        positive += [name for name in ("radius", "time") if getattr(self, name) is not None]
+        rules = [(name, lambda v: v > 0, "a positive number") for name in positive]
+        for name, ok, what in rules + _RULES:
+            v = getattr(self, name)
+            if not ok(v):
+                raise ValueError(f"{name} must be {what}, got {v!r}")
+        polygon = self.initial_boundary()  # parses and checks the shape
+        if self.radius is not None:
+            r_init = mesh.colony_radius(polygon)
+            if self.radius < r_init:
+                raise ValueError(
+                    f"radius {self.radius} is smaller than the initial radius {r_init:.6g}"
+                )
+
+    @classmethod
+    def type_mismatch(cls, name: str, value) -> str | None:
+        """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
+
+        The type is the field's annotation (``float | None``): float a finite int or float, never
+        a bool; int an int, not a bool; str a string; bool True or False only; None.
+        """
+        kinds = [kind.strip() for kind in cls.__dataclass_fields__[name].type.split("|")]
+        if any(_TYPES[kind][0](value) for kind in kinds):
+            return None
+        if "float" in kinds and isinstance(value, float):
+            return "a finite number"
+        return " or ".join(_TYPES[kind][1] for kind in kinds if kind != "None")
+
+    def initial_boundary(self) -> np.ndarray:
+        """A dense polygon of the initial shape (checked, counter-clockwise).
+
+        continuum.shapes.outline of ``shape`` (``circle`` of radius ``initial_radius``, and the
+        default R of ``star:K,EPS``); 256 vertices for a circle or an ellipse, the file's for
+        a polygon. ``line:N`` (particles only) is refused.
+        """
+        return shapes.outline(self.shape, radius=self.initial_radius)
+
+
+
+def config_fields() -> list[str]:
+    """Names of the Config fields (for the command line)."""
+    return [f.name for f in fields(Config)]
