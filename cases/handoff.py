@@ -1,7 +1,7 @@
 """A particle colony handed to the continuum: its outline, its size distribution, its start.
 
 ``colony continuum --from-particles RUN_DIR`` (from Python :func:`simulation_from_particles`,
-or :func:`continuum_start` and ``continuum.run(config, out, initial=state)``) starts
+or :func:`continuum_start` and ``continuum.run(config, out, state=state)``) starts
 the continuum from the final state of a particle run, the last frame of its trajectory.gsd
 (particles.read_trajectory), so that both models grow the same colony: the particle run
 continued (e.g. ``colony particles --init`` of that frame) and the continuum from here.
@@ -56,10 +56,10 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import Delaunay, cKDTree
 
+from cases.analysis.io import DamagedFileError, check_trajectory, read_particle_frames
 from continuum.mesh import PolygonError, check_polygon, polygon_area, triangle_areas
 from continuum.sizes import LengthGrid
-from particles import B, read_trajectory
-from particles.output import count_frames
+from particles import B
 
 __all__ = [
     "ALPHA",
@@ -76,6 +76,7 @@ __all__ = [
     "continuum_start",
     "simulation_from_particles",
     "check_resume",
+    "read_handoff",
     "write_handoff",
     "region_moments",
     "outline_moments",
@@ -287,10 +288,14 @@ def size_distribution(x, y, length, grid: LengthGrid, bandwidth: float = BANDWID
 def final_particles(run_dir: str | os.PathLike):
     """The last trajectory frame of a particle run folder (particles.TrajectoryFrame).
 
+    The trajectory and the frame are checked before use (cases.analysis.io.check_trajectory,
+    check_particle_frame): a damaged last frame is refused, never handed over.
+
     Raises
     ------
     ValueError
-        Not a folder, no trajectory.gsd, no frame, or fewer than 3 particles (one line).
+        Not a folder, no trajectory.gsd, a damaged one (DamagedFileError), no frame, or fewer
+        than 3 particles (one line).
     """
     folder = Path(run_dir)
     if not folder.is_dir():
@@ -298,13 +303,10 @@ def final_particles(run_dir: str | os.PathLike):
     path = folder / "trajectory.gsd"
     if not path.is_file():
         raise ValueError(f"{folder} is not a particle run folder (no trajectory.gsd)")
-    try:
-        n = count_frames(path)
-    except (OSError, RuntimeError) as err:
-        raise ValueError(f"{path}: unreadable trajectory ({err})") from None
+    n = check_trajectory(path)
     if n == 0:
         raise ValueError(f"{path} has no frame")
-    (frame,) = read_trajectory(path, frames=[n - 1])
+    (frame,) = read_particle_frames(path, [n - 1])
     if frame.n < 3:
         raise ValueError(f"{path}: the last frame has {frame.n} particles, the hand-off "
                          "needs at least 3")
@@ -335,7 +337,7 @@ def continuum_start(run_dir: str | os.PathLike, config, alpha: float = ALPHA,
     Returns
     -------
     state : continuum.State
-        For ``continuum.Simulation(config, initial=state)`` / ``continuum.run``.
+        For ``continuum.Simulation(config, state=state)`` / ``continuum.run``.
     record : dict
         What ``handoff.json`` holds (source, frame, parameters, outline area) and the outline
         under "outline" (not written to the JSON).
@@ -374,7 +376,7 @@ def simulation_from_particles(run_dir: str | os.PathLike, config, alpha: float =
     """(continuum.Simulation, record) started from a particle run's final state (no output).
 
     The Python form of ``colony continuum --from-particles``: :func:`continuum_start`, then
-    ``continuum.Simulation(config, initial=state)``::
+    ``continuum.Simulation(config, state=state)``::
 
         sim, record = simulation_from_particles("runs/particles", continuum.Config(lam=0.01))
         sim.advance(radius=20.0)
@@ -382,7 +384,7 @@ def simulation_from_particles(run_dir: str | os.PathLike, config, alpha: float =
     from continuum import Simulation
 
     state, record = continuum_start(run_dir, config, alpha, bandwidth)
-    return Simulation(config, initial=state), record
+    return Simulation(config, state=state), record
 
 
 #: What identifies a hand-off's start: a stopped run resumes only from the same.
@@ -399,9 +401,7 @@ def check_resume(stage: Path, record: dict | None) -> None:
     stage = Path(stage)
     if not (stage / "checkpoint.npz").is_file():
         return
-    saved = None
-    if (stage / HANDOFF).is_file():
-        saved = json.loads((stage / HANDOFF).read_text())
+    saved = read_handoff(stage) if (stage / HANDOFF).is_file() else None
     same = (saved is None and record is None) or (
         saved is not None and record is not None
         and all(saved.get(k) == record.get(k) for k in START_KEYS))
@@ -410,6 +410,20 @@ def check_resume(stage: Path, record: dict | None) -> None:
             f"a hand-off from {saved.get('particle_run')} (step {saved.get('step')})"
         raise ValueError(f"{stage} holds a stopped continuum run of {what}; give its command "
                          "to resume it, or --overwrite to start afresh (removes it)")
+
+
+def read_handoff(folder: Path) -> dict:
+    """The ``handoff.json`` of ``folder``: a JSON object (DamagedFileError naming it otherwise)."""
+    path = Path(folder) / HANDOFF
+    try:
+        record = json.loads(path.read_text())
+    except UnicodeDecodeError:
+        raise DamagedFileError(f"{path} is damaged: not text") from None
+    except ValueError as err:
+        raise DamagedFileError(f"{path} is damaged: {err}") from None
+    if not isinstance(record, dict):
+        raise DamagedFileError(f"{path} is damaged: not a JSON object")
+    return record
 
 
 def write_handoff(folder: Path, record: dict) -> None:
@@ -481,8 +495,8 @@ def compare_runs(particle_dir: str | os.PathLike, continuum_dir: str | os.PathLi
     if t_start is None:
         t_start = 0.0
         if (continuum_dir / HANDOFF).is_file():
-            rec = json.loads((continuum_dir / HANDOFF).read_text())
-            if Path(rec.get("particle_run", "")) == particle_dir.resolve():
+            rec = read_handoff(continuum_dir)
+            if Path(str(rec.get("particle_run", ""))) == particle_dir.resolve():
                 t_start = float(rec["t"])
     rows = {k: [] for k in ("engine", "t", "area", "aspect", "mean_length")}
 

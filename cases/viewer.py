@@ -15,6 +15,14 @@ Fig 2 (cases.figures.draw.LENGTH_LIMITS).  The final pictures are those
 history.csv.  Movie frames share one colour scale and the axis limits of the largest (last)
 frame; the MP4 is written by imageio-ffmpeg (H.264, yuv420p, playable everywhere).
 
+Every file read is checked before use (cases.analysis.io: a damaged trajectory, VTU frame or
+CSV is refused with one line naming it). The pictures and the movie are written as the runs
+write (:func:`_writing_into`): the lock of the folder they go into is held
+(cases.rundir.hold: a run still writing into it is refused with one line), each file is made
+in a temporary folder inside it and then replaces its namesake with ``os.replace``, which
+replaces a symbolic link rather than writing through it, so no file is ever half-written and
+nothing outside the output is touched.
+
 ``ovito_pipeline`` and ``render_ovito`` open a particle trajectory in OVITO's Python module (an
 optional dependency) and render it headless.
 """
@@ -23,7 +31,11 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Sequence
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from types import SimpleNamespace
 
@@ -34,7 +46,16 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from cases.analysis import continuum_frames, read_continuum_frame, read_csv  # noqa: E402
+from cases import rundir  # noqa: E402
+from cases.analysis import (  # noqa: E402
+    DamagedFileError,
+    check_colony,
+    check_trajectory,
+    continuum_frames,
+    read_continuum_frame,
+    read_csv,
+    read_particle_frames,
+)
 from cases.figures.draw import (  # noqa: E402
     DEFAULT_CMAP,
     LENGTH_LIMITS,
@@ -54,6 +75,12 @@ REQUIRED = {"continuum": ("config.json", "history.csv", "fields.pvd"),
 
 #: Movie frame size in pixels (multiples of 16, the H.264 macro block).
 MOVIE_SIZE = (720, 640)
+#: Frames per second a movie may have (ffmpeg writes the rate with two decimals).
+MOVIE_FPS = (0.1, 1000.0)
+#: Most frames a movie may have (``max_frames``): an hour at 25 frames per second.
+MAX_MOVIE_FRAMES = 90_000
+#: What a movie file's name ends with (ffmpeg's container is chosen by it).
+MOVIE_SUFFIX = ".mp4"
 
 
 def run_kind(run_dir: str | Path) -> str:
@@ -79,17 +106,77 @@ def _lam(d: Path) -> float:
 
 
 def _continuum_frames(d: Path) -> list[tuple[float, Path]]:
-    import xml.etree.ElementTree as ET
-
-    try:
-        frames = continuum_frames(d)
-    except (ET.ParseError, TypeError, ValueError) as e:
-        raise ValueError(f"{d}: fields.pvd unreadable ({e})") from None
+    """The (t, VTU) frames fields.pvd lists (cases.analysis.continuum_frames), all present."""
+    frames = continuum_frames(d)
     missing = [p.name for _, p in frames if not p.is_file()]
     if not frames or missing:
         raise ValueError(f"{d}: fields.pvd lists no frames or missing files "
                          f"({', '.join(missing[:3])})")
     return frames
+
+
+def _continuum_field(vtu: Path, data: dict, transported: bool) -> np.ndarray:
+    """The field a continuum frame is drawn from: G, or mean_length_psi when ``transported``.
+
+    It must be there and finite (DamagedFileError naming the VTU otherwise).
+    """
+    name = "mean_length_psi" if transported else "G"
+    if name not in data:
+        raise DamagedFileError(f"{vtu} is damaged: it has no point data {name}")
+    if not np.all(np.isfinite(data[name])):
+        raise DamagedFileError(f"{vtu} is damaged: its point data {name} are not finite")
+    return data[name]
+
+
+# --------------------------------------------------------------------------- writing
+
+
+def _check_folder(folder: Path) -> None:
+    """Refuse an output folder that is a symbolic link or a file (one line naming it)."""
+    if folder.is_symlink():
+        raise rundir.RunFolderError(
+            f"{folder} is a symbolic link; colony never writes through links: give the folder "
+            "itself")
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"{folder} is a file, not a folder")
+
+
+@contextmanager
+def _writing_into(folder: Path) -> Iterator[Path]:
+    """A temporary folder whose files replace their namesakes in ``folder`` when the body ends.
+
+    ``folder`` (not a link, :func:`_check_folder`) is created when missing, with its missing
+    parents, which are removed again when the body fails. Its lock is held meanwhile
+    (cases.rundir.hold: a run still writing into it, or another ``colony plot|movie``, is
+    refused with one line). The body writes into a fresh temporary folder inside ``folder``
+    (``colony-*.tmp``, a name the run folders count as colony's); when the body ends normally
+    every file of it replaces the entry of its name in ``folder`` with os.replace (a link is
+    replaced, never followed; a folder of that name is refused first). The temporary folder
+    is always removed.
+    """
+    _check_folder(folder)
+    created = [p for p in (folder, *folder.parents) if not p.exists()]
+    folder.mkdir(parents=True, exist_ok=True)
+    try:
+        with rundir.hold(folder):
+            staging = Path(tempfile.mkdtemp(prefix="colony-", suffix=".tmp", dir=folder))
+            try:
+                yield staging
+                names = sorted(p.name for p in staging.iterdir())
+                for name in names:
+                    target = folder / name
+                    if target.is_dir() and not target.is_symlink():
+                        raise ValueError(f"{target} is a folder; move it away or give another "
+                                         "output")
+                for name in names:
+                    os.replace(staging / name, folder / name)
+            finally:
+                shutil.rmtree(staging, ignore_errors=True)
+    except BaseException:
+        for made in created:  # the deepest first; each empty unless another process wrote
+            if made.is_dir() and not any(made.iterdir()):
+                made.rmdir()
+        raise
 
 
 # --------------------------------------------------------------------------- pictures
@@ -104,48 +191,80 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
     """
     d = Path(run_dir)
     kind = run_kind(d)
-    lam = _lam(d)
     o = d if out is None else Path(out)
-    o.mkdir(parents=True, exist_ok=True)
-    hist = _history(d)
-    if kind == "continuum":
-        t, vtu = _continuum_frames(d)[-1]
-        points, triangles, data = read_continuum_frame(vtu)
-        if "G" not in data:
-            raise ValueError(f"{d}: {vtu.name} has no point data G")
-        state = SimpleNamespace(points=points, triangles=triangles, fields=data, t=t)
-        continuum_picture(state, o / "mean_length", lam,
-                          transported=_handed_over(d) and "mean_length_psi" in data)
-        paths = [o / "mean_length.png"]
-    else:
-        colony = _final_particles(d, hist)
-        particles_picture(colony, o / "colony", lam)
-        paths = [o / "colony.png"]
-    paths.append(_plot_radius(hist, kind, lam, o / "radius.png"))
-    if (d / "profile.csv").is_file():
-        paths.append(_plot_profile(read_csv(d / "profile.csv"), kind, lam, o / "profile.png",
-                                   closed_form=not _handed_over(d)))
-    return paths
+    with _writing_into(o) as staging:
+        lam = _lam(d)
+        hist = _history(d)
+        if kind == "continuum":
+            t, vtu = _continuum_frames(d)[-1]
+            points, triangles, data = read_continuum_frame(vtu)
+            transported = _handed_over(d) and "mean_length_psi" in data
+            _continuum_field(vtu, data, transported)
+            state = SimpleNamespace(points=points, triangles=triangles, fields=data, t=t)
+            continuum_picture(state, staging / "mean_length", lam, transported=transported)
+            names = ["mean_length.png"]
+        else:
+            particles_picture(_final_particles(d, hist), staging / "colony", lam)
+            names = ["colony.png"]
+        names.append(_plot_radius(hist, kind, lam, staging / "radius.png").name)
+        if (d / "profile.csv").is_file():
+            names.append(_plot_profile(_profile(d), kind, lam, staging / "profile.png",
+                                       closed_form=not _handed_over(d)).name)
+    return [o / name for name in names]
+
+
+def _columns(table: dict[str, np.ndarray], path: Path, names: Sequence[str]) -> None:
+    """Refuse a CSV table without the columns ``names`` (DamagedFileError naming it)."""
+    missing = [n for n in names if n not in table]
+    if missing:
+        raise DamagedFileError(f"{path} is damaged: no column {', '.join(missing)}")
 
 
 def _history(d: Path) -> dict[str, np.ndarray]:
-    hist = read_csv(d / "history.csv")
+    """history.csv: columns t and radius, at least one row, every t and radius finite."""
+    path = d / "history.csv"
+    hist = read_csv(path)
     if "t" not in hist or "radius" not in hist or np.size(hist["t"]) == 0:
         raise ValueError(f"{d}: history.csv without rows or columns t, radius")
-    return {k: np.atleast_1d(v) for k, v in hist.items()}
+    hist = {k: np.atleast_1d(v) for k, v in hist.items()}
+    bad = np.flatnonzero(~(np.isfinite(hist["t"]) & np.isfinite(hist["radius"])))
+    if len(bad):
+        raise DamagedFileError(f"{path} is damaged: row {bad[0] + 1} has no finite t and radius")
+    return hist
+
+
+def _profile(d: Path) -> dict[str, np.ndarray]:
+    """profile.csv: r and mean_length, or r and the transported mean, its spread, the phase."""
+    path = d / "profile.csv"
+    profile = read_csv(path)
+    psi = ("mean_length_psi", "length_std_psi", "mean_length_phase")
+    _columns(profile, path, ("r", *(psi if "mean_length_psi" in profile else ("mean_length",))))
+    return profile
 
 
 def _final_particles(d: Path, hist: dict[str, np.ndarray]) -> SimpleNamespace:
+    """The last colony: particles.csv (checked), else the trajectory's last frame (checked)."""
     t = float(hist["t"][-1])
-    if (d / "particles.csv").is_file():
-        p = read_csv(d / "particles.csv")
-        return SimpleNamespace(**{k: np.atleast_1d(p[k]) for k in ("x", "y", "theta", "length")},
-                               t=t)
-    from particles.output import count_frames, read_trajectory
-
-    (fr,) = read_trajectory(d / "trajectory.gsd", frames=[count_frames(d / "trajectory.gsd") - 1])
+    path = d / "particles.csv"
+    if path.is_file():
+        p = read_csv(path)
+        _columns(p, path, ("x", "y", "theta", "length"))
+        colony = SimpleNamespace(**{k: np.atleast_1d(p[k]) for k in ("x", "y", "theta", "length")},
+                                 t=t)
+        check_colony(f"{path} is damaged: it", colony.x, colony.y, colony.theta, colony.length)
+        return colony
+    gsd_path = d / "trajectory.gsd"
+    (fr,) = read_particle_frames(gsd_path, [_last_frame(gsd_path)])
     return SimpleNamespace(x=fr.x, y=fr.y, theta=fr.theta, length=fr.length,
                            t=fr.t if math.isfinite(fr.t) else t)
+
+
+def _last_frame(gsd_path: Path) -> int:
+    """Index of the last frame of a (checked) trajectory; ValueError when it has none."""
+    n = check_trajectory(gsd_path)
+    if n == 0:
+        raise ValueError(f"{gsd_path} has no frame")
+    return n - 1
 
 
 def _plot_radius(hist, kind: str, lam: float, path: Path) -> Path:
@@ -213,6 +332,28 @@ def _pick(n: int, max_frames: int | None) -> list[int]:
     return sorted(set(np.round(np.linspace(0, n - 1, max_frames)).astype(int).tolist()))
 
 
+def check_movie_options(out_path: str | Path, fps: float, max_frames: int | None) -> Path:
+    """The movie file ``out_path``, checked with the rate and frame count; ValueError otherwise.
+
+    ``out_path`` ends in ``MOVIE_SUFFIX`` and is not a folder; fps lies in ``MOVIE_FPS``;
+    ``max_frames`` is None (every frame) or 1 .. ``MAX_MOVIE_FRAMES``.
+    """
+    out_path = Path(out_path)
+    if out_path.is_dir() and not out_path.is_symlink():
+        raise ValueError(f"movie {out_path} is a folder; give the movie's file name, e.g. "
+                         f"{out_path / ('movie' + MOVIE_SUFFIX)}")
+    if out_path.suffix.lower() != MOVIE_SUFFIX:
+        raise ValueError(f"movie {out_path}: the name must end in {MOVIE_SUFFIX} (an H.264 MP4 "
+                         "is written)")
+    low, high = MOVIE_FPS
+    if not (isinstance(fps, int | float) and math.isfinite(fps) and low <= fps <= high):
+        raise ValueError(f"--fps must be a number from {low:g} to {high:g} frames per second, "
+                         f"got {fps}")
+    if max_frames is not None and not 1 <= max_frames <= MAX_MOVIE_FRAMES:
+        raise ValueError(f"--max-frames must be from 1 to {MAX_MOVIE_FRAMES}, got {max_frames}")
+    return out_path
+
+
 def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
               max_frames: int | None = None, pixels: int = 640,
               progress: bool = True) -> Path:
@@ -221,33 +362,46 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     Each movie frame is a matplotlib picture of ``MOVIE_SIZE`` pixels: particles as
     sphero-cylinders coloured by l, or the continuum's lbar on a ``pixels``-wide grid over the
     final domain with the frame's boundary; colour scale [1, 2] and axis limits (those of the
-    last, largest frame) fixed.  A tqdm bar shows progress when ``progress``.
+    last, largest frame) fixed.  A tqdm bar shows progress when ``progress``. The options are
+    checked first (:func:`check_movie_options`), the frames as they are read; the movie
+    appears under its name only once whole (:func:`_writing_into`).
     """
+    out_path = check_movie_options(out_path, fps, max_frames)
+    d = Path(run_dir)
+    kind = run_kind(d)
+    with _writing_into(out_path.parent) as staging:
+        _write_movie(d, kind, staging / out_path.name, fps, max_frames, pixels, progress)
+    return out_path
+
+
+def _movie_limits(d: Path, kind: str, max_frames: int | None) -> tuple:
+    """(frames picked, lower corner, upper corner): the frames and the last one's extent.
+
+    The frames are (t, VTU path) of a continuum run, trajectory indices of a particle run.
+    """
+    if kind == "continuum":
+        frames = _continuum_frames(d)
+        pick = [frames[i] for i in _pick(len(frames), max_frames)]
+        p_last, _, _ = read_continuum_frame(pick[-1][1])
+        return pick, p_last.min(axis=0), p_last.max(axis=0)
+    gsd_path = d / "trajectory.gsd"
+    pick = _pick(_last_frame(gsd_path) + 1, max_frames)
+    (last,) = read_particle_frames(gsd_path, [pick[-1]])
+    h = 0.5 * last.length
+    return (pick, np.array([np.min(last.x - h), np.min(last.y - h)]),
+            np.array([np.max(last.x + h), np.max(last.y + h)]))
+
+
+def _write_movie(d: Path, kind: str, out_path: Path, fps: float, max_frames: int | None,
+                 pixels: int, progress: bool) -> None:
+    """The MP4 of :func:`movie_run`, written to ``out_path`` (a file of a fresh folder)."""
     import imageio_ffmpeg
     from matplotlib.collections import LineCollection
     from tqdm import tqdm
 
-    d = Path(run_dir)
-    kind = run_kind(d)
     lam = _lam(d)
     handed_over = kind == "continuum" and _handed_over(d)
-    out_path = Path(out_path)
-    if fps <= 0 or (max_frames is not None and max_frames < 1):
-        raise ValueError(f"fps must be > 0 and max_frames >= 1, got {fps}, {max_frames}")
-    if kind == "continuum":
-        frames = _continuum_frames(d)
-        pick = _pick(len(frames), max_frames)
-        p_last, _, _ = read_continuum_frame(frames[pick[-1]][1])
-        lo, hi = p_last.min(axis=0), p_last.max(axis=0)
-    else:
-        from particles.output import count_frames, read_trajectory
-
-        gsd_path = d / "trajectory.gsd"
-        pick = _pick(count_frames(gsd_path), max_frames)
-        (last,) = read_trajectory(gsd_path, frames=[pick[-1]])
-        h = 0.5 * last.length
-        lo = np.array([np.min(last.x - h), np.min(last.y - h)])
-        hi = np.array([np.max(last.x + h), np.max(last.y + h)])
+    pick, lo, hi = _movie_limits(d, kind, max_frames)
     pad = 0.03 * float(np.max(hi - lo)) + 0.5
     xlim, ylim = (lo[0] - pad, hi[0] + pad), (lo[1] - pad, hi[1] + pad)
 
@@ -259,7 +413,6 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     cb = fig.colorbar(sm, cax=cax)  # a fixed axes: the picture does not move between frames
     cb.set_label(r"length $\ell$" if kind == "particles" else r"mean length $\bar\ell$")
 
-    out_path.parent.mkdir(parents=True, exist_ok=True)
     writer = imageio_ffmpeg.write_frames(str(out_path), (w, h), fps=fps, codec="libx264",
                                          pix_fmt_in="rgb24", pix_fmt_out="yuv420p",
                                          quality=None, macro_block_size=16,
@@ -267,9 +420,9 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     writer.send(None)
     try:
         if kind == "continuum":
-            items = ((frames[i][0], frames[i][1]) for i in pick)
+            items = iter(pick)
         else:
-            items = ((None, fr) for fr in read_trajectory(gsd_path, frames=pick))
+            items = ((None, fr) for fr in read_particle_frames(d / "trajectory.gsd", pick))
         bar = tqdm(items, total=len(pick), desc=f"movie {out_path.name}", disable=not progress)
         for t, item in bar:
             ax.clear()
@@ -277,10 +430,12 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
                 points, triangles, data = read_continuum_frame(item)
                 size = float(np.max(points.max(axis=0) - points.min(axis=0)))
                 px = max(32, int(pixels * size / float(np.max(hi - lo))))
-                if handed_over and "mean_length_psi" in data:
-                    draw_field(points, triangles, data["mean_length_psi"], ax=ax)
+                transported = handed_over and "mean_length_psi" in data
+                field = _continuum_field(item, data, transported)
+                if transported:
+                    draw_field(points, triangles, field, ax=ax)
                 else:
-                    draw_mean_length(points, triangles, data["G"], ax, pixels=px)
+                    draw_mean_length(points, triangles, field, ax, pixels=px)
                 edges = points[boundary_edges(triangles)]
                 ax.add_collection(LineCollection(edges, colors="k", linewidths=0.8))
                 ax.set_title(f"continuum, lam = {lam:g}, t = {t:.3g}")
@@ -296,7 +451,6 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     finally:
         writer.close()
         plt.close(fig)
-    return out_path
 
 
 # --------------------------------------------------------------------------- OVITO
