@@ -285,6 +285,37 @@ def parser() -> argparse.ArgumentParser:
     k.add_argument("--scheduler", help="address of an existing dask scheduler for sweeps")
     k.add_argument("--workers", type=int, default=2,
                    help="local dask workers when no --scheduler is given (default 2)")
+
+    f = sub.add_parser("fit", help="stress sensitivity lam from a colony's measured R(t) "
+                       "(cases.fit), or from a late radial speed")
+    f.add_argument("data", nargs="?", default=None, help="CSV with a header: times and radii")
+    f.add_argument("--tau-minutes", type=float, required=True,
+                   help="growth time tau in minutes: the e-folding time of a cell's length "
+                   "(dl/dt = l/tau, the model's time unit); see --doubling-time")
+    f.add_argument("--doubling-time", action="store_true",
+                   help="--tau-minutes is a doubling time (tau = T / ln 2)")
+    f.add_argument("--cell-length-um", type=float, required=True,
+                   help="birth length l0 in um (the model's length unit)")
+    f.add_argument("--time-column", help="time column (default: t or time)")
+    f.add_argument("--radius-column", help="radius column (default: radius or r)")
+    f.add_argument("--time-unit", choices=("s", "min", "h"), default="min",
+                   help="unit of the times (default min)")
+    f.add_argument("--radius-unit", choices=("um", "mm"), default="um",
+                   help="unit of the radii (default um)")
+    f.add_argument("--tau-prior-sd", type=float, metavar="MINUTES",
+                   help="fit tau too, with a Gaussian prior of this standard deviation")
+    f.add_argument("--interval", choices=("profile", "bootstrap"), default="profile",
+                   help="95 %% interval of lam: profile likelihood (default) or bootstrap")
+    f.add_argument("--bootstrap", type=int, default=200, metavar="N",
+                   help="bootstrap replicates (default 200)")
+    f.add_argument("--seed", type=int, default=0, help="bootstrap seed (default 0)")
+    f.add_argument("--speed", type=float, metavar="V_UM_PER_S",
+                   help="instead of DATA.csv: lam from a late radial speed in um/s")
+    f.add_argument("--speed-radius", type=float, metavar="R",
+                   help="with --speed: the radius (--radius-unit) where it was measured, to "
+                   "invert the exact radial speed instead of its late-time limit")
+    f.add_argument("--out", help="folder of fit.json and fit.png (default fit-STEM for "
+                   "DATA.csv; with --speed only printed unless given)")
     return top
 
 
@@ -387,12 +418,12 @@ def _dispatch(args) -> int:
     elif args.command == "movie":
         from cases.viewer import movie_run
 
-        if not (math.isfinite(args.fps) and args.fps > 0):
-            raise UsageError(f"--fps must be a positive number, got {args.fps}")
-        if args.max_frames is not None and args.max_frames < 1:
-            raise UsageError(f"--max-frames must be >= 1, got {args.max_frames}")
         print(movie_run(Path(args.dir), args.out or Path(args.dir) / "movie.mp4", fps=args.fps,
                         max_frames=args.max_frames, progress=progress))
+    elif args.command == "fit":
+        from cases.fit import main_fit
+
+        main_fit(args)
     else:
         module = importlib.import_module(CASES[args.name])
         out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
