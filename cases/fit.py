@@ -73,7 +73,6 @@ import io
 import json
 import math
 import os
-import secrets
 import shlex
 import sys
 from dataclasses import dataclass, field
@@ -84,6 +83,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
+from cases.rundir import replace_file
 from continuum import radial
 
 __all__ = [
@@ -902,24 +902,6 @@ def lam_from_speed(
 # --------------------------------------------------------------------------- outputs
 
 
-def _replace(folder: Path, name: str, write) -> Path:
-    """Write ``folder/name`` atomically: ``write(fh)`` into a new temporary file, os.replace.
-
-    The temporary file is created exclusively (``"xb"``: never an existing file or link, the
-    permissions of the umask) in ``folder``; os.replace then replaces ``folder/name``, a link
-    there included, rather than writing through it.
-    """
-    tmp = folder / f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
-    try:
-        with open(tmp, "xb") as fh:
-            write(fh)
-        os.replace(tmp, folder / name)
-    finally:
-        if os.path.lexists(tmp):
-            os.unlink(tmp)
-    return folder / name
-
-
 def _out_folder(out: str | os.PathLike) -> Path:
     folder = Path(out)
     if folder.is_symlink():
@@ -937,9 +919,9 @@ def write_fit(result: ColonyFit | SpeedEstimate, out: str | os.PathLike,
     folder = _out_folder(out)
     text = json.dumps(result.record(command), indent=2, allow_nan=False) + "\n"
 
-    paths = [_replace(folder, "fit.json", lambda fh: fh.write(text.encode("utf-8")))]
+    paths = [replace_file(folder, "fit.json", lambda fh: fh.write(text.encode("utf-8")))]
     if isinstance(result, ColonyFit):
-        paths.append(_replace(folder, "fit.png", lambda fh: plot_fit(result, fh)))
+        paths.append(replace_file(folder, "fit.png", lambda fh: plot_fit(result, fh)))
     return paths
 
 
@@ -1101,7 +1083,7 @@ def _write_table(rows: list[dict], path: Path) -> None:
     w.writerow(cols)
     for r in rows:
         w.writerow([f"{r[c]:.6g}" if isinstance(r[c], float) else r[c] for c in cols])
-    _replace(path.parent, path.name, lambda fh: fh.write(text.getvalue().encode("utf-8")))
+    replace_file(path.parent, path.name, lambda fh: fh.write(text.getvalue().encode("utf-8")))
 
 
 def _markdown(rows: list[dict]) -> str:
@@ -1131,5 +1113,5 @@ if __name__ == "__main__":  # python -m cases.fit [OUT_DIR]: the particle-colony
     _write_table(table, out / "particles.csv")
     one = fit_file(Path(__file__).parent / "data" / "particles_paper" / "lam=0.01" / "history.csv",
                    time_column="t", radius_column="radius", tau_minutes=1.0, cell_length_um=1.0)
-    _replace(out, "particles_lam=0.01.png", lambda fh: plot_fit(one, fh))
+    replace_file(out, "particles_lam=0.01.png", lambda fh: plot_fit(one, fh))
     print(_markdown(table))

@@ -46,6 +46,7 @@ import fcntl
 import json
 import os
 import resource
+import secrets
 import shutil
 import signal
 import subprocess
@@ -477,11 +478,29 @@ def _now() -> str:
     return datetime.now(UTC).isoformat(timespec="seconds")
 
 
+def replace_file(folder: Path, name: str, write) -> Path:
+    """Write ``folder/name`` atomically: ``write(fh)`` into a new temporary file, os.replace.
+
+    The temporary file is created exclusively (``"xb"``: never an existing file or link, the
+    permissions of the umask) in ``folder``; os.replace then replaces ``folder/name``, a link
+    there included, rather than writing through it.
+    """
+    tmp = folder / f".{name}.{os.getpid()}.{secrets.token_hex(4)}.tmp"
+    try:
+        with open(tmp, "xb") as fh:
+            write(fh)
+        os.replace(tmp, folder / name)
+    finally:
+        if os.path.lexists(tmp):
+            os.unlink(tmp)
+    return folder / name
+
+
+
 def write_record(folder: Path, record: dict) -> None:
-    """Write ``run.json`` atomically."""
-    tmp = Path(folder) / (RECORD + ".tmp")
-    tmp.write_text(json.dumps(record, indent=2, default=str) + "\n")
-    os.replace(tmp, Path(folder) / RECORD)
+    """Write ``run.json`` atomically (:func:`replace_file`)."""
+    text = (json.dumps(record, indent=2, default=str) + "\n").encode()
+    replace_file(Path(folder), RECORD, lambda fh: fh.write(text))
 
 
 def _cpu_seconds() -> float:
