@@ -185,20 +185,25 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
 
 def _common(p: argparse.ArgumentParser, default_out: str) -> None:
     p.add_argument("--lam", type=float,
-                   help="stress sensitivity lambda (or lam in --config / --set)")
+                   help="stress sensitivity lambda >= 0, in inverse stress units (required; "
+                   "or lam in --config / --set)")
     stop = p.add_mutually_exclusive_group(required=True)
-    stop.add_argument("--radius", type=float, help="stop when the colony radius reaches R")
-    stop.add_argument("--time", type=float, help="stop at time T")
+    stop.add_argument("--radius", type=float,
+                      help="stop when the colony radius reaches R, in birth lengths")
+    stop.add_argument("--time", type=float,
+                      help="stop at time T, in growth times (the e-folding time of a cell's "
+                      "length; the colony starts at t = 0)")
     p.add_argument("--out", default=default_out, help=f"output folder (default {default_out})")
-    p.add_argument("--overwrite", action="store_true", help="replace an existing output folder")
-    p.add_argument("--config", help="TOML file of configuration values")
+    p.add_argument("--overwrite", action="store_true",
+                   help="replace an existing output folder (default: refuse)")
+    p.add_argument("--config", help="TOML file of configuration values (default: none)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override one configuration value (repeatable)")
     _verbosity(p)
 
 
 def _verbosity(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--quiet", action="store_true", help="no progress bar, warnings only")
+    p.add_argument("--quiet", action="store_true", help="no progress output, warnings only")
     p.add_argument("--verbose", action="store_true", help="log every stage (INFO, DEBUG)")
 
 
@@ -210,8 +215,10 @@ def parser() -> argparse.ArgumentParser:
     c = sub.add_parser("continuum", help="2D moving-boundary continuum colony")
     _common(c, "runs/continuum")
     c.add_argument("--shape", default=None,
-                   help="initial shape: circle (default, radius R0), circle:R, ellipse:A,B, "
-                   "rectangle:W,H[,ROUND], star:K,EPS[,R] or polygon:FILE.csv")
+                   help="initial shape, sizes in birth lengths: circle (default, radius "
+                   "sqrt(b/pi) = 0.40: one cell's area), "
+                   "circle:R, ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R] or "
+                   "polygon:FILE.csv")
     c.add_argument("--from-particles", metavar="RUN_DIR", default=None,
                    help="start from the final state of a particle run (cases.handoff): its "
                    "alpha-shape outline and kernel-smoothed size distribution; lam defaults "
@@ -222,25 +229,32 @@ def parser() -> argparse.ArgumentParser:
                    help="with --from-particles: Gaussian kernel bandwidth of Psi0 (default 2)")
     c.add_argument("--h-max", type=float,
                    help="largest boundary mesh spacing (default 0.55; sets the resolution)")
-    c.add_argument("--n-nodes", type=int, help="node count while the colony is small")
-    c.add_argument("--output-every", type=float, help="time between VTU outputs (0: final only)")
+    c.add_argument("--n-nodes", type=int,
+                   help="node count while the colony is small (default 2000)")
+    c.add_argument("--output-every", type=float,
+                   help="time between VTU outputs, in growth times (default 1; 0: final only)")
     c.add_argument("--element", help="pressure element: P1 (default) or P2")
 
     p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
     _common(p, "runs/particles")
-    p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length")
-    p.add_argument("--shape", help="initial shape filled with rods: circle:R, ellipse:A,B, "
-                   "rectangle:W,H[,ROUND], star:K,EPS[,R], polygon:FILE.csv or line:N")
-    p.add_argument("--fill-orientation", help="rods of --shape: tangent (layers along the "
-                   "outline, default) or rows (parallel to x)")
-    p.add_argument("--seed", type=int, help="random seed (division noise)")
+    p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length "
+                   "(default: one cell of length 1 at the origin)")
+    p.add_argument("--shape", help="initial shape filled with rods, sizes in birth lengths: "
+                   "circle:R, ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R], "
+                   "polygon:FILE.csv or line:N (default: none, one cell)")
+    p.add_argument("--fill-orientation", help="rods of --shape: tangent (default): layers "
+                   "along the outline; rows: parallel to x")
+    p.add_argument("--seed", type=int, help="random seed of the division noise (default 0)")
     p.add_argument("--dt", type=float,
-                   help="time step (the largest, unless --step-control fixed; default 0.02)")
+                   help="time step in growth times (the largest, unless --step-control fixed; "
+                   "default 0.02)")
     p.add_argument("--step-control", choices=("overlap", "fixed", "cost"),
                    help="overlap (default): shorten the step where its linearised move leaves "
                    "overlaps above 0.3 b; "
                    "fixed: every step --dt; cost: follow the cost of the re-solve passes")
-    p.add_argument("--division-noise", type=float, help="division angle perturbation amplitude")
+    p.add_argument("--division-noise", type=float,
+                   help="amplitude eps of the daughters' angle noise theta + eps U(-1, 1), in "
+                   "radians (default 0.02)")
     p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
     p.add_argument("--threads", type=_threads,
                    help="threads of the contact solver: a number or auto (the default: one "
@@ -264,9 +278,13 @@ def parser() -> argparse.ArgumentParser:
                     help="at most this many frames, evenly spaced (default all)")
     _verbosity(pm)
 
-    k = sub.add_parser("case", help="one of the paper's figures or the cross-check")
+    k = sub.add_parser("case", help="a paper figure (fig2, fig3, fig4), the cross-check, or a "
+                       "study (stability, convergence, ensemble, shapes)")
     k.add_argument("name", choices=list(CASES))
-    k.add_argument("--scale", choices=("smoke", "medium", "paper"), default="smoke")
+    k.add_argument("--scale", choices=("smoke", "medium", "paper"), default="smoke",
+                   help="smoke (default): small colonies in about a minute, for a check; "
+                   "medium: radius 40, both engines, about an hour on 2 cores; paper: radius "
+                   "150 as in the paper, hours per particle colony")
     k.add_argument("--out", default=None, help="output folder (default runs/case-NAME-SCALE)")
     k.add_argument("--from-data", action="store_true",
                    help="redraw from the data committed in cases/data (no computation)")
@@ -282,7 +300,10 @@ def parser() -> argparse.ArgumentParser:
                    "python -m cases.figures.merge")
     k.add_argument("--runs", help="folder of the engine runs, shared between cases "
                    "(default OUT/runs); finished runs in it are reused")
-    k.add_argument("--scheduler", help="address of an existing dask scheduler for sweeps")
+    k.add_argument("--scheduler",
+                   help="address of an existing dask scheduler, e.g. tcp://host:8786 (default: "
+                   "a local cluster of --workers); the workers must see --out on a shared "
+                   "file system")
     k.add_argument("--workers", type=int, default=2,
                    help="local dask workers when no --scheduler is given (default 2)")
 

@@ -10,6 +10,7 @@ import pytest
 
 from cases import cli
 from cases.figures import draw
+from tests.pictures import assert_drawn, movie_frames
 
 
 @dataclasses.dataclass
@@ -152,7 +153,7 @@ def test_case_from_committed_data(tmp_path, data_set):
     res = _colony("case", "fig3", "--from-data", "--data-set", data_set,
                   "--out", str(tmp_path / "f"))
     assert res.returncode == 0, res.stderr
-    assert (tmp_path / "f" / "fig3.png").stat().st_size > 0
+    assert_drawn(tmp_path / "f" / "fig3.png")
 
 
 def test_particles_resume_with_another_step_only_when_asked(tmp_path):
@@ -189,9 +190,9 @@ def test_plot_and_movie_of_a_run(tmp_path):
     assert cli.main(["continuum", "--lam", "1e-2", "--radius", "1.5", "--out", str(out),
                      "--quiet", "--output-every", "0.2", "--set", "n_nodes=200"]) == 0
     assert cli.main(["plot", str(out)]) == 0
-    assert (out / "radius.png").stat().st_size > 0
+    assert_drawn(out / "radius.png")
     assert cli.main(["movie", str(out), "--max-frames", "3", "--quiet"]) == 0
-    assert (out / "movie.mp4").stat().st_size > 0
+    assert movie_frames(out / "movie.mp4") == 3
     assert cli.main(["continuum", "--lam", "1e-2", "--radius", "1.5", "--out", str(out),
                      "--quiet", "--overwrite", "--set", "n_nodes=200"]) == 0
     res = _colony("movie", str(tmp_path))
@@ -233,3 +234,34 @@ def test_the_command_starts_without_the_numerical_stack():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout
     assert out.strip() == "[]"
+
+
+@pytest.mark.parametrize("engine", ["continuum", "particles"])
+def test_help_states_the_engine_defaults(engine):
+    """Every ``(default V)`` in an engine option's help is the Config's default of that field.
+
+    The help is written without importing the engines (``colony --help`` stays fast), so this
+    test is what keeps the two in step; each engine option with a Config field says its default.
+    """
+    import importlib
+    import re
+
+    config = importlib.import_module(engine).Config
+    defaults = {f.name: f.default for f in dataclasses.fields(config)}
+    sub = next(a for a in cli.parser()._actions if isinstance(a, cli.argparse._SubParsersAction))
+    checked = []
+    for action in sub.choices[engine]._actions:
+        field = action.dest
+        if field not in defaults or field in ("lam", "radius", "time", "init", "shape",
+                                              "threads"):
+            continue
+        stated = re.search(r"(\S+) \(default\)|[(;] ?default:? ([^;,)\s]+)", action.help)
+        assert stated, f"--{field}: the help states no default"
+        value = stated.group(1) or stated.group(2)
+        default = defaults[field]
+        if isinstance(default, str):
+            assert value == default, f"--{field}: help {value}, Config {default}"
+        else:
+            assert float(value) == pytest.approx(float(default)), f"--{field}: {value} vs {default}"
+        checked.append(field)
+    assert len(checked) >= 3, checked

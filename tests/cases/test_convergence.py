@@ -21,6 +21,7 @@ import numpy as np
 
 from cases.studies import convergence as C
 from cases.sweep import run_engine, run_name, run_one
+from tests.pictures import assert_figures
 
 
 def _family(study: str) -> C.Family:
@@ -100,5 +101,5 @@ def test_plot_from_committed_data(tmp_path):
     data = Path(cases.__file__).parent / "data" / "convergence"
     assert (data / "README.md").is_file()
     paths = C.plot(data, tmp_path)
-    assert all(p.stat().st_size > 1000 for p in paths)
+    assert_figures(paths)
     assert "| mesh | radius | lam=0.01 |" in (tmp_path / "orders.md").read_text()

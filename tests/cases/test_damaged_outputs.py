@@ -26,8 +26,6 @@ import pytest
 from cases import cli, rundir
 from tests.cases.test_faults import SMALL_CONTINUUM, SMALL_PARTICLES, one_line_error
 
-pytest.importorskip("imageio_ffmpeg")
-
 
 @pytest.fixture(scope="module")
 def runs(tmp_path_factory) -> dict[str, Path]:

@@ -1,12 +1,12 @@
 """cases.figures.draw: geometry of the drawn sphero-cylinders, files written."""
 
-import time
 
 import matplotlib.pyplot as plt
 import numpy as np
 import pytest
 
 from cases.figures import draw
+from tests.pictures import assert_figures
 
 
 def test_spherocylinder_outline_is_at_distance_b_over_2_from_the_segment():
@@ -45,7 +45,6 @@ def test_particles_and_field_files_written(tmp_path):
     r = 60 * np.sqrt(rng.random(n))
     phi = rng.uniform(0, 2 * np.pi, n)
     fig, (a, b) = plt.subplots(1, 2, figsize=(8, 4))
-    t0 = time.perf_counter()
     coll = draw.draw_particles(r * np.cos(phi), r * np.sin(phi), phi, 1 + rng.random(n), ax=a)
     assert coll.get_clim() == (1.0, 2.0)
     # a field on a structured triangulation of the square
@@ -59,8 +58,5 @@ def test_particles_and_field_files_written(tmp_path):
     draw.draw_field(pts, tri, 1.5 + 0.5 * np.cos(3 * pts[:, 0]), ax=b)
     draw.colorbar(fig, coll, [a, b])
     paths = draw.save_figure(fig, tmp_path / "sub" / "colony")
-    elapsed = time.perf_counter() - t0
     assert [p.name for p in paths] == ["colony.png", "colony.pdf"]
-    for p in paths:
-        assert p.stat().st_size > 1000
-    assert elapsed < 30.0  # 2e4 particles, PNG and PDF
+    assert_figures(paths)

@@ -18,6 +18,7 @@ from scipy.stats import t as student_t
 
 from cases import analysis as A
 from cases.studies import ensemble
+from tests.pictures import assert_figures
 
 
 def _noisy_profiles(rng, p0=400.0, c=0.25, R=40.0, per_annulus=200, rel_std=0.8, n=400):
@@ -116,7 +117,7 @@ def test_time_at_radius_exact_and_first_crossing():
 def test_smoke_ensemble_end_to_end(tmp_path):
     data = ensemble.compute(scale="smoke", out=tmp_path, n_workers=1)
     paths = ensemble.plot(data, tmp_path)
-    assert all(p.stat().st_size > 0 for p in paths)
+    assert_figures(paths)
     seeds = A.read_csv(data / "seeds.csv")
     assert seeds["seed"].tolist() == [0, 1]
     assert np.all(np.abs(seeds["radius_final"] - 8.0) < 0.5)
@@ -183,7 +184,7 @@ def test_plot_and_offset_tables_from_committed_data(tmp_path):
 
     data = Path(ensemble.__file__).resolve().parents[1] / "data" / "ensemble"
     paths = ensemble.plot(data, tmp_path)
-    assert all(p.stat().st_size > 1000 for p in paths)
+    assert_figures(paths)
     assert "| lam | seeds |" in (tmp_path / "tables.md").read_text()
     assert stress_offset.main(["--out", str(tmp_path)]) == 0
     for name in ("estimators.csv", "growth_paper.csv"):  # the committed tables, reproduced

@@ -29,6 +29,7 @@ from cases.figures import crosscheck, fig2, fig3, fig4, merge
 from continuum import growth, radial
 from particles import B, enclosing_radius
 from particles.measures import centroid
+from tests.pictures import assert_figures
 
 #: The committed data of the figures (cases/data/NAME, cases/data/NAME_paper).
 DATA = Path(cases.__file__).parent / "data"
@@ -178,7 +179,7 @@ def test_fig3_reduce_and_plot(fake_runs, tmp_path):
     assert not (data / "profile_continuum_lam=0.04.csv").exists()
     paths = fig3.plot(data, tmp_path)
     assert [p.name for p in paths] == ["fig3.png", "fig3.pdf"]
-    assert all(p.stat().st_size > 5000 for p in paths)
+    assert_figures(paths)
 
 
 def test_fig4_reduce_and_plot(fake_runs, tmp_path):
@@ -208,7 +209,7 @@ def test_fig4_reduce_and_plot(fake_runs, tmp_path):
     assert np.nanmedian(np.abs(prof["mean_length_psi"] - prof["mean_length_phase"])) < 0.01
     assert np.nanmin(prof["length_std_psi"]) >= 0.02 - 1e-9
     paths = fig4.plot(data, tmp_path)
-    assert all(p.stat().st_size > 5000 for p in paths)
+    assert_figures(paths)
 
 
 def test_fig2_reduce_and_plot(fake_runs, tmp_path):
@@ -223,7 +224,7 @@ def test_fig2_reduce_and_plot(fake_runs, tmp_path):
     assert set(snap) == {"x", "y", "theta", "length"} and snap["x"].size == int(25 * 33.0**2)
     assert fig2.snapshot_indices(np.arange(11.0)) == [2, 4, 6, 8, 10]
     paths = fig2.plot(data, tmp_path)
-    assert all(p.stat().st_size > 5000 for p in paths)
+    assert_figures(paths)
 
 
 def test_crosscheck_reduce_and_table(fake_runs, tmp_path):
@@ -245,7 +246,7 @@ def test_crosscheck_reduce_and_table(fake_runs, tmp_path):
     paths = crosscheck.plot(data, tmp_path)
     md = paths[0].read_text()
     assert md.count("\n| 0.") == 3 and "wavelength ~ lam^(-1/2)" in md
-    assert all(p.stat().st_size > 1000 for p in paths[1:])
+    assert_figures(paths[1:])
 
 
 # ------------------------------------------------------------------ smoke scale, real engines
@@ -274,7 +275,7 @@ def test_smoke_case(case, smoke_runs, tmp_path):
     name = case.__name__.split(".")[-1]
     data = case.compute(scale="smoke", out=tmp_path, runs=smoke_runs, n_workers=2)
     paths = case.plot(data, tmp_path)
-    assert all(p.exists() and p.stat().st_size > 0 for p in paths)
+    assert_figures(paths)
     if name == "fig3":
         s = A.read_csv(data / "summary.csv")
         np.testing.assert_allclose(s["max_pressure_continuum"], s["p0_exact"], rtol=0.01)
@@ -330,7 +331,7 @@ def test_plot_from_committed_data(case, tmp_path):
     for data in sets:
         assert (data / "README.md").is_file()
         paths = case.plot(data, tmp_path / data.name)
-        assert paths and all(p.stat().st_size > 1000 for p in paths)
+        assert_figures(paths)
 
 
 # ------------------------------------------------------------------ continuum-only reductions
@@ -383,7 +384,7 @@ def test_continuum_only_reduce_and_plot(case, fake_runs, tmp_path):
         else:
             np.testing.assert_array_equal(s2[col], s1[col], err_msg=col)
     paths = case.plot(d2, tmp_path / "fig")
-    assert paths and all(p.stat().st_size > 1000 for p in paths)
+    assert_figures(paths)
 
 
 def test_fig2_draws_with_a_particle_colony_missing(tmp_path):
@@ -399,7 +400,7 @@ def test_fig2_draws_with_a_particle_colony_missing(tmp_path):
     for f in data.glob(f"particles_lam={lam0:g}_k=*"):
         f.unlink()
     paths = fig2.plot(data, tmp_path)
-    assert paths and all(p.stat().st_size > 1000 for p in paths)
+    assert_figures(paths)
 
 
 def test_fig3_of_lam_0_alone(fake_runs, tmp_path):

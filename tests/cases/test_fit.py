@@ -20,6 +20,7 @@ from scipy import stats
 
 from cases import cli, fit
 from continuum import radial
+from tests.pictures import assert_drawn
 
 TAU = 54.0  # minutes: the paper's E. coli growth time
 L0 = 2.0  # um: a cell length other than 1, so that the unit conversions are exercised
@@ -204,7 +205,7 @@ def test_command_writes_fit_json_and_png(tmp_path, capsys):
     assert status == 0, captured.err
     assert "lam = " in captured.out and "95 % interval" in captured.out
     record = json.loads((out / "fit.json").read_text())
-    assert (out / "fit.png").stat().st_size > 10_000
+    assert_drawn(out / "fit.png")
     same = fit.fit_file(data, time_column="hours", radius_column="R_um", tau_minutes=54.0,
                         cell_length_um=2.0, time_unit="h")
     assert record["lam"] == same.lam

@@ -5,6 +5,7 @@ import pytest
 
 from cases import analysis as A
 from cases.studies import shapes as S
+from tests.pictures import assert_drawn
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +85,7 @@ def test_committed_medium_data(tmp_path, colony):
     assert (data / "README.md").is_file()
     status, err = colony("case", "shapes", "--from-data", "--out", str(tmp_path))
     assert status == 0, err
-    assert (tmp_path / "shapes.png").stat().st_size > 1000
+    assert_drawn(tmp_path / "shapes.png")
     s = A.read_csv(data / "shape_ellipse.csv")
     for engine in (0, 1):
         aspect = s["aspect"][s["engine"] == engine]

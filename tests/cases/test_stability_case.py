@@ -8,6 +8,7 @@ import pytest
 import cases
 from cases import analysis as A
 from cases.studies import stability
+from tests.pictures import assert_figures
 
 DATA = Path(cases.__file__).parent / "data" / "stability"
 
@@ -20,7 +21,8 @@ def test_smoke_case(tmp_path):
     """
     data = stability.compute(scale="smoke", out=tmp_path)
     paths = stability.plot(data, tmp_path)
-    assert all(p.exists() and p.stat().st_size > 1000 for p in paths)
+    for p in paths:
+        assert_figures([p])
     r = A.read_csv(data / "rates.csv")
     fine = r["nodes"] > 500
     assert np.all(np.abs(r["relative_error"][fine]) < 0.015), r["relative_error"]
@@ -34,7 +36,8 @@ def test_plot_from_committed_data(tmp_path):
     """`colony case stability --from-data` redraws from cases/data/stability alone."""
     assert (DATA / "README.md").is_file()
     paths = stability.plot(DATA, tmp_path)
-    assert paths and all(p.stat().st_size > 1000 for p in paths)
+    for p in paths:
+        assert_figures([p])
     assert {p.name for p in paths} >= {"stability.png", "particle_modes.png"}
 
 

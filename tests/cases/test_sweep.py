@@ -6,9 +6,7 @@ from pathlib import Path
 
 import pytest
 
-pytest.importorskip("dask.distributed")
-
-from cases.sweep import DONE, SweepError, run_name, run_one, sweep  # noqa: E402
+from cases.sweep import DONE, SweepError, run_name, run_one, sweep
 
 
 def square_run(params: dict, folder: Path) -> None:

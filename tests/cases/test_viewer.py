@@ -9,14 +9,13 @@ from __future__ import annotations
 
 import shutil
 
+import imageio_ffmpeg
 import numpy as np
 import pytest
 
-imageio_ffmpeg = pytest.importorskip("imageio_ffmpeg")
-
-from cases.analysis import continuum_frames  # noqa: E402
-from cases.viewer import boundary_edges, movie_run, plot_run, run_kind  # noqa: E402
-from particles.output import count_frames  # noqa: E402
+from cases.analysis import continuum_frames
+from cases.viewer import boundary_edges, movie_run, plot_run, run_kind
+from particles.output import count_frames
 
 
 def _is_png(path):
