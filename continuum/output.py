@@ -5,8 +5,12 @@
 - ``boundary.csv``: final boundary polygon, columns x,y;
 - ``fields.pvd`` + ``fields/frame_NNNNN.vtu``: point data p, u, G, mean_length (delta initial
   condition, from G), mean_length_psi, length_std_psi, number, total_length (moments of Psi:
-  mean length, standard deviation of the lengths, number and length per area) and, whenever G is
-  written, ring_index = floor(G / ln 2); meshio VTU (binary, zlib), one file per output step;
+  mean length, standard deviation of the lengths, number and length per area), whenever G is
+  written, ring_index = floor(G / ln 2) and, whenever u is written, the strain rate of the flow
+  E = (grad u + grad u^T) / 2 (:mod:`continuum.strain`, its FIELDS: e_xx, e_yy, e_xy; e_rr,
+  e_tt, e_rt about the colony's area centroid; e_rr_minus_e_tt; shear, the difference of E's
+  eigenvalues; axis_angle, the extension axis from the radius in radians); meshio VTU (binary,
+  zlib), one file per output step;
 - ``rings.csv`` (:func:`write_rings`): the rings G = k ln 2 of a final field, one row per ring
   (k, level, mean_radius, min_radius, max_radius, length, cx, cy, n_pieces;
   :mod:`continuum.rings`).
@@ -53,6 +57,8 @@ import meshio
 import numpy as np
 
 from continuum.growth import ring_index
+from continuum.strain import FIELDS as STRAIN_FIELDS
+from continuum.strain import strain_rate_fields
 
 __all__ = ["write_config", "write_history", "write_boundary", "write_rings", "FieldWriter",
            "ring_index", "read_frame_time", "frame_name", "fields_folder", "remove_frames_from",
@@ -62,8 +68,8 @@ __all__ = ["write_config", "write_history", "write_boundary", "write_rings", "Fi
 #: ENOSPC before a write could fill it, its last checkpoint intact.
 RESERVE_BYTES = 4 * 2**20
 
-#: Bytes of a VTU frame per mesh node, a bound (coordinates, connectivity, 12 fields; base64).
-FRAME_BYTES_PER_NODE = 400
+#: Bytes of a VTU frame per mesh node, a bound (coordinates, connectivity, 21 fields; base64).
+FRAME_BYTES_PER_NODE = 520
 
 _FRAME = re.compile(r"frame_([0-9]{5,})\.vtu(\.tmp)?")
 
@@ -260,7 +266,8 @@ class FieldWriter:
         """Write one frame at time t; vectors (N, 2) are padded to 3 components for ParaView.
 
         The frame carries t as FieldData ``TimeValue``; when ``fields`` has G (and no
-        ring_index) the point data ``ring_index`` = floor(G / ln 2) is added.
+        ring_index) the point data ``ring_index`` = floor(G / ln 2) is added, when it has u
+        (and none of them) the strain-rate fields of continuum.strain.strain_rate_fields.
         """
         _check_finite("t", [t])
         data = {}
@@ -272,6 +279,8 @@ class FieldWriter:
             data[name] = v
         if "G" in data and "ring_index" not in data:
             data["ring_index"] = ring_index(data["G"])
+        if "u" in data and not any(k in data for k in STRAIN_FIELDS) and len(tris):
+            data |= strain_rate_fields(points, tris, data["u"])
         path = self.folder / frame_name(len(self.times))
         tmp = path.with_name(path.name + ".tmp")
         tmp.unlink(missing_ok=True)
