@@ -23,8 +23,9 @@ Modules, one concept each:
 - ``mesh``: boundary polygons, Triangle meshes of the colony, point location;
 - ``fem``: the pressure's P1 / P2 Lagrange space and its assembly through scikit-fem;
 - ``pressure``: Newton + AMG-preconditioned CG for -Laplace p = exp(-lam p), p = 0 on the edge;
-- ``velocity``: u = -grad p (patch recovery inside, residual flux on the boundary), the Darcy
-  flow (p, u, g) at given node positions;
+- ``darcy``: the Darcy problem, ``darcy_flow``: (p, u, g) at given node positions (the pressure
+  solve, then u = -grad p);
+- ``velocity``: u = -grad p (patch recovery inside, residual flux on the boundary);
 - ``motion``: Heun's step of the material nodes, G and Psi; the stable dt;
 - ``remesh``: when to remesh, the new mesh, the transfer of G, Psi and p;
 - ``sizes``: Psi(x, l, t) in s = log2 l, transport with the division condition;

@@ -11,7 +11,7 @@ with the growth phase advanced by the trapezoidal rule along the same paths::
 
 and Psi transported in l at the same mean growth rate (continuum.sizes: exactly along
 the characteristics, a shift by dt g_avg / ln 2 in log2 l, or by finite volumes). u and g at x* come
-from a pressure solve on the moved mesh (continuum.velocity.darcy_flow), warm-started from the
+from a pressure solve on the moved mesh (continuum.darcy.darcy_flow), warm-started from the
 linear extrapolation in time p^n + (p^n - p^{n-1}) dt / dt_prev. The step is halved (up to
 five times) while the predictor or the corrector would invert an element or the predictor's
 pressure solve fails.

@@ -10,7 +10,7 @@ tests/test_contract.py): ``Simulation(config, state=None, out=None)`` holds the
 :class:`~continuum.state.State` (a copy of ``state``) and the pressure solver.
 ``Simulation.step(time=None)`` is one time step: remesh when due (continuum.remesh), then
 Heun's RK2 for the nodes, G and Psi with two pressure solves (continuum.motion,
-continuum.velocity.darcy_flow), dt = courant * h / u_edge (continuum.motion.stable_dt) shortened
+continuum.darcy.darcy_flow), dt = courant * h / u_edge (continuum.motion.stable_dt) shortened
 so as not to pass ``time``; it returns a :class:`~continuum.state.StepRecord`.
 ``Simulation.done(radius=None, time=None)`` says whether a goal is reached (:func:`reached`) and
 ``Simulation.advance(radius=None, time=None)`` steps until the first of the goals is reached,
@@ -53,18 +53,18 @@ import numpy as np
 from continuum import checkpoint, mesh
 from continuum.budget import check_memory
 from continuum.config import Config, config_fields  # noqa: F401 (older imports)
+from continuum.darcy import darcy_flow
 from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.remesh import remesh, remesh_reason
 from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid, SizeDistribution
 from continuum.state import State, StepRecord
-from continuum.velocity import darcy_flow
 
 # Config and config_fields live in continuum.config; imported here for older imports
 # (``from continuum.simulation import Config``), documented there.
 __all__ = ["Simulation", "run", "reached", "check_goal", "require_goal", "RADIUS_RTOL",
-           "TIME_TOL"]
+           "TIME_TOL", "PROGRESS_SECONDS"]
 
 log = logging.getLogger(__name__)
 
@@ -365,7 +365,8 @@ class Simulation:
         time : float, optional
             Goal for t.
         progress : bool
-            tqdm progress bar (only when stderr is a terminal).
+            A tqdm progress bar when stderr is a terminal, else a log line every
+            PROGRESS_SECONDS.
 
         Returns
         -------
@@ -440,8 +441,17 @@ class Simulation:
         return sim
 
 
+PROGRESS_SECONDS = 60.0
+"""With ``progress`` and stderr not a terminal (a batch job's log), :func:`run` and
+:meth:`Simulation.advance` log one line of progress at most this often (wall seconds)."""
+
+
 class _ProgressBar:
-    """tqdm bar of the radius or time reached (only when asked and stderr is a terminal)."""
+    """Progress of a run: a tqdm bar of the radius or the time on a terminal.
+
+    When asked and stderr is not a terminal (a log file): no bar (no carriage returns in the
+    log) but one INFO line every PROGRESS_SECONDS, in the particle engine's format.
+    """
 
     def __init__(self, sim: Simulation, radius: float | None, time: float | None,
                  progress: bool):
@@ -450,11 +460,25 @@ class _ProgressBar:
         self.by_radius = radius is not None
         self.start = sim.history[0]["radius"] if self.by_radius else 0.0
         goal = radius if self.by_radius else time
+        self.goal = goal
         self.bar = tqdm(total=round(goal - self.start, 6),
                         disable=not (progress and sys.stderr.isatty()),
                         unit="R" if self.by_radius else "t", leave=False)
+        self.log_lines = progress and self.bar.disable
+        self.started = self.last = _time.monotonic()
 
     def show(self, record: StepRecord) -> None:
+        if self.log_lines:
+            now = _time.monotonic()
+            if now - self.last >= PROGRESS_SECONDS:
+                self.last = now
+                goal = (f"radius {record.radius:.2f} of {self.goal:g}, t = {record.t:.4f}"
+                        if self.by_radius else
+                        f"t = {record.t:.4f} of {self.goal:g}, radius {record.radius:.2f}")
+                log.info("%s, %d nodes, step %d, dt %.3g, %.0f s", goal, record.n_nodes,
+                         record.step, record.dt, now - self.started)
+        if self.bar.disable:
+            return
         now = record.radius if self.by_radius else record.t
         self.bar.update(round(now - self.start, 6) - self.bar.n)
 
@@ -544,7 +568,8 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
         bit-identical to an uninterrupted run's (files and arrays). The caller removes
         checkpoint.npz after a finished run.
     progress : bool
-        Show a tqdm progress bar (only when stderr is a terminal).
+        A tqdm progress bar when stderr is a terminal, else a log line (INFO, the logger
+        ``continuum.simulation``) every PROGRESS_SECONDS.
     state : State, optional
         The state at t = 0 of a new run (:class:`Simulation`; copied); unused when ``out``
         holds a checkpoint.

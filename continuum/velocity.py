@@ -32,8 +32,8 @@ gradients of the P2 field (linear on each element) at each vertex, area-averaged
 elements, inside and on the (isoparametric) boundary: boundary RMS order 2 and the decay rates
 of boundary modes within 0.7 % up to K = 8 (docs/validation.md, docs/benchmarks.md).
 
-:func:`darcy_flow` puts the pieces together: at given node positions, the pressure (Newton,
-continuum.pressure), u = -grad p and the growth rate g = exp(-lam p) (continuum.growth).
+continuum.darcy.darcy_flow puts the pieces together: at given node positions, the pressure
+(Newton, continuum.pressure), u = -grad p (this module) and the growth rate g = exp(-lam p).
 """
 
 from __future__ import annotations
@@ -41,7 +41,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
-from continuum.pressure import P1Assembler, PressureSolver
+from continuum.pressure import P1Assembler
 
 __all__ = [
     "GradientRecovery",
@@ -52,7 +52,6 @@ __all__ = [
     "flux_filter",
     "nodal_velocity",
     "vertex_velocity",
-    "darcy_flow",
 ]
 
 
@@ -265,33 +264,3 @@ def vertex_velocity(space, points: np.ndarray, p: np.ndarray) -> np.ndarray:
         The pressure's space; points : (N, 2) vertices; p : (n,) all degrees of freedom.
     """
     return -space.vertex_gradient(points, p)
-
-
-def darcy_flow(
-    solver: PressureSolver, points: np.ndarray, p0: np.ndarray | None = None, where: str = ""
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Pressure, velocity and growth rate of the colony whose nodes are at ``points``.
-
-    Solves -Laplace p = exp(-lam p), p = 0 on the boundary (``solver``, topology set by its
-    ``set_mesh``, warm start ``p0``), then u = -grad p (P1: :func:`nodal_velocity`, P2:
-    :func:`vertex_velocity`); g = exp(-lam p) is the one Newton evaluated at the solution.
-    p, u and g are at the mesh nodes (the vertices). The solve's diagnostics are in
-    ``solver.stats``.
-
-    Returns
-    -------
-    p : ndarray (N,); u : ndarray (N, 2); g : ndarray (N,)
-
-    Raises
-    ------
-    PressureDivergence
-        No pressure solution (see ``PressureSolver.solve``).
-    """
-    p = solver.solve(points, p0, where=where)
-    last = solver.last
-    if solver.element == "P2":
-        u = vertex_velocity(solver.space, points, last["p"])
-    else:
-        u = nodal_velocity(solver.assembler, points, p, last["residual"],
-                           (last["area"], last["grads"]))
-    return p, u, last["g"][: len(p)]

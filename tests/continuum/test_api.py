@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
 import pytest
@@ -20,7 +21,7 @@ import pytest
 import continuum
 from continuum import Config, Simulation, State, StepRecord, run
 
-from .conftest import SMALL, SMALL_RADIUS, state_bytes
+from .conftest import SMALL, SMALL_RADIUS, small_config, state_bytes
 
 GOAL = SMALL_RADIUS
 
@@ -175,3 +176,35 @@ def test_growth_law_is_the_pressure_solvers():
     sim.step()
     assert np.array_equal(sim.state.g, continuum.growth_rate(sim.state.p, 0.3))
     assert np.array_equal(sim.state.g, np.exp(-0.3 * sim.state.p))
+
+
+def test_progress_lines_in_a_log(monkeypatch, caplog, capfd):
+    """With progress on and stderr not a terminal (pytest's capture), run() logs lines, no bar.
+
+    One line per PROGRESS_SECONDS (0 here: every step), in the particle engine's format; no
+    carriage return reaches the redirected stderr; with progress off, nothing.
+    """
+    import continuum.simulation as simulation
+
+    monkeypatch.setattr(simulation, "PROGRESS_SECONDS", 0.0)
+    with caplog.at_level("INFO", logger="continuum.simulation"):
+        sim = continuum.run(small_config(), progress=True)
+    lines = [r.getMessage() for r in caplog.records if r.name == "continuum.simulation"]
+    assert len(lines) == len(sim.history) - 1
+    pattern = (r"radius \d+\.\d\d of 3, t = \d+\.\d{4}, \d+ nodes, step \d+, dt [0-9.e-]+, "
+               r"\d+ s")
+    assert all(re.fullmatch(pattern, m) for m in lines), lines[:3]
+    assert lines[-1].startswith(f"radius {sim.state.radius:.2f} of 3, ")
+    assert "\r" not in capfd.readouterr().err
+    caplog.clear()
+    with caplog.at_level("INFO", logger="continuum.simulation"):
+        Simulation(Config(**SMALL)).advance(time=0.2, progress=True)
+    lines = [r.getMessage() for r in caplog.records if r.name == "continuum.simulation"]
+    assert lines and all(re.fullmatch(r"t = \d+\.\d{4} of 0\.2, radius \d+\.\d\d, .* s", m)
+                         for m in lines)
+    caplog.clear()
+    monkeypatch.setattr(simulation, "PROGRESS_SECONDS", 3600.0)
+    with caplog.at_level("INFO", logger="continuum.simulation"):
+        continuum.run(small_config(), progress=True)  # a short run: no line within the hour
+        continuum.run(small_config())  # progress off
+    assert not [r for r in caplog.records if r.name == "continuum.simulation"]

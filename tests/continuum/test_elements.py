@@ -17,9 +17,10 @@ from skfem.refdom import RefTri
 
 from continuum import Config, Simulation, radial
 from continuum import mesh as M
+from continuum.darcy import darcy_flow
 from continuum.fem import LagrangeSpace, boundary_midpoints
 from continuum.pressure import SKFEM_P1, PressureSolver
-from continuum.velocity import boundary_normals, darcy_flow
+from continuum.velocity import boundary_normals
 from tests.continuum.conftest import small_config, state_bytes
 
 R = 10.0
