@@ -57,6 +57,7 @@ CASES = {
     "convergence": "cases.studies.convergence",
     "ensemble": "cases.studies.ensemble",
     "shapes": "cases.studies.shapes",
+    "orientation": "cases.studies.orientation",
 }
 #: The figure cases: their runs are one per (engine, lam), so ``--lams`` may select some.
 FIGURE_CASES = ("fig2", "fig3", "fig4", "crosscheck")
