@@ -301,6 +301,10 @@ def parser() -> argparse.ArgumentParser:
                    "python -m cases.figures.merge")
     k.add_argument("--runs", help="folder of the engine runs, shared between cases "
                    "(default OUT/runs); finished runs in it are reused")
+    k.add_argument("--print-runs", action="store_true",
+                   help="print, for a figure case, each engine run's folder under --runs and the "
+                   "colony command that grows it there by hand (then --engines finished takes "
+                   "it); run nothing")
     k.add_argument("--scheduler",
                    help="address of an existing dask scheduler, e.g. tcp://host:8786 (default: "
                    "a local cluster of --workers); the workers must see --out on a shared "
@@ -457,6 +461,10 @@ def _dispatch(args) -> int:
             if created and not any(out.iterdir()):  # bad input: leave nothing behind
                 out.rmdir()
             raise
+        if data is None:  # --print-runs
+            if created and not any(out.iterdir()):
+                out.rmdir()
+            return 0
         module.plot(data, out)
         print(f"case {args.name} written to {out}")
     return 0
@@ -472,6 +480,13 @@ def _case_data(module, args, out: Path) -> Path:
         return data
     if args.workers < 1:
         raise UsageError(f"--workers must be >= 1, got {args.workers}")
+    if args.print_runs:
+        if args.name not in FIGURE_CASES:
+            raise UsageError(f"--print-runs applies to the figure cases "
+                             f"({', '.join(FIGURE_CASES)}), not to {args.name}")
+        print(run_commands(module, args.scale, Path(args.runs or out / "runs"), args.lams),
+              end="")
+        return None
     engines = ("continuum",) if args.engines == "continuum" else ("continuum", "particles")
     finished_only = ("particles",) if args.engines == "finished" else ()
     lams = {}
@@ -484,6 +499,24 @@ def _case_data(module, args, out: Path) -> Path:
     return module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
                           n_workers=args.workers, runs=args.runs, engines=engines,
                           finished_only=finished_only, **lams)
+
+
+def run_commands(module, scale: str, runs: Path, lams=None) -> str:
+    """Each engine run of a figure case at ``scale``: its folder and the command that grows it.
+
+    A run grown by that command into that folder is the sweep's own (``cases.sweep.is_done``
+    checks its configuration), so ``--engines finished`` draws from it.
+    """
+    from cases.sweep import _engine_params, run_name, scale_config
+
+    lines = []
+    for engine, lam in select_lams(module.runs_needed(scale)[1], lams):
+        params = _engine_params(engine, lam, scale_config(scale))
+        sets = " ".join(f"--set {k}={v:g}" if isinstance(v, float) else f"--set {k}={v}"
+                        for k, v in params.items() if k not in ("engine", "lam", "radius"))
+        lines.append(f"colony {engine} --lam {lam:g} --radius {params['radius']:g} {sets} "
+                     f"--out {runs / run_name(params)}")
+    return "".join(line + "\n" for line in lines)
 
 
 def _terminate(signum, frame):

@@ -147,11 +147,11 @@ def check_target(out: Path, overwrite: bool) -> Path:
     """
     target = Path(os.path.abspath(out))
     target = target.parent.resolve() / target.name if target.name else target.resolve()
+    _check_name_length(out, target)  # first: a longer name cannot even be looked up
     if target.is_symlink():
         raise RunFolderError(
             f"refusing --out {out}: it is a symbolic link (to {os.readlink(target)}); colony "
             "never writes or deletes through links: give the folder itself")
-    _check_name_length(out, target)
     why = _protected(target.resolve() if target.exists() else target)
     if why:
         raise RunFolderError(f"refusing --out {out}: {why}; give a new folder for the run")

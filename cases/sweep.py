@@ -43,9 +43,9 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-__all__ = ["SweepError", "run_name", "is_done", "run_one", "sweep", "DONE", "run_engine",
-           "engine_runs", "finished_runs", "case_runs", "engine_pairs", "select_lams", "ENGINES",
-           "SCALES", "scale_config"]
+__all__ = ["SweepError", "run_name", "initial_config", "is_done", "run_one", "sweep", "DONE",
+           "run_engine", "engine_runs", "finished_runs", "case_runs", "engine_pairs", "select_lams",
+           "ENGINES", "SCALES", "scale_config"]
 
 DONE = "DONE"
 
@@ -84,11 +84,26 @@ def run_name(params: Mapping[str, Any]) -> str:
     return "_".join(parts)
 
 
-def is_done(folder: Path) -> bool:
-    """True when ``folder`` holds a finished run.
+def initial_config(config: Mapping[str, Any]) -> dict:
+    """The configuration a run started with.
+
+    That is ``config`` (a config.json) with the step-policy changes it records
+    (``step_policy_changes``, particles.output.write_config) undone.
+    """
+    config = dict(config)
+    for change in reversed(config.pop("step_policy_changes", [])):
+        config |= {k: v[0] for k, v in change.items() if k != "step"}
+    return config
+
+
+def is_done(folder: Path, params: Mapping[str, Any] | None = None) -> bool:
+    """True when ``folder`` holds a finished run (of the sweep point ``params``, if given).
 
     A published engine run (its ``run.json`` says finished, ``cases.rundir``) or a run of
-    another ``run_fn`` (its ``DONE`` marker).
+    another ``run_fn`` (its ``DONE`` marker). An engine run grown by hand into the sweep's
+    folder (``colony particles ... --out ROOT/NAME``) counts when the configuration it started
+    with (:func:`initial_config`) has the sweep's values of ``params``; one that differs is a
+    ValueError naming the difference, since the sweep must neither use it nor replace it.
     """
     from cases.rundir import read_record
 
@@ -96,7 +111,19 @@ def is_done(folder: Path) -> bool:
     if (folder / DONE).is_file():
         return True
     record = read_record(folder) if folder.is_dir() and not folder.is_symlink() else None
-    return record is not None and record.get("status") == "finished"
+    if record is None or record.get("status") != "finished":
+        return False
+    if params is not None and "engine" in params:
+        config = initial_config(record.get("config", {}))
+        wrong = {k: (config.get(k), v) for k, v in params.items()
+                 if k != "engine" and config.get(k) != v}
+        if record.get("engine") != params["engine"]:
+            wrong["engine"] = (record.get("engine"), params["engine"])
+        if wrong:
+            text = ", ".join(f"{k} = {a!r} (sweep: {b!r})" for k, (a, b) in wrong.items())
+            raise ValueError(f"{folder} holds a finished run whose configuration differs from "
+                             f"the sweep's: {text}; move it away or give another --runs")
+    return True
 
 
 def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path) -> Path:
@@ -108,7 +135,7 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path) -> 
     itself and stages, records and publishes it (``cases.runs``). Returns ``folder``.
     """
     folder = Path(folder)
-    if is_done(folder):
+    if is_done(folder, params):
         return folder
     if getattr(run_fn, "stages_itself", False):  # the engine runs: cases.runs
         run_fn(dict(params), folder)
@@ -173,7 +200,7 @@ def sweep(
     if len(set(names)) != len(names):
         raise ValueError("parameter sets must have distinct names")
     folders = [root / n for n in names]
-    todo = [(dict(p), f) for p, f in zip(params, folders, strict=True) if not is_done(f)]
+    todo = [(dict(p), f) for p, f in zip(params, folders, strict=True) if not is_done(f, p)]
     if not todo:
         return folders
     root.mkdir(parents=True, exist_ok=True)
@@ -322,9 +349,9 @@ def finished_runs(runs: Sequence[tuple[str, float]], scale: str, root: str | Pat
                   ) -> dict[tuple[str, float], Path]:
     """The runs of ``runs`` already finished under ``root`` at ``scale`` (none is started)."""
     cfg = scale_config(scale)
-    folders = {(e, float(lam)): Path(root) / run_name(_engine_params(e, lam, cfg))
-               for e, lam in runs}
-    return {k: f for k, f in folders.items() if is_done(f)}
+    params = {(e, float(lam)): _engine_params(e, lam, cfg) for e, lam in runs}
+    return {k: Path(root) / run_name(p) for k, p in params.items()
+            if is_done(Path(root) / run_name(p), p)}
 
 
 def select_lams(needed: Sequence[tuple[str, float]], lams: Sequence[float] | None,

@@ -584,7 +584,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-convergence-smoke
     root = Path(runs) if runs else Path(out) / "runs"
     params = _all_params(scale, tuple(engines))
     folders = {n: root / n for n, p in params.items()
-               if p["engine"] in finished_only and is_done(root / n)}
+               if p["engine"] in finished_only and is_done(root / n, p)}
     todo = {n: p for n, p in params.items() if p["engine"] not in finished_only}
     folders |= dict(zip(todo, sweep(run_engine, list(todo.values()), root,
                                     scheduler=scheduler, n_workers=n_workers), strict=True))

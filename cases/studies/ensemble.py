@@ -162,7 +162,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-ensemble-smoke",
         sweep(run_engine, todo, root, scheduler=scheduler, n_workers=n_workers)
 
     def done(params: dict[str, dict]) -> dict:
-        return {k: root / run_name(p) for k, p in params.items() if is_done(root / run_name(p))}
+        return {k: root / run_name(p) for k, p in params.items() if is_done(root / run_name(p), p)}
 
     pf, cf = done(particles), done(continuum)
     lams = [lam for lam in cf if any(k[0] == lam for k in pf)]

@@ -319,7 +319,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-shapes-smoke",
     pairs, seed = run_params(cfg)
     plain = [p for name, pair in pairs.items() if name != "handoff" for p in pair]
     cluster = None
-    if scheduler is None and not all(is_done(root / run_name(p))
+    if scheduler is None and not all(is_done(root / run_name(p), p)
                                      for p in [*plain, seed, *pairs["handoff"]]):
         from dask.distributed import LocalCluster  # one cluster for both sweeps
 

@@ -168,7 +168,7 @@ def test_out_as_a_link_to_another_run_is_refused(colony, tmp_path):
     assert snapshot(tmp_path) == before
 
 
-@pytest.mark.parametrize("kind", ["dangling", "loop", "long", "stage-link"])
+@pytest.mark.parametrize("kind", ["dangling", "loop", "long", "too-long", "stage-link"])
 def test_unusable_out_fails_before_any_work(colony, tmp_path, kind, monkeypatch):
     out = tmp_path / "run"
     if kind == "dangling":
@@ -176,16 +176,18 @@ def test_unusable_out_fails_before_any_work(colony, tmp_path, kind, monkeypatch)
     elif kind == "loop":
         out.symlink_to(tmp_path / "loop2")
         (tmp_path / "loop2").symlink_to(out)
-    elif kind == "long":
+    elif kind == "long":  # fits the file system, DIR.replaced does not
         out = tmp_path / ("x" * 250)
+    elif kind == "too-long":  # not even a name the file system can look up
+        out = tmp_path / ("x" * 300)
     else:
         rundir.partial_of(out).symlink_to(tmp_path)
     before = snapshot(tmp_path)
     ran = []
     monkeypatch.setattr("particles.run", lambda *a, **k: ran.append(1))
     status, err = colony(*SMALL_PARTICLES, "--out", str(out))
-    one_line_error(status, err)
-    assert not ran and snapshot(tmp_path) == before
+    one_line_error(status, err, "name too long" if "long" in kind else "")
+    assert "Errno" not in err and not ran and snapshot(tmp_path) == before
 
 
 def test_publish_never_deletes_through_a_replaced_link(tmp_path):

@@ -1,37 +1,30 @@
-"""Adopt a run made by hand into a sweep's runs folder, and record its small data.
+"""Records: the small data of a big run kept in the repository, a table of them, comparisons.
 
-The run is one made with ``colony particles ...``; its small data go into the repository.
+A paper-scale particle colony takes hours and is grown by one command, resumed over several
+sessions when needed; to join a case's runs it is grown straight into the case's runs folder
+under the sweep's name (``colony case NAME --scale paper --print-runs``), where the sweep takes
+it as finished when its ``run.json`` says so and its configuration is the sweep's
+(``cases.sweep.is_done``). What the repository keeps of it:
 
-A paper-scale particle colony takes hours to days and is grown by one command resumed over
-several sessions, not by the sweep; once finished it is adopted:
-
-1. :func:`adopt`: the run's configuration as it started (``config.json`` with the step-policy
-   changes of its resumptions undone, :func:`initial_config`) must agree with the sweep
-   parameters of its lam at the scale (``cases.sweep.SCALES``; keys other than ``engine``);
-   the folder is moved to
-   ``RUNS/<sweep name>`` with ``params.json`` and ``DONE`` written as ``cases.sweep.run_one``
-   writes them, so ``colony case NAME --scale S --runs RUNS --engines finished`` takes it;
-2. :func:`record`: its small data (history thinned by ``cases.analysis.thin_rows``, the final
-   profile, the configuration and the ``/usr/bin/time -v`` reports of its segments) are copied
+1. :func:`record`: its small data (history thinned by ``cases.analysis.thin_rows``, the final
+   profile, the configuration and the ``/usr/bin/time -v`` reports of its segments) copied
    to ``DATA/lam=LAM/``, with ``work.csv``: the solver work of every step-policy segment, over
-   all steps and over those with N >= 6e4 (``cases.analysis.history_segments``; the
-   sums the thinned history cannot give).
-
-3. :func:`table`: the adopted one-command runs (those with ``work.csv``) as a Markdown table:
+   all steps and over those with N >= 6e4 (``cases.analysis.history_segments``; the sums the
+   thinned history cannot give).
+2. :func:`table`: the recorded one-command runs (those with ``work.csv``) as a Markdown table:
    size, time, steps, wall and CPU time, memory, overlap, solver work (:func:`summary`).
-
-Command line::
-
-    python -m cases.adopt_run RUN [--runs runs/paper] [--scale paper]
-        [--data cases/data/particles_paper] [--time-log LOG] [--log PROGRESS_LOG]
-    python -m cases.adopt_run --table [--data cases/data/particles_paper]
-    python -m cases.adopt_run --compare OLD NEW [OLD NEW ...]
-
-4. :func:`compare`: two records of one lam (e.g. a colony and the one it replaces, the earlier
+3. :func:`compare`: two records of one lam (e.g. a colony and the one it replaces, the earlier
    taken from git) side by side: size and time at radius 150, the first times at radii 50,
    100 and 150, the central stress and the mean differences of the final profiles.
 
-Nothing is moved or written when a check fails (a one-line error, exit status 2).
+Command line::
+
+    python -m cases.records RUN [--data cases/data/particles_paper] [--time-log LOG]
+        [--log PROGRESS_LOG]
+    python -m cases.records --table [--data cases/data/particles_paper]
+    python -m cases.records --compare OLD NEW [OLD NEW ...]
+
+Nothing is written when a check fails (a one-line error, exit status 2).
 """
 
 from __future__ import annotations
@@ -46,62 +39,15 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import DONE, _engine_params, run_name, scale_config
+from cases.rundir import read_record
 
-__all__ = ["adopt", "compare", "compare_table", "initial_config", "record", "summary", "table",
-           "time_reports"]
+__all__ = ["compare", "compare_table", "record", "summary", "table", "time_reports"]
 
 SMALL_FILES = ("profile.csv", "config.json")
 """Files copied as they are by :func:`record` (besides the thinned history)."""
 
 WORK_MIN_PARTICLES = (0, 60_000)
 """``work.csv`` holds the segments' solver work over all steps and over N >= 6e4."""
-
-
-def initial_config(config: dict) -> dict:
-    """The configuration a run started with.
-
-    That is ``config`` (a config.json) with the step-policy changes it records
-    (``step_policy_changes``, particles.output.write_config) undone.
-    """
-    config = dict(config)
-    for change in reversed(config.pop("step_policy_changes", [])):
-        config |= {k: v[0] for k, v in change.items() if k != "step"}
-    return config
-
-
-def adopt(run: str | Path, runs: str | Path, scale: str = "paper",
-          engine: str = "particles") -> Path:
-    """Move the finished run folder ``run`` to ``runs/<sweep name>`` (module docstring).
-
-    Raises
-    ------
-    ValueError
-        No ``config.json`` or ``history.csv`` in ``run``, a sweep parameter that the run's
-        configuration does not match, or a target folder that exists already.
-    """
-    run, runs = Path(run), Path(runs)
-    for f in ("config.json", "history.csv"):
-        if not (run / f).is_file():
-            raise ValueError(f"{run}: no {f} (not a finished run folder)")
-    config = initial_config(json.loads((run / "config.json").read_text()))
-    if "lam" not in config:
-        raise ValueError(f"{run}/config.json has no lam")
-    params = _engine_params(engine, float(config["lam"]), scale_config(scale))
-    wrong = {k: (config.get(k), v) for k, v in params.items()
-             if k != "engine" and config.get(k) != v}
-    if wrong:
-        text = ", ".join(f"{k} = {a!r} (sweep: {b!r})" for k, (a, b) in wrong.items())
-        raise ValueError(f"{run}: configuration differs from the {scale} sweep's: {text}")
-    target = runs / run_name(params)
-    if target.resolve() != run.resolve():
-        if target.exists():
-            raise ValueError(f"{target} exists already")
-        target.parent.mkdir(parents=True, exist_ok=True)
-        shutil.move(str(run), str(target))
-    (target / "params.json").write_text(json.dumps(params, indent=2, default=str))
-    (target / DONE).write_text("")
-    return target
 
 
 def time_reports(text: str, lines: int = 23) -> str:
@@ -116,7 +62,7 @@ def time_reports(text: str, lines: int = 23) -> str:
 
 def record(run: str | Path, data: str | Path, time_log: str | Path | None = None,
            progress_log: str | Path | None = None) -> Path:
-    """Copy the small data of the adopted run ``run`` to ``data/lam=LAM/`` (module docstring).
+    """Copy the small data of the finished run ``run`` to ``data/lam=LAM/`` (module docstring).
 
     ``progress_log``: the command's stderr (its progress lines, one a minute), copied as
     ``progress.log`` and timing the stretches of ``work.csv`` (wall_s, ms_per_iteration:
@@ -158,7 +104,7 @@ def _seconds(clock: str) -> float:
 
 
 def summary(dest: str | Path) -> dict:
-    """The record ``dest = DATA/lam=LAM/`` of one adopted run, in one row.
+    """The record ``dest = DATA/lam=LAM/`` of one recorded run, in one row.
 
     lam, the final particles, t and step (history), halved steps, largest overlap, iterations
     per unit time and failed share over all steps and over N >= 6e4 (``work.csv``; one segment
@@ -172,7 +118,7 @@ def summary(dest: str | Path) -> dict:
     """
     dest = Path(dest)
     if not (dest / "work.csv").is_file():
-        raise ValueError(f"{dest}: no work.csv (not adopted with cases.adopt_run)")
+        raise ValueError(f"{dest}: no work.csv (not recorded with cases.records)")
     work = A.read_csv(dest / "work.csv")
     n_min = list(work["min_particles"])
     if len(set(n_min)) != len(n_min):
@@ -284,15 +230,12 @@ def compare_table(pairs: list[tuple[Path, Path]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p = argparse.ArgumentParser(prog="python -m cases.records",
+                                description=__doc__.split("\n\n")[0])
     p.add_argument("run", type=Path, nargs="?",
-                   help="finished run folder (colony particles --out)")
+                   help="finished run folder (colony particles --out) to record")
     p.add_argument("--table", action="store_true",
-                   help="print the table of the adopted one-command runs in --data, adopt nothing")
-    p.add_argument("--runs", type=Path, default=Path("runs/paper"),
-                   help="the sweep's runs folder the run is moved into (default runs/paper)")
-    p.add_argument("--scale", default="paper", help="sweep scale to check against (default paper)")
-    p.add_argument("--engine", default="particles", help="engine of the run (default particles)")
+                   help="print the table of the recorded one-command runs in --data")
     p.add_argument("--data", type=Path, default=Path("cases/data/particles_paper"),
                    help="small data go to DATA/lam=LAM (default cases/data/particles_paper)")
     p.add_argument("--time-log", type=Path, default=None,
@@ -300,41 +243,39 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--log", type=Path, default=None,
                    help="the run's progress log (its stderr), kept as progress.log")
     p.add_argument("--compare", type=Path, nargs="+", metavar="OLD NEW",
-                   help="compare records DATA/lam=LAM in pairs OLD NEW (a table), adopt nothing")
+                   help="compare records DATA/lam=LAM in pairs OLD NEW (a table)")
     args = p.parse_args(argv)
     if args.table:
         print(table(args.data), end="")
         return 0
-    if args.compare is not None:
-        if len(args.compare) % 2:
-            p.error("--compare takes pairs of record folders: OLD NEW [OLD NEW ...]")
-        pairs = list(zip(args.compare[::2], args.compare[1::2], strict=True))
-        missing = [d for d in args.compare for f in ("history.csv", "profile.csv", "config.json")
-                   if not (d / f).is_file()]
-        if missing:
-            print(f"adopt_run: error: {missing[0]} is not a record (history.csv, profile.csv, "
-                  "config.json)", file=sys.stderr)
-            return 2
-        try:
-            print(compare_table(pairs), end="")
-        except ValueError as err:
-            print(f"adopt_run: error: {err}", file=sys.stderr)
-            return 2
-        return 0
-    if args.run is None:
-        p.error("give a RUN folder or --table")
     try:
+        if args.compare is not None:
+            if len(args.compare) % 2:
+                p.error("--compare takes pairs of record folders: OLD NEW [OLD NEW ...]")
+            missing = [d for d in args.compare
+                       for f in ("history.csv", "profile.csv", "config.json")
+                       if not (d / f).is_file()]
+            if missing:
+                raise ValueError(f"{missing[0]} is not a record (history.csv, profile.csv, "
+                                 "config.json)")
+            pairs = list(zip(args.compare[::2], args.compare[1::2], strict=True))
+            print(compare_table(pairs), end="")
+            return 0
+        if args.run is None:
+            p.error("give a RUN folder, --table or --compare")
+        record_of_run = read_record(args.run)
+        if record_of_run is None or record_of_run.get("status") != "finished":
+            raise ValueError(f"{args.run} is not a finished run folder of colony (run.json)")
         for log in (args.time_log, args.log):
             if log is not None and not log.is_file():
                 raise ValueError(f"no log file {log}")
-        target = adopt(args.run, args.runs, args.scale, args.engine)
     except ValueError as err:
-        print(f"adopt_run: error: {err}", file=sys.stderr)
+        print(f"records: error: {err}", file=sys.stderr)
         return 2
-    dest = record(target, args.data, args.time_log, args.log)
-    h = A.read_csv(target / "history.csv")
+    dest = record(args.run, args.data, args.time_log, args.log)
+    h = A.read_csv(args.run / "history.csv")
     last = ", ".join(f"{k} = {h[k][-1]:.6g}" for k in ("t", "radius", "n_particles") if k in h)
-    print(f"adopted {target} ({last}); small data in {dest}")
+    print(f"recorded {args.run} ({last}) in {dest}")
     return 0
 
 

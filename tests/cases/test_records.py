@@ -1,4 +1,4 @@
-"""cases.adopt_run: a hand-made run joins the sweep's runs folder under the sweep's name."""
+"""cases.records (the small data of big runs) and a hand-grown run taken by the sweep as its own."""
 
 from __future__ import annotations
 
@@ -8,15 +8,18 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from cases import adopt_run
 from cases import analysis as A
-from cases.sweep import is_done, run_name
+from cases import records
+from cases.sweep import finished_runs, initial_config, is_done, run_name
 
 
 def fake_run(folder, **config):
+    """A finished particle run folder (run.json, config.json, history, profile) of ``config``."""
     folder.mkdir(parents=True)
-    (folder / "config.json").write_text(json.dumps({"lam": 0.1, "radius": 15.0, "dt": 0.01,
-                                                    "output_every": 20, **config}))
+    config = {"lam": 0.1, "radius": 15.0, "dt": 0.01, "output_every": 20, **config}
+    (folder / "config.json").write_text(json.dumps(config))
+    (folder / "run.json").write_text(json.dumps({"engine": "particles", "config": config,
+                                                 "status": "finished"}))
     n = 5000
     A.write_csv(folder / "history.csv", {"step": np.arange(n) + 1, "t": 0.01 * np.arange(n),
                                          "dt": np.full(n, 0.01),
@@ -30,20 +33,48 @@ def fake_run(folder, **config):
     return folder
 
 
-def test_adopt_moves_to_the_sweep_name_and_records_small_data(tmp_path):
-    run = fake_run(tmp_path / "by_hand")
-    target = adopt_run.adopt(run, tmp_path / "runs", scale="smoke")
+def test_a_run_grown_into_the_sweeps_folder_is_the_sweeps(tmp_path):
+    """``colony particles ... --out ROOT/NAME`` with the sweep's configuration counts as done.
+
+    The name and command are ``colony case NAME --print-runs``; a run there whose configuration
+    differs is refused with the difference named, and not touched.
+    """
     params = {"engine": "particles", "lam": 0.1, "radius": 15.0, "output_every": 20}
-    assert target == tmp_path / "runs" / run_name(params) and is_done(target) and not run.exists()
-    assert json.loads((target / "params.json").read_text()) == params
+    run = fake_run(tmp_path / "runs" / run_name(params))
+    assert is_done(run, params) and is_done(run)
+    assert finished_runs([("particles", 0.1)], "smoke", tmp_path / "runs") == {
+        ("particles", 0.1): run}
+    other = fake_run(tmp_path / "other" / run_name(params), radius=40.0)
+    with pytest.raises(ValueError, match=r"differs from the sweep's: radius = 40.0 .sweep: 15.0"):
+        is_done(other, params)
+    with pytest.raises(ValueError, match=r"engine = 'particles' .sweep: 'continuum'"):
+        is_done(run, {**params, "engine": "continuum"})
+    (run / "run.json").write_text(json.dumps({"engine": "particles", "status": "stopped"}))
+    assert not is_done(run, params)
+
+
+def test_print_runs_gives_the_sweeps_folders_and_commands(tmp_path, capsys):
+    from cases import cli
+
+    assert cli.main(["case", "fig2", "--scale", "smoke", "--print-runs", "--runs",
+                     str(tmp_path / "runs"), "--lams", "0.1"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    params = {"engine": "particles", "lam": 0.1, "radius": 15.0, "output_every": 20}
+    assert (f"colony particles --lam 0.1 --radius 15 --set output_every=20 --out "
+            f"{tmp_path / 'runs' / run_name(params)}") in lines
+    assert len(lines) == 2 and not (tmp_path / "runs").exists()
+
+
+def test_record_copies_the_small_data(tmp_path):
+    run = fake_run(tmp_path / "by_hand")
     log = tmp_path / "time.log"
     log.write_text("\tCommand being timed: \"a\"\n\tUser time (seconds): 1.0\n"
                    "\tCommand being timed: \"b\"\n\tUser time (seconds): 2.0\n")
-    dest = adopt_run.record(target, tmp_path / "data", log)
+    dest = records.record(run, tmp_path / "data", log)
     assert dest == tmp_path / "data" / "lam=0.1"
     h = A.read_csv(dest / "history.csv")
     assert 1 < h["t"].size < 5000 and h["t"][-1] == pytest.approx(49.99)
-    assert (dest / "profile.csv").read_text() == (target / "profile.csv").read_text()
+    assert (dest / "profile.csv").read_text() == (run / "profile.csv").read_text()
     assert (dest / "time.txt").read_text().count("Command being timed") == 2
     work = A.read_csv(dest / "work.csv")  # all steps, then N >= 6e4 (steps from 3000 on)
     np.testing.assert_array_equal(work["min_particles"], [0, 6e4])
@@ -51,25 +82,17 @@ def test_adopt_moves_to_the_sweep_name_and_records_small_data(tmp_path):
     np.testing.assert_array_equal(work["halved"], [100, 0])
     np.testing.assert_allclose(work["per_time"], [(5e5 + 5e3) / 50, 1e4])
     np.testing.assert_allclose(work["failed_share"], [5e3 / 5.05e5, 0])
-    # adopting the adopted folder again is a no-op
-    assert adopt_run.adopt(target, tmp_path / "runs", scale="smoke") == target
 
 
-def test_adopt_refuses_mismatch_and_existing_target_without_touching_anything(tmp_path, capsys):
-    run = fake_run(tmp_path / "wrong", radius=40.0)
-    with pytest.raises(ValueError, match="radius = 40.0 .sweep: 15.0"):
-        adopt_run.adopt(run, tmp_path / "runs", scale="smoke")
-    assert run.is_dir() and not (tmp_path / "runs").exists()
-    adopt_run.adopt(fake_run(tmp_path / "first"), tmp_path / "runs", scale="smoke")
-    second = fake_run(tmp_path / "second")
-    with pytest.raises(ValueError, match="exists already"):
-        adopt_run.adopt(second, tmp_path / "runs", scale="smoke")
-    assert second.is_dir()
-    assert adopt_run.main([str(tmp_path / "nothing"), "--scale", "smoke"]) == 2
-    assert "no config.json" in capsys.readouterr().err
+def test_record_refuses_what_is_not_a_finished_run(tmp_path, capsys):
+    assert records.main([str(tmp_path / "nothing")]) == 2
+    assert "not a finished run folder" in capsys.readouterr().err
+    run = fake_run(tmp_path / "r")
+    assert records.main([str(run), "--data", str(tmp_path / "d"), "--time-log", "nope"]) == 2
+    assert "no log file nope" in capsys.readouterr().err and not (tmp_path / "d").exists()
 
 
-def test_adopt_checks_the_configuration_the_run_started_with(tmp_path):
+def test_the_sweep_checks_the_configuration_the_run_started_with(tmp_path):
     """A run resumed with another step is checked against the sweep with its starting step.
 
     The changes are config.json's step_policy_changes (here of dt and of the former
@@ -80,17 +103,17 @@ def test_adopt_checks_the_configuration_the_run_started_with(tmp_path):
                {"step": 150, "dt": [0.005, 0.0025], "adaptive_dt": [True, False]}]
     run = fake_run(tmp_path / "resumed", **paper, dt=0.0025, adaptive_dt=False,
                    step_policy_changes=changes)
-    assert adopt_run.initial_config(json.loads((run / "config.json").read_text())) == {
+    assert initial_config(json.loads((run / "config.json").read_text())) == {
         **paper, "dt": 0.005, "adaptive_dt": False}
-    assert is_done(adopt_run.adopt(run, tmp_path / "runs", scale="paper"))
+    assert is_done(run, {"engine": "particles", **paper})
     wrong = fake_run(tmp_path / "wrong", **{**paper, "output_every": 100}, dt=0.0025,
                      step_policy_changes=changes)
     with pytest.raises(ValueError, match=r"output_every = 100 .sweep: 50"):
-        adopt_run.adopt(wrong, tmp_path / "runs2", scale="paper")
+        is_done(wrong, {"engine": "particles", **paper})
 
 
-def test_summary_and_table_of_adopted_runs(tmp_path):
-    target = adopt_run.adopt(fake_run(tmp_path / "by_hand"), tmp_path / "runs", scale="smoke")
+def test_summary_and_table_of_recorded_runs(tmp_path):
+    target = fake_run(tmp_path / "by_hand")
     log = tmp_path / "time.log"
     report = ("\tCommand being timed: \"colony\"\n\tUser time (seconds): {u}\n"
               "\tElapsed (wall clock) time (h:mm:ss or m:ss): {w}\n"
@@ -100,30 +123,30 @@ def test_summary_and_table_of_adopted_runs(tmp_path):
     progress = tmp_path / "progress.log"
     progress.write_text("colony: radius 15 of 15, t = 49.99, 99981 particles, step 5000, "
                         "dt 0.01, 5000 s\n")
-    dest = adopt_run.record(target, tmp_path / "data", log, progress)
+    dest = records.record(target, tmp_path / "data", log, progress)
     assert (dest / "progress.log").read_text() == progress.read_text()
     work = A.read_csv(dest / "work.csv")  # 1 s per step; 5000 * 100 + 100 * 50 iterations
     np.testing.assert_allclose(work["wall_s"], [5000, 2000])  # N >= 6e4 from step 3001
     np.testing.assert_allclose(work["ms_per_iteration"], [5e6 / 505000, 10])
-    row = adopt_run.summary(dest)
+    row = records.summary(dest)
     assert row["lam"] == 0.1 and row["particles"] == 99981 and row["steps"] == 5000
     assert row["halved"] == 100 and row["max_overlap"] == 5e-4 and row["reports"] == 2
     assert row["wall_s"] == pytest.approx(3723 + 59.5) and row["user_s"] == 110.5
     assert row["peak_mb"] == 500
     assert row["per_time_large"] == pytest.approx(1e4) and row["failed_share_large"] == 0
-    lines = adopt_run.table(tmp_path / "data").splitlines()
+    lines = records.table(tmp_path / "data").splitlines()
     assert len(lines) == 3
     assert lines[2].startswith("| 0.1 | 99,981 | 49.99 | 5000 | 100 | 1:03:02 (2")
     (dest / "work.csv").unlink()
     with pytest.raises(ValueError, match="no work.csv"):
-        adopt_run.summary(dest)
+        records.summary(dest)
 
 
-def test_packaged_readme_holds_the_table_of_its_adopted_runs():
-    """cases/data/particles_paper/README.md quotes `python -m cases.adopt_run --table`."""
-    data = Path(adopt_run.__file__).parent / "data" / "particles_paper"
+def test_packaged_readme_holds_the_table_of_its_recorded_runs():
+    """cases/data/particles_paper/README.md quotes `python -m cases.records --table`."""
+    data = Path(records.__file__).parent / "data" / "particles_paper"
     readme = (data / "README.md").read_text()
-    rows = adopt_run.table(data).splitlines()[2:]
+    rows = records.table(data).splitlines()[2:]
     assert rows
     for row in rows:
         assert row in readme
@@ -149,7 +172,7 @@ def test_compare_two_records_of_one_lam(tmp_path, capsys):
                     lambda r: 1.5 + 0 * r)
     new = record_of(tmp_path / "new", 0.0, lambda t: 15 * t, lambda r: 90 - 0.9 * r**2,
                     lambda r: 1.65 + 0 * r)
-    c = adopt_run.compare(old, new)
+    c = records.compare(old, new)
     # R = 16 t and 15 t reach 50, 100, 150 at R / 16 and R / 15
     np.testing.assert_allclose(c["old"]["t_at"], np.array([50, 100, 150]) / 16)
     np.testing.assert_allclose(c["new"]["t_at"], np.array([50, 100, 150]) / 15)
@@ -157,10 +180,10 @@ def test_compare_two_records_of_one_lam(tmp_path, capsys):
     # the stress is 0.9 times the old one everywhere: a 10 % mean change; lengths + 10 %
     assert c["d_stress"] == pytest.approx(0.1) and c["d_mean_length"] == pytest.approx(0.1)
     assert c["old"]["p0"] == pytest.approx(100) and c["new"]["p0"] == pytest.approx(90)
-    assert adopt_run.main(["--compare", str(old), str(new)]) == 0
+    assert records.main(["--compare", str(old), str(new)]) == 0
     assert "| 0 | 1,001 / 1,001 | 10.000 / 10.000 | 3.125 / 3.333 |" in capsys.readouterr().out
     other = record_of(tmp_path / "other", 1e-2, lambda t: t, lambda r: r, lambda r: r)
-    assert adopt_run.main(["--compare", str(old), str(other)]) == 2
-    assert adopt_run.main(["--compare", str(old), str(tmp_path)]) == 2
+    assert records.main(["--compare", str(old), str(other)]) == 2
+    assert records.main(["--compare", str(old), str(tmp_path)]) == 2
     err = capsys.readouterr().err.splitlines()
     assert "different lam" in err[0] and "is not a record" in err[1]

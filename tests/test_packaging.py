@@ -1,0 +1,49 @@
+"""What ``pip install .`` gives is enough for every command: the runtime imports are core.
+
+Every third-party module that ``continuum``, ``particles`` or ``cases`` imports (at the top of a
+module or inside a function) must come from a distribution among pyproject's core
+``dependencies``, except the viewers of the ``viz`` extra, which are imported where used and
+named in their error. So ``colony case`` works after the README's install.
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+import sys
+import tomllib
+from importlib.metadata import packages_distributions
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+OURS = {"continuum", "particles", "cases", "tests"}
+OPTIONAL = {"ovito", "pyvista"}  # the viz extra
+
+
+def imported_modules(package: str) -> set[str]:
+    """Top-level names of every module imported anywhere in ``package``'s source."""
+    names = set()
+    for path in (ROOT / package).rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                names |= {a.name.split(".")[0] for a in node.names}
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names.add(node.module.split(".")[0])
+    return names
+
+
+def core_distributions() -> set[str]:
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    return {re.split(r"[\[<>=!~ ;]", d)[0].lower().replace("_", "-")
+            for d in project["dependencies"]}
+
+
+def test_every_runtime_import_is_a_core_dependency():
+    third_party = set().union(*(imported_modules(p) for p in ("continuum", "particles", "cases")))
+    third_party -= OURS | OPTIONAL | set(sys.stdlib_module_names) | {"__future__"}
+    providers = packages_distributions()
+    core = core_distributions()
+    missing = {m: providers.get(m) for m in sorted(third_party)
+               if not {d.lower().replace("_", "-") for d in providers.get(m, [])} & core}
+    assert not missing, f"imported but not core dependencies (module: distributions): {missing}"
+    assert "dask" in third_party  # the check sees the sweep's imports
