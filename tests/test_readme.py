@@ -23,6 +23,8 @@ PAGES = [
     "docs/validation.md",
     "docs/benchmarks.md",
     "docs/results.md",
+    "docs/run_folders.md",
+    "docs/clusters.md",
     "CHANGELOG.md",
 ]
 
