@@ -7,7 +7,9 @@ it as finished when its ``run.json`` says so and its configuration is the sweep'
 (``cases.sweep.is_done``). What the repository keeps of it:
 
 1. :func:`record`: its small data (history thinned by ``cases.analysis.thin_rows``, the final
-   profile, the configuration and the ``/usr/bin/time -v`` reports of its segments) copied
+   profile, the profile pooled over the last frames as the figures draw it
+   (``profile_pooled.csv``, ``cases.analysis.final_particle_profile``), the configuration and
+   the ``/usr/bin/time -v`` reports of its segments) copied
    to ``DATA/lam=LAM/``, with ``work.csv``: the solver work of every step-policy segment, over
    all steps and over those with N >= 6e4 (``cases.analysis.history_segments``; the sums the
    thinned history cannot give).
@@ -82,6 +84,8 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
     for f in SMALL_FILES:
         if (run / f).is_file():
             shutil.copy(run / f, dest / f)
+    if (run / "trajectory.gsd").is_file():  # the figures' profile: pooled over the last frames
+        A.write_csv(dest / "profile_pooled.csv", A.final_particle_profile(run, growth_window=1.0))
     if time_log is not None:
         (dest / "time.txt").write_text(time_reports(Path(time_log).read_text()))
     if progress_log is not None:

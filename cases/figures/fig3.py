@@ -133,6 +133,12 @@ def _seeds(ens: Path) -> int:
     return int(np.max(A.read_csv(ens / "summary.csv")["n_seeds"]))
 
 
+def _band_lams(ens: Path) -> str:
+    """The lam of the ensemble (every lam of the figure, or the few grown at radius 150)."""
+    lams = A.read_csv(ens / "summary.csv")["lam"]
+    return "lam " + ", ".join(f"{lam:g}" for lam in lams) if lams.size < 4 else "every lam"
+
+
 def _seed_bars(ax, ens: Path, key: str) -> None:
     """The ensemble's 2.5-97.5 % seed range of ``key`` at each lam > 0 (grey bars)."""
     s = A.read_csv(ens / "summary.csv")
@@ -190,7 +196,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             a.fill_between(pe["r"], pe["stress_q025"], pe["stress_q975"], color=colors[lam],
                            alpha=0.2, lw=0)
     a.set(xlabel="r", ylabel=r"$\langle\sigma_n\rangle$ (solid), $p$ (dashed)",
-          title="(A)" + (f" bands: {_seeds(ens)} seeds, 2.5-97.5 %" if ens else ""))
+          title="(A)" + (f" bands: {_seeds(ens)} seeds, 2.5-97.5 % ({_band_lams(ens)})"
+                         if ens else ""))
     a.legend(fontsize=8)
 
     a = ax[0, 1]

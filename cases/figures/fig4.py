@@ -163,6 +163,8 @@ def _seed_band(ax, ens: Path | None, lam: float, color) -> None:
 def _seed_bars(ax, ens: Path) -> None:
     """The ensemble's 2.5-97.5 % seed range of the final wavelength (lam with rings)."""
     e = A.read_csv(ens / "summary.csv")
+    if "wavelength_q025" not in e:  # an ensemble of records without frames (ensemble_paper)
+        return
     pos = (e["lam"] > 0) & (e["ring_z_mean"] >= A.RING_Z)
     n = int(np.max(e["n_seeds"]))
     ax.vlines(e["lam"][pos], e["wavelength_q025"][pos], e["wavelength_q975"][pos],

@@ -187,3 +187,13 @@ def test_compare_two_records_of_one_lam(tmp_path, capsys):
     assert records.main(["--compare", str(old), str(tmp_path)]) == 2
     err = capsys.readouterr().err.splitlines()
     assert "different lam" in err[0] and "is not a record" in err[1]
+
+
+def test_record_of_a_run_with_frames_keeps_the_pooled_profile(particle_run, tmp_path):
+    """profile_pooled.csv: the profile the figures draw (pooled over the last frames)."""
+    dest = records.record(particle_run, tmp_path / "data")
+    pooled = A.read_csv(dest / "profile_pooled.csv")
+    expected = A.final_particle_profile(particle_run, growth_window=1.0)
+    assert set(pooled) == set(expected)
+    for k, v in expected.items():
+        np.testing.assert_allclose(pooled[k], v, rtol=1e-7)
