@@ -5,7 +5,9 @@ on, so a simulation loaded from it continues bit-identically:
 
 - the arrays of the :class:`~continuum.state.State`: ``points``, ``tris``, ``G``, ``p``,
   ``u``, ``g``, ``psi`` (Psi's cell values), ``psi_phase`` (the phase offsets of Psi's windows
-  with ``psi_transport = "characteristics"``), ``p_prev`` (when set) and ``amg``, the CSR data
+  with ``psi_transport = "characteristics"``) or, for the delta Psi0 (``initial_sizes =
+  "delta"``), ``psi_delta`` and ``psi_log_length`` (continuum.sizes.DeltaSizes), ``p_prev``
+  (when set) and ``amg``, the CSR data
   of the matrix the pressure solver's AMG hierarchy was built from (when there is one; the
   loaded solver rebuilds the identical hierarchy, continuum.pressure.amg_hierarchy);
 - ``frame_times``, the times of the VTU frames written (frame k is ``fields/frame_k.vtu``,
@@ -39,8 +41,9 @@ are never read through a symbolic link.
 A checkpoint resumes under a configuration equal to the saved one up to ``EXECUTION_FIELDS``
 (settings that do not change the result). Checkpoints of earlier versions load when intact
 (their zip CRCs hold): without ``sha256``, with the history and the frames ((t, file) pairs,
-whose names are ignored) in ``meta``, without ``step``, and as finite volumes when their
-configuration has no ``psi_transport``.
+whose names are ignored) in ``meta``, without ``step``, as finite volumes when their
+configuration has no ``psi_transport``, and with the bump Psi0 when it has no
+``initial_sizes``.
 
 :class:`StopRequest` (a context manager) defers SIGINT, SIGTERM and SIGHUP to the end of the
 current step, so that ``continuum.run`` can write a checkpoint of a whole step before stopping.
@@ -67,7 +70,13 @@ from pathlib import Path
 import numpy as np
 
 from continuum.config import Config
-from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid, SizeDistribution
+from continuum.sizes import (
+    TRANSPORT_REMAP,
+    CharacteristicSizes,
+    DeltaSizes,
+    LengthGrid,
+    SizeDistribution,
+)
 from continuum.state import State
 
 __all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "Checkpoint", "CheckpointError",
@@ -371,7 +380,11 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
     scalars["step"] = state.step
     scalars["timings"] = dict(state.timings)
     arrays = {name: getattr(state, attr) for attr, name in _ARRAYS.items()}
-    arrays["psi"] = state.sizes.n
+    if isinstance(state.sizes, DeltaSizes):
+        arrays["psi_delta"] = state.sizes.n
+        arrays["psi_log_length"] = state.sizes.log_length
+    else:
+        arrays["psi"] = state.sizes.n
     if isinstance(state.sizes, CharacteristicSizes):
         arrays["psi_phase"] = state.sizes.phase
     if state.p_prev is not None:
@@ -395,8 +408,9 @@ def _check_arrays(path: Path, arrays: dict, n_cells: int) -> None:
     """
     n = checked(path, lambda: arrays["points"].shape[0])
     shapes = {"points": (n, 2), "u": (n, 2), "G": (n,), "p": (n,), "g": (n,), "psi_phase": (n,),
-              "p_prev": (n,), "psi": (n, n_cells)}
-    for name in ("points", "tris", "G", "p", "u", "g", "psi"):
+              "p_prev": (n,), "psi": (n, n_cells), "psi_delta": (n,), "psi_log_length": (n,)}
+    psi = ("psi_delta", "psi_log_length") if "psi_delta" in arrays else ("psi",)
+    for name in ("points", "tris", "G", "p", "u", "g", *psi):
         checked(path, lambda name=name: arrays[name])
     for name in sorted(arrays.keys() & {*shapes, "tris", "amg"}):
         a = arrays[name]
@@ -412,7 +426,9 @@ def _state(arrays: dict, meta: dict, saved: dict, default_step: int) -> State:
     """The State of a checkpoint's (checked) arrays and metadata."""
     scalars = meta["colony"]
     grid = LengthGrid(saved["n_length_cells"])
-    if "psi_phase" in arrays:
+    if "psi_delta" in arrays:
+        sizes = DeltaSizes(arrays["psi_delta"], arrays["psi_log_length"])
+    elif "psi_phase" in arrays:
         remap = TRANSPORT_REMAP.get(saved.get("psi_transport"), "cells")
         sizes = CharacteristicSizes(grid, arrays["psi"], arrays["psi_phase"], remap)
     else:
@@ -467,6 +483,7 @@ def _saved_config(path: Path, arrays: dict) -> dict:
     if not isinstance(saved, dict):
         raise damaged(path, "unexpected content (config)")
     saved.setdefault("element", "P1")  # checkpoints from before Config.element solved with P1
+    saved.setdefault("initial_sizes", "bump")  # and from before Config.initial_sizes the bump
     return saved
 
 

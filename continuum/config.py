@@ -19,7 +19,7 @@ import numpy as np
 from continuum import mesh, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
-from continuum.sizes import TRANSPORTS
+from continuum.sizes import INITIAL_SIZES, TRANSPORTS
 
 __all__ = ["Config", "config_fields"]
 
@@ -50,6 +50,7 @@ _RULES = [  # (field, test, what the value must be), checked by Config.validate 
     ("q_min", lambda v: 0 < v < 0.9, "in (0, 0.9)"),
     ("stretch", lambda v: v > 1.1, "> 1.1"),
     ("n_length_cells", lambda v: v >= 8, "an integer >= 8"),
+    ("initial_sizes", lambda v: v in INITIAL_SIZES, " or ".join(map(repr, INITIAL_SIZES))),
     ("psi_transport", lambda v: v in TRANSPORTS, " or ".join(map(repr, TRANSPORTS))),
     ("element", lambda v: v in ELEMENTS, " or ".join(map(repr, ELEMENTS))),
     ("output_every", lambda v: v >= 0, ">= 0"),
@@ -95,14 +96,25 @@ class Config:
         Remesh when a triangle's quality drops below this.
     stretch : float
         Remesh when boundary edges or the mean element size leave [h/stretch, stretch h].
+    initial_sizes : str
+        Psi0, the initial size distribution (continuum.sizes.INITIAL_SIZES): "delta" (default:
+        the model's delta(l - 1), carried exactly by its position, continuum.sizes.DeltaSizes:
+        mean length 2^frac(G / ln 2) to round-off at every node, spread 0; ``n_length_cells``,
+        ``bump_width`` and ``psi_transport`` do not apply), "bump" (the smooth bump of
+        ``bump_width`` on the grid of ``n_length_cells``, carried by ``psi_transport``; the
+        default before: its mean length is the shifted bump's, up to 0.34 from the
+        delta's at the defaults) or "histogram" (Psi0 on the l grid given with the state,
+        continuum.initial.state_from, e.g. the particle hand-off cases.handoff; a run from the
+        configured shape alone refuses it).
     n_length_cells : int
-        Cells of the log2-length grid of Psi.
+        Cells of the log2-length grid of Psi (a "bump" or "histogram" Psi0).
     bump_width : float
-        Half-width in s = log2 l of the initial bump standing in for delta(l - 1).
+        Half-width in s = log2 l of the initial bump (``initial_sizes = "bump"``).
     psi_transport : str
-        Transport of Psi in l: "characteristics-labels" (default: exact shift of per-node
-        windows in s = log2 l, continuum.sizes.CharacteristicSizes; a remesh interpolates the
-        rows by label, continuum.remesh: from a uniform Psi0 exact to round-off at radius 150),
+        Transport of Psi in l on the grid (a "bump" or "histogram" Psi0):
+        "characteristics-labels" (default: exact shift of per-node windows in s = log2 l,
+        continuum.sizes.CharacteristicSizes; a remesh interpolates the rows by label,
+        continuum.remesh: from a uniform Psi0 exact to round-off at radius 150),
         "characteristics" (the same transport; a remesh remaps the cells conservatively in s,
         which smears across rings: median error of the mean length 0.030 at radius 150) or
         "finite-volume" (flux-limited Lax-Wendroff, continuum.sizes.SizeDistribution).
@@ -137,6 +149,7 @@ class Config:
     stretch: float = 1.5
     n_length_cells: int = 40
     bump_width: float = 0.08
+    initial_sizes: str = "delta"
     psi_transport: str = "characteristics-labels"
     element: str = "P1"
     output_every: float = 1.0

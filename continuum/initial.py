@@ -1,9 +1,11 @@
 """A colony's state at t = 0 from a given outline and a given size distribution.
 
-The model's own start is a disc (or the configured shape) with Psi0 a narrow bump at l = 1
-(``continuum.simulation.initial_state``). :func:`state_from` starts from anything else, e.g. a
-particle colony handed to the continuum (cases.handoff): the boundary polygon is meshed as
-the configured one would be, and Psi0(x, s) is evaluated at the mesh nodes.
+The model's own start is a disc (or the configured shape) with Psi0 = delta(l - 1), or the
+smooth bump on the l grid (``Config.initial_sizes``; ``continuum.simulation.initial_state``).
+:func:`state_from` starts from anything else, e.g. a particle colony handed to the continuum
+(cases.handoff): the boundary polygon is meshed as the configured one would be, and Psi0(x, s)
+is evaluated at the mesh nodes, on the l grid (``initial_sizes = "histogram"`` says so in the
+configuration; the given Psi0 is used whatever ``initial_sizes`` says).
 
 Growth phase. G is the growth integrated along a material path, so it starts at G0 = 0 here
 too: the transported Psi carries the sizes (shifted by G / ln 2 along each path, exactly), and

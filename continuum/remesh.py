@@ -25,6 +25,11 @@ It is a linear map, a sparse matrix W (n_new x n_old) applied to G and to p (the
 of the next pressure solve). New nodes slightly outside the old polygon (spline boundary) are
 extrapolated from the nearest old triangle.
 
+The model's delta Psi0 (``initial_sizes = "delta"``, continuum.sizes.DeltaSizes): the number per
+material element with its divisions undone is interpolated with the convex weights below and the
+delta put at the new node's growth phase G_new / ln 2, so its mean length stays
+2^frac(G / ln 2) to round-off (``DeltaSizes.transfer_labels``). On the l grid:
+
 Psi counts cells per material element, whose area stretch is exp(G) (div u = g), so the
 density per current area Psi exp(-G) is transferred and multiplied back by exp(G_new)
 (:func:`transfer_sizes`).
@@ -61,7 +66,7 @@ import scipy.sparse as sp
 from continuum import mesh
 from continuum.growth import LN2
 from continuum.pressure import P1Assembler
-from continuum.sizes import CharacteristicSizes, SizeDistribution, split_phase
+from continuum.sizes import CharacteristicSizes, DeltaSizes, SizeDistribution, split_phase
 from continuum.state import State
 from continuum.velocity import GradientRecovery
 
@@ -151,14 +156,17 @@ def remesh_reason(
 
 
 def transfer_sizes(
-    sizes: SizeDistribution | CharacteristicSizes, W: sp.csr_matrix, G_old: np.ndarray,
-    G_new: np.ndarray,
-) -> SizeDistribution | CharacteristicSizes:
+    sizes: SizeDistribution | CharacteristicSizes | DeltaSizes, W: sp.csr_matrix,
+    G_old: np.ndarray, G_new: np.ndarray,
+) -> SizeDistribution | CharacteristicSizes | DeltaSizes:
     """Psi on the new nodes: Psi_new = max(exp(G_new) W (exp(-G_old) Psi), 0).
 
     Transfers the density per current area Psi exp(-G) (module docstring) with the matrix W;
-    rows along characteristics onto windows at the phases frac(G_new / ln 2).
+    rows along characteristics onto windows at the phases frac(G_new / ln 2); a delta
+    (DeltaSizes) by labels: its undivided number with W, its position at G_new.
     """
+    if isinstance(sizes, DeltaSizes):
+        return sizes.transfer_labels(W, G_old, G_new)
     if isinstance(sizes, CharacteristicSizes) and sizes.remap == "labels":
         return sizes.transfer_labels(W, np.asarray(G_old) / LN2, np.asarray(G_new) / LN2)
     Wd = W.multiply(np.exp(-G_old)[None, :]).tocsr()
@@ -196,7 +204,8 @@ def remesh(
     locator = mesh.Locator(old_points, old_tris)
     L = interpolation_matrix(locator, state.points)
     W = gradient_corrected_matrix(locator, assembler, state.points, linear=L)
-    W_psi = convex_weights(L) if isinstance(state.sizes, CharacteristicSizes) else W
+    W_psi = (convex_weights(L) if isinstance(state.sizes, (CharacteristicSizes, DeltaSizes))
+             else W)
     G_old = state.G
     state.G = W @ G_old
     state.sizes = transfer_sizes(state.sizes, W_psi, G_old, state.G)

@@ -3,7 +3,8 @@
 Model (model.md): on Omega(t), u = -grad p, div u = g = exp(-lam p), p = 0 on the boundary,
 the boundary moves with u; the growth phase G = int g dt and the size distribution Psi(x, l, t)
 are carried by the material. Initial condition: a disc of radius R0 = sqrt(b/pi) (or the given
-shape), G = 0, Psi0 a narrow smooth bump standing in for delta(l - 1) (continuum.sizes).
+shape), G = 0, Psi0 = delta(l - 1) carried exactly by its position (``Config.initial_sizes``;
+a smooth bump or a histogram on the l grid as options; continuum.sizes).
 
 The contract, the particle engine's too (docs/DESIGN.md, "One contract for both engines";
 tests/test_contract.py): ``Simulation(config, state=None, out=None)`` holds the
@@ -58,7 +59,13 @@ from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.remesh import remesh, remesh_reason
-from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid, SizeDistribution
+from continuum.sizes import (
+    TRANSPORT_REMAP,
+    CharacteristicSizes,
+    DeltaSizes,
+    LengthGrid,
+    SizeDistribution,
+)
 from continuum.state import State, StepRecord
 
 # Config and config_fields live in continuum.config; imported here for older imports
@@ -111,15 +118,26 @@ def require_goal(config: Config) -> None:
 def initial_state(config: Config) -> State:
     """The colony at t = 0.
 
-    The initial shape meshed at h = min(h_max, h_N(area)), G = 0, Psi the bump of
-    ``bump_width``, p = 0 (u, g zero until the first pressure solve).
+    The initial shape meshed at h = min(h_max, h_N(area)), G = 0, Psi0 of ``initial_sizes``
+    (:func:`initial_sizes`), p = 0 (u, g zero until the first pressure solve).
     """
+    if config.initial_sizes == "histogram":
+        raise ValueError("initial_sizes 'histogram' is a Psi0 given with the state "
+                         "(continuum.state_from, e.g. colony continuum --from-particles); "
+                         "without one use 'delta' or 'bump'")
     return meshed_state(config, config.initial_boundary(),
                         lambda points: initial_sizes(config, len(points)))
 
 
-def initial_sizes(config: Config, n: int) -> SizeDistribution | CharacteristicSizes:
-    """Psi0 on n nodes: the bump of ``bump_width`` in the class of ``psi_transport``."""
+def initial_sizes(config: Config, n: int
+                  ) -> DeltaSizes | SizeDistribution | CharacteristicSizes:
+    """Psi0 on n nodes (``initial_sizes``).
+
+    "delta": delta(l - 1) carried by its position (DeltaSizes); "bump": the bump of
+    ``bump_width`` in the class of ``psi_transport``.
+    """
+    if config.initial_sizes == "delta":
+        return DeltaSizes.delta(n)
     grid = LengthGrid(config.n_length_cells)
     if config.psi_transport == "finite-volume":
         return SizeDistribution.bump(grid, n, width=config.bump_width)

@@ -74,6 +74,8 @@ __all__ = [
     "LengthGrid",
     "SizeDistribution",
     "CharacteristicSizes",
+    "DeltaSizes",
+    "INITIAL_SIZES",
     "TRANSPORTS",
     "REMAPS",
     "TRANSPORT_REMAP",
@@ -83,6 +85,12 @@ __all__ = [
     "split_phase",
     "spread",
 ]
+
+INITIAL_SIZES = ("delta", "bump", "histogram")
+"""Psi0 of a run (``Config.initial_sizes``): the model's delta(l - 1) carried exactly by its
+position (:class:`DeltaSizes`, the default), the smooth bump of ``bump_width`` on the l grid
+(:meth:`CharacteristicSizes.bump` / :meth:`SizeDistribution.bump`), or a histogram on the l
+grid given with the state (continuum.initial.state_from, e.g. the particle hand-off)."""
 
 TRANSPORTS = ("characteristics", "characteristics-labels", "finite-volume")
 """Transports of Psi (``Config.psi_transport``): CharacteristicSizes remapped by cells or by
@@ -639,3 +647,119 @@ class CharacteristicSizes:
         n_hat = np.asarray(W @ (self.n * np.exp2(-k_old)[:, None]))
         k_new, phase = split_phase(sigma_new)
         return CharacteristicSizes(self.grid, n_hat * np.exp2(k_new)[:, None], phase, self.remap)
+
+
+class DeltaSizes:
+    r"""Psi = n delta(l - lbar) per node, the model's Psi0 = delta(l - 1) carried exactly.
+
+    Along a material path every length moves in s = log2 l by the same G / ln 2, so a delta
+    stays a delta: at the position s = frac(x / ln 2) with x = ln l0 + G (l0 = 1 for the
+    model), every particle of the element has the length 2^frac(x / ln 2), and the element
+    holds 2^floor(x / ln 2) times its initial number (one doubling per crossing of s = 1, the
+    division condition). A node holds two numbers: ``n``, the number per material element with
+    its divisions undone (the initial number, constant in time), and ``log_length``, x. The
+    moments are exact::
+
+        N = n 2^k,  L = N 2^f,  Q = N 4^f,  spread 0,     k = floor(x / ln 2), f = x / ln 2 - k,
+
+    so the mean length is 2^frac(x / ln 2), the closed form continuum.growth.mean_length of
+    x = G. Advancing adds g dt to x, the same floating-point operation as G <- G + dt g
+    (continuum.motion.heun_step), so x stays equal to G bit for bit between remeshes; a remesh
+    (:meth:`transfer_labels`) interpolates n with the convex weights and sets x = G_new plus
+    the interpolated offset x - G (zero for the model's delta). The mean length then equals
+    2^frac(G / ln 2) to round-off at every node, across rings and remeshes, at the cost of two
+    numbers per node (``Config.initial_sizes = "delta"``, the default).
+
+    Parameters
+    ----------
+    n : ndarray (n_nodes,)
+        Positive numbers per material element with the divisions undone.
+    log_length : ndarray (n_nodes,), optional
+        x = ln l0 + G, finite (default 0: all lengths 1).
+    """
+
+    def __init__(self, n: ArrayLike, log_length: ArrayLike | None = None):
+        n = np.array(n, dtype=float)
+        if n.ndim != 1 or not np.all(np.isfinite(n)) or np.any(n <= 0):
+            raise ValueError("n must be a one-dimensional array of positive numbers")
+        x = np.zeros(n.shape) if log_length is None else np.array(log_length, dtype=float)
+        if x.shape != n.shape or not np.all(np.isfinite(x)):
+            raise ValueError(f"log_length must have shape {n.shape} and finite values")
+        self.n = n
+        self.log_length = x
+
+    @classmethod
+    def delta(cls, n_nodes: int, number: float = 1.0) -> DeltaSizes:
+        """Psi0 = number * delta(l - 1) at every node."""
+        return cls(np.full(int(n_nodes), float(number)))
+
+    @property
+    def n_nodes(self) -> int:
+        """Number of rows (material elements, mesh nodes)."""
+        return self.n.shape[0]
+
+    def __repr__(self) -> str:
+        return f"DeltaSizes(n_nodes={self.n_nodes})"
+
+    def _split(self) -> tuple[NDArray, NDArray]:
+        """(k, f): the divisions floor(x / ln 2) and the position frac(x / ln 2) in s."""
+        q = self.log_length / LN2
+        k = np.floor(q)
+        return k, q - k
+
+    def advance(self, g: ArrayLike, dt: float) -> DeltaSizes:
+        """Shift every delta by g dt / ln 2 in s: x <- x + dt g, exactly (in place; self)."""
+        g = _check_speed(g, self.n_nodes)
+        dt = float(dt)
+        if not math.isfinite(dt) or dt < 0:
+            raise ValueError(f"dt must be finite and >= 0, got {dt}")
+        self.log_length = self.log_length + dt * g
+        return self
+
+    def number(self) -> NDArray:
+        """Number of particles per material element, n 2^floor(x / ln 2)."""
+        return self.n * np.exp2(self._split()[0])
+
+    def total_length(self) -> NDArray:
+        """Total length per material element, N 2^frac(x / ln 2)."""
+        k, f = self._split()
+        return self.n * np.exp2(k) * np.exp2(f)
+
+    def mean_length(self) -> NDArray:
+        """Mean length 2^frac(x / ln 2) per node."""
+        return np.exp2(self._split()[1])
+
+    def square_length(self) -> NDArray:
+        """Sum of the squared lengths per material element, N 4^frac(x / ln 2)."""
+        k, f = self._split()
+        return self.n * np.exp2(k) * np.exp2(2.0 * f)
+
+    def length_std(self) -> NDArray:
+        """Standard deviation of the lengths per node: 0 (one length per material element)."""
+        return np.zeros(self.n_nodes)
+
+    def take(self, index: ArrayLike) -> DeltaSizes:
+        """A new distribution holding the rows ``index`` (copy)."""
+        index = np.asarray(index)
+        return DeltaSizes(self.n[index], self.log_length[index])
+
+    def copy(self) -> DeltaSizes:
+        """A copy with its own arrays."""
+        return DeltaSizes(self.n.copy(), self.log_length.copy())
+
+    def transfer_labels(self, W, G_old: ArrayLike, G_new: ArrayLike) -> DeltaSizes:
+        """The deltas on new nodes: n_new = W n, x_new = G_new + W (x - G_old).
+
+        W an (n_new, n_nodes) matrix with W >= 0 and rows summing to 1 (the convex weights of
+        continuum.remesh); G_old, G_new the growth phases of the old and new nodes. With
+        x = G at every old node (the model's delta) x_new = G_new exactly.
+        """
+        if W.ndim != 2 or W.shape[1] != self.n_nodes:
+            raise ValueError(f"W must have shape (n_new, {self.n_nodes}), got {W.shape}")
+        G_old = np.asarray(G_old, dtype=float)
+        G_new = np.asarray(G_new, dtype=float)
+        if G_old.shape != (self.n_nodes,) or G_new.shape != (W.shape[0],):
+            raise ValueError("G_old and G_new must have one value per old / new row")
+        offset = self.log_length - G_old
+        x = G_new + np.asarray(W @ offset) if np.any(offset) else G_new.copy()
+        return DeltaSizes(np.asarray(W @ self.n), x)

@@ -11,18 +11,22 @@ Fields (:attr:`State.fields`), nodal values:
 - mean_length = 2^frac(G / ln 2): the exact mean length for the model's initial
   Psi0 = delta(l - 1) (continuum.growth.mean_length), what the figures show;
 - mean_length_psi, length_std_psi, number, total_length: moments of the transported size
-  distribution Psi (its mean length, the standard deviation of its lengths)
-  (started from the smooth bump of ``SizeDistribution.bump``; number and total length per
-  current area, i.e. per material element divided by its area stretch exp(G)). Along
-  characteristics the bump is shifted exactly between remeshes, and with the default
-  ``psi_transport`` (by labels) also across them, so mean_length_psi follows the closed form
-  2^frac(G / ln 2 + w) of the bump's centre w to round-off; with finite volumes it smears
-  over many divisions. length_std_psi is the spread of the lengths within one material element
-  (the bump's width away from the rings; across a ring, where part of the bump has divided,
-  the spread of a bimodal distribution, up to ~0.5).
+  distribution Psi (its mean length, the standard deviation of its lengths; number and total
+  length per current area, i.e. per material element divided by its area stretch exp(G)).
+  From the default Psi0 = delta(l - 1) (``Config.initial_sizes = "delta"``,
+  continuum.sizes.DeltaSizes) the delta is carried exactly: mean_length_psi equals
+  2^frac(G / ln 2) (= mean_length) to round-off at every node, across rings and remeshes, and
+  length_std_psi is 0. From the smooth bump of ``bump_width`` ("bump"): along characteristics
+  the bump is shifted exactly between remeshes, and with the default ``psi_transport`` (by
+  labels) also across them, so mean_length_psi follows the closed form 2^frac(G / ln 2 + w)
+  of the bump's centre w to round-off; with finite volumes it smears over many divisions;
+  length_std_psi is the bump's width away from the rings and, across a ring, where part of
+  the bump has divided, the spread of a bimodal distribution (up to ~0.5).
 
-``sizes`` is a continuum.sizes.CharacteristicSizes (values and phase offsets) or a
-continuum.sizes.SizeDistribution (cell averages), as ``Config.psi_transport`` says.
+``sizes`` is a continuum.sizes.DeltaSizes (the delta's undivided number and position), a
+continuum.sizes.CharacteristicSizes (values and phase offsets) or a
+continuum.sizes.SizeDistribution (cell averages), as ``Config.initial_sizes`` and
+``Config.psi_transport`` say.
 """
 
 from __future__ import annotations
@@ -35,7 +39,7 @@ import numpy as np
 
 from continuum import mesh
 from continuum.growth import mean_length
-from continuum.sizes import CharacteristicSizes, SizeDistribution
+from continuum.sizes import CharacteristicSizes, DeltaSizes, SizeDistribution
 
 __all__ = ["State", "StepRecord", "HISTORY_COLUMNS", "REMESH_CODES", "TIMING_STAGES"]
 
@@ -64,7 +68,7 @@ class State:
         Velocity u = -grad p at the nodes.
     G : ndarray (N,)
         Growth phase int g dt of each material element.
-    sizes : CharacteristicSizes or SizeDistribution
+    sizes : DeltaSizes, CharacteristicSizes or SizeDistribution
         Psi per material element (one row per node).
     t : float
         Time.
@@ -92,7 +96,7 @@ class State:
     u: np.ndarray
     g: np.ndarray
     G: np.ndarray
-    sizes: CharacteristicSizes | SizeDistribution
+    sizes: DeltaSizes | CharacteristicSizes | SizeDistribution
     t: float = 0.0
     step: int = 0
     n_remesh: int = 0

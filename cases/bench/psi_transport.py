@@ -1,7 +1,9 @@
 """Accuracy and cost of the transports of the size distribution Psi on a whole continuum run.
 
 For each transport of ``--transports`` (``continuum.Config.psi_transport``) one colony at
-``--lam`` is grown from the initial disc to ``--radius``, and the mean length of the transported
+``--lam`` from the bump Psi0 (``initial_sizes = "bump"``; the default delta is carried exactly
+whatever the transport, cases.bench.initial_sizes) is grown from the initial disc to
+``--radius``, and the mean length of the transported
 Psi, ``mean_length_psi``, is compared at every node with the exact answer: the initial bump
 shifted by G / ln 2 along its characteristic (``CharacteristicSizes.bump`` advanced by the
 node's G in one exact step). The error is reported away from the ring jumps (nodes whose phase
@@ -32,7 +34,7 @@ __all__ = ["psi_errors", "main"]
 
 def psi_errors(radius: float, lam: float, transport: str) -> dict:
     """One run to ``radius``; errors of its transported mean length against the exact shift."""
-    config = Config(lam=lam, radius=radius, psi_transport=transport)
+    config = Config(lam=lam, radius=radius, initial_sizes="bump", psi_transport=transport)
     cpu = time.process_time()
     sim = Simulation(config)
     state = sim.advance(radius=radius)

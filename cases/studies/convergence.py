@@ -198,12 +198,12 @@ def families(scale: str) -> list[Family]:
                reference="finest", quantities=exact_q),
     ]
     out += [Family(f"length_cells:{t}", "continuum", "n_length_cells", cfg["length_cells"],
-                   remesh | {"psi_transport": t}, (lam_psi,), "inverse",
+                   remesh | {"initial_sizes": "bump", "psi_transport": t}, (lam_psi,), "inverse",
                    quantities=("mean_length", "mean_length_transport"))
             for t in TRANSPORTS]
     out += [
         Family("bump_width", "continuum", "bump_width", cfg["bump_width"],
-               remesh | {"n_length_cells": 128}, (lam_psi,),
+               remesh | {"initial_sizes": "bump", "n_length_cells": 128}, (lam_psi,),
                quantities=("mean_length", "mean_length_transport")),
         Family("q_min", "continuum", "q_min", cfg["q_min"], remesh, remesh_cases,
                quantities=exact_q),

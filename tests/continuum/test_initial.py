@@ -12,7 +12,7 @@ from continuum.sizes import CharacteristicSizes, LengthGrid, SizeDistribution
 @pytest.mark.parametrize("transport", ["characteristics-labels", "finite-volume"])
 def test_the_configured_shape_and_bump_give_the_model_start(transport):
     """state_from(the config's polygon, the bump's row) is initial_state(config), bit for bit."""
-    config = Config(lam=0.01, n_nodes=200, psi_transport=transport)
+    config = Config(lam=0.01, n_nodes=200, initial_sizes="bump", psi_transport=transport)
     row = SizeDistribution.bump(LengthGrid(config.n_length_cells), 1, config.bump_width).n[0]
     a, b = initial_state(config), state_from(config, config.initial_boundary(), row)
     np.testing.assert_array_equal(a.points, b.points)

@@ -187,7 +187,8 @@ def test_run_without_remesh_is_the_exact_shift_at_every_node():
     """
     errs = {}
     for transport in ("characteristics", "finite-volume"):
-        sim = Simulation(Config(lam=1e-2, radius=12.0, psi_transport=transport))
+        sim = Simulation(Config(lam=1e-2, radius=12.0, initial_sizes="bump",
+                                psi_transport=transport))
         s = sim.advance()
         assert s.n_remesh == 0
         ref = CharacteristicSizes.bump(LengthGrid(40), len(s.G), width=WIDTH).advance(s.G, 1.0)
@@ -210,7 +211,7 @@ def test_run_with_remeshes_keeps_the_packing_and_the_phase():
     lbar_psi against the exact shift of the bump at every node's G (all nodes away from the
     jumps here): max 5.5e-4, median 3.1e-4 measured; the remaps' smearing.
     """
-    sim = Simulation(small_config(radius=5.0))
+    sim = Simulation(small_config(radius=5.0, initial_sizes="bump"))
     s = sim.advance()
     assert s.n_remesh == 5
     f = s.fields
@@ -250,7 +251,8 @@ def test_run_with_label_remeshes_is_exact_at_every_node():
     """
     errs = {}
     for transport in ("characteristics-labels", "characteristics"):
-        s = Simulation(small_config(radius=6.0, psi_transport=transport)).advance()
+        s = Simulation(small_config(radius=6.0, initial_sizes="bump",
+                                         psi_transport=transport)).advance()
         assert s.n_remesh == 6
         ref = CharacteristicSizes.bump(LengthGrid(40), len(s.G), width=WIDTH).advance(s.G, 1.0)
         errs[transport] = np.abs(s.fields["mean_length_psi"] - ref.mean_length())
@@ -260,7 +262,7 @@ def test_run_with_label_remeshes_is_exact_at_every_node():
 
 
 def test_label_remap_checkpoint_resumes_bit_identically(tmp_path):
-    cfg = small_config(radius=4.0, psi_transport="characteristics-labels")
+    cfg = small_config(radius=4.0, initial_sizes="bump", psi_transport="characteristics-labels")
     a = Simulation(cfg)
     for _ in range(10):
         a.step()
@@ -278,13 +280,14 @@ def test_config_selects_the_transport():
     from continuum.sizes import SizeDistribution
 
     assert Config(lam=0.0).psi_transport == "characteristics-labels"
-    default = Simulation(Config(lam=1e-2)).state.sizes
+    bump = {"lam": 1e-2, "initial_sizes": "bump"}  # psi_transport carries a Psi0 on the l grid
+    default = Simulation(Config(**bump)).state.sizes
     assert isinstance(default, CharacteristicSizes) and default.remap == "labels"
-    cells = Simulation(Config(lam=1e-2, psi_transport="characteristics")).state.sizes
+    cells = Simulation(Config(**bump, psi_transport="characteristics")).state.sizes
     assert cells.remap == "cells"
-    fv = Simulation(Config(lam=1e-2, psi_transport="finite-volume")).state.sizes
+    fv = Simulation(Config(**bump, psi_transport="finite-volume")).state.sizes
     assert isinstance(fv, SizeDistribution)
-    labels = Simulation(Config(lam=1e-2, psi_transport="characteristics-labels")).state.sizes
+    labels = Simulation(Config(**bump, psi_transport="characteristics-labels")).state.sizes
     assert labels.remap == "labels"
     with pytest.raises(ValueError, match="psi_transport"):
         Config(lam=1e-2, psi_transport="upwind")

@@ -82,7 +82,7 @@ def test_run_mean_and_spread_follow_the_bump():
     0.0318); where it straddles s = 1 the element holds cells near 2 and near 1, spread up to
     0.47.
     """
-    s = Simulation(small_config(radius=6.0)).advance()
+    s = Simulation(small_config(radius=6.0, initial_sizes="bump")).advance()
     assert s.n_remesh == 6
     f = s.fields
     phi = np.mod(s.G / LN2, 1.0)
