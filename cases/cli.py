@@ -385,6 +385,7 @@ def _handoff_options(args, flags: dict) -> tuple | None:
         handoff.final_particles(args.from_particles)
     except ValueError as err:
         raise UsageError(f"--from-particles: {err}") from None
+    flags["initial_sizes"] = "histogram"  # Psi0 is the particles' size histogram
     lam_elsewhere = args.config or any(s.strip().startswith("lam=") for s in args.set)
     if flags["lam"] is None and not lam_elsewhere:
         flags["lam"] = handoff.particle_lam(args.from_particles)

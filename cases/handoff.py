@@ -330,7 +330,8 @@ def continuum_start(run_dir: str | os.PathLike, config, alpha: float = ALPHA,
     run_dir : path
         Particle run folder (trajectory.gsd).
     config : continuum.Config
-        Mesh and Psi grid of the continuum run.
+        Mesh and Psi grid of the continuum run; its ``initial_sizes`` must be "histogram"
+        (Psi0 is the particles' size histogram, and the run's config.json says so).
     alpha, bandwidth : float
         Of the outline and of Psi0 (module docstring).
 
@@ -345,10 +346,14 @@ def continuum_start(run_dir: str | os.PathLike, config, alpha: float = ALPHA,
     Raises
     ------
     ValueError
-        A bad run folder or parameters, or an outline the mesh cannot take.
+        A bad run folder or parameters, a configuration whose ``initial_sizes`` is not
+        "histogram", or an outline the mesh cannot take.
     """
     from continuum.initial import state_from
 
+    if config.initial_sizes != "histogram":
+        raise ValueError(f"a hand-off starts from the particles' size histogram: give "
+                         f"initial_sizes='histogram' (got {config.initial_sizes!r})")
     frame = final_particles(run_dir)
     if not (math.isfinite(alpha) and alpha > 0):
         raise ValueError(f"alpha must be a positive number, got {alpha!r}")
@@ -378,7 +383,8 @@ def simulation_from_particles(run_dir: str | os.PathLike, config, alpha: float =
     The Python form of ``colony continuum --from-particles``: :func:`continuum_start`, then
     ``continuum.Simulation(config, state=state)``::
 
-        sim, record = simulation_from_particles("runs/particles", continuum.Config(lam=0.01))
+        sim, record = simulation_from_particles(
+            "runs/particles", continuum.Config(lam=0.01, initial_sizes="histogram"))
         sim.advance(radius=20.0)
     """
     from continuum import Simulation

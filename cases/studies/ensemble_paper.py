@@ -112,22 +112,24 @@ def markdown_table(out: Path) -> str:
     s = A.read_csv(Path(out) / "summary.csv")
     lines = ["| lam | seeds | t(R = 150) | central stress fit / p(0) - 1 | mean stress / "
              "continuum mean pressure - 1 (over a division period) |", "|---|---|---|---|---|"]
+    def cell(i, q, scale=1.0, digits=3, unit=""):
+        m, ci = s[f"{q}_mean"][i] * scale, s[f"{q}_ci95"][i] * scale
+        lo, hi = s[f"{q}_q025"][i] * scale, s[f"{q}_q975"][i] * scale
+        return (f"{m:.{digits}f} +- {ci:.{digits}f}{unit} (seeds {lo:.{digits}f} to "
+                f"{hi:.{digits}f}{unit})")
+
     for i, lam in enumerate(s["lam"]):
-        def cell(q, scale=1.0, digits=3, unit=""):
-            m, ci = s[f"{q}_mean"][i] * scale, s[f"{q}_ci95"][i] * scale
-            lo, hi = s[f"{q}_q025"][i] * scale, s[f"{q}_q975"][i] * scale
-            return (f"{m:.{digits}f} +- {ci:.{digits}f}{unit} (seeds {lo:.{digits}f} to "
-                    f"{hi:.{digits}f}{unit})")
         ratio = {k: s[f"mean_stress_cycle_{k}"][i] - (1.0 if k != "ci95" else 0.0)
                  for k in ("mean", "ci95", "q025", "q975")}
         rs = (f"{100 * ratio['mean']:+.1f} +- {100 * ratio['ci95']:.1f} % (seeds "
               f"{100 * ratio['q025']:+.1f} to {100 * ratio['q975']:+.1f} %)")
-        lines.append(f"| {lam:g} | {int(s['n_seeds'][i])} | {cell('t_at_radius')} | "
-                     f"{cell('rel_central_fit', 100.0, 1, ' %')} | {rs} |")
+        lines.append(f"| {lam:g} | {int(s['n_seeds'][i])} | {cell(i, 't_at_radius')} | "
+                     f"{cell(i, 'rel_central_fit', 100.0, 1, ' %')} | {rs} |")
     return "\n".join(lines) + "\n"
 
 
 def main(argv: list[str] | None = None) -> int:
+    """``python -m cases.studies.ensemble_paper [--data D] [--out O]``: reduce, print the table."""
     p = argparse.ArgumentParser(prog="python -m cases.studies.ensemble_paper",
                                 description=__doc__.split("\n\n")[0])
     p.add_argument("--data", type=Path, default=DATA, help="cases/data (default: the package's)")

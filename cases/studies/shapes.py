@@ -156,7 +156,7 @@ def run_shape(params: dict, folder: Path) -> None:
     if engine == "continuum":
         from continuum import Config
 
-        config = Config(**params)
+        config = Config(**params, initial_sizes="histogram")  # Psi0: the particles' histogram
         runs.run_continuum(config, folder, progress=False, start=continuum_start(src, config))
         return
     frame = final_particles(src)

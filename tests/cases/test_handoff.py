@@ -167,8 +167,11 @@ def test_bad_from_particles_is_one_line_before_work(args, match, particle_run, c
 
 def test_simulation_from_particles(particle_run):
     """The API: the same start as the command, the same bits every time; it steps."""
-    sim, record = handoff.simulation_from_particles(particle_run, Config(lam=0.01, n_nodes=200))
-    again, _ = handoff.continuum_start(particle_run, Config(lam=0.01, n_nodes=200))
+    config = Config(lam=0.01, n_nodes=200, initial_sizes="histogram")
+    sim, record = handoff.simulation_from_particles(particle_run, config)
+    again, _ = handoff.continuum_start(particle_run, config)
+    with pytest.raises(ValueError, match="initial_sizes='histogram'"):
+        handoff.continuum_start(particle_run, Config(lam=0.01, n_nodes=200))
     assert sim.state.points.tobytes() == again.points.tobytes()
     assert sim.state.sizes.n.tobytes() == again.sizes.n.tobytes()
     assert sim.state.area == pytest.approx(record["outline_area"], rel=0.01)
