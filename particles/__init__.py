@@ -14,12 +14,14 @@ colony measures.
 The same contract as ``continuum`` (``Config``, ``Simulation(config, state=None, out=None)``
 with ``step``, ``done``, ``advance``, ``save``, ``load``; ``run``; docs/DESIGN.md).
 
-Modules by concept: ``config`` (Config), ``state`` (ParticleState, StepRecord), ``neighbours``
-(cell lists), ``geometry`` (contacts, D gamma, the axial stress sigma = G gamma),
-``contact_solver``, ``apgd``, ``twolevel`` (the per-step convex problem), ``growth`` (growth
-law, division rule), ``stepping`` (one step, halving, adaptive dt), ``simulation``
-(Simulation, run), ``checkpoint`` (save_checkpoint, load_checkpoint, StopRequest), ``output``
-(files), ``packings`` (initial configurations), ``measures`` (colony radii).
+Modules by concept: ``config`` (Config, the options' names), ``state`` (ParticleState,
+StepRecord), ``neighbours`` (cell lists), ``geometry`` (contacts, D gamma), ``stress`` (the
+axial stress sigma = G gamma), ``growth`` (the growth law exp(-lam sigma)), ``division`` (the
+division rule), ``solvers`` (the per-step convex problem: ``solvers.problem``, and one file per
+solver, ``solvers.bbpgd``, ``solvers.apgd``, ``solvers.twolevel``), ``stepping`` (one step,
+halving, adaptive dt), ``simulation`` (Simulation, run), ``checkpoint`` (save_checkpoint,
+load_checkpoint, StopRequest), ``output`` (files), ``packings`` (initial configurations),
+``measures`` (colony radii).
 """
 
 from __future__ import annotations
@@ -27,15 +29,17 @@ from __future__ import annotations
 from importlib.metadata import PackageNotFoundError, version
 
 from .config import Config
-from .contact_solver import ContactSolveError
-from .geometry import B, axial_stress
-from .growth import divide, grow
+from .division import divide
+from .geometry import B
+from .growth import grow
 from .measures import enclosing_radius, hull_radius
 from .output import read_trajectory
 from .packings import fill_outline, from_csv, line, ring_packing, single_cell
 from .simulation import ParticleLimitError, Simulation, run
+from .solvers import ContactSolveError
 from .state import ParticleState, StepRecord
 from .stepping import OverlapError
+from .stress import axial_stress
 
 try:
     __version__ = version("colony-mechanics")

@@ -16,10 +16,20 @@ from pathlib import Path
 import numba
 
 from .geometry import B
-from .packings import FILL_LENGTHS, FILL_ORIENTATIONS
-from .stepping import SOLVERS, STEP_CONTROLS
 
-__all__ = ["Config", "EXECUTION_FIELDS", "STEP_POLICY_FIELDS"]
+__all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "SOLVERS",
+           "STEP_CONTROLS", "STEP_POLICY_FIELDS"]
+
+#: Names of the contact solvers (``Config.solver``; the solvers by name: ``solvers.BY_NAME``).
+SOLVERS = ("bbpgd", "apgd", "twolevel")
+#: Step controls of ``stepping.next_dt`` (``Config.step_control``).
+STEP_CONTROLS = ("fixed", "overlap", "cost")
+#: Orientations of ``packings.fill_outline`` (``Config.fill_orientation``; the first is the
+#: default).
+FILL_ORIENTATIONS = ("tangent", "rows")
+#: Length distributions of ``packings.sample_lengths`` (``Config.fill_lengths``; the first is
+#: the default).
+FILL_LENGTHS = ("stable", "uniform", "birth")
 
 #: Most time steps a run may take (at least): ``Config.check_budget`` refuses more. A step of the
 #: smallest colony, one cell, costs ~2.5 ms (issue 28: 120,451 steps in 5 min at dt = 1e-300),
@@ -88,7 +98,7 @@ class Config:
         Lengths of the rods of ``shape``: "stable" (density ~ l^-2 on [1, 2], default),
         "uniform" on [1, 2] or "birth" (all 1) (packings.sample_lengths).
     solver : str
-        Contact solver name, a key of SOLVERS.
+        Contact solver name, one of SOLVERS.
     output_every : int
         Trajectory frame every this many steps (and the final state).
     checkpoint_seconds : float
@@ -97,7 +107,7 @@ class Config:
     max_particles : int
         Guard: a run whose colony exceeds this raises ParticleLimitError.
     solver_tol : float or None
-        Residual tolerance of each solve (a gap, see contact_solver); None (the default):
+        Residual tolerance of each solve (a gap, see solvers.problem); None (the default):
         ``solver_tol_factor`` times tol.
     solver_tol_factor : float
         The solver's residual tolerance in units of tol when ``solver_tol`` is None: 1 since
@@ -117,7 +127,7 @@ class Config:
         (the default): one thread below stepping.THREADS_MIN_PARTICLES particles, every usable
         core from there on (stepping.solver_threads).  Give 1 when several runs share the
         cores.  The iterates do not depend on it (sums by fixed blocks,
-        contact_solver.BLOCK), so a run may resume with another value and give the same
+        solvers.bbpgd.BLOCK), so a run may resume with another value and give the same
         result.
     """
 

@@ -1,14 +1,6 @@
-"""The growth law and the division rule.
+"""The division rule, in one place: when a particle divides, into what, and the order after.
 
-Growth law: between divisions dl_n/dt = l_n exp(-lam sigma_n), sigma_n the axial stress
-(geometry.axial_stress, ``ParticleState.stress``).  Over one step the stress sigma_n is that of
-the step's contact solve (held over the step), and the length is updated exactly:
-
-    l_n(t + dt) = l_n(t) exp(dt exp(-lam sigma_n)),
-
-so at lam = 0 the total length is exactly exp(t) times its initial value (division keeps length).
-
-Division: a particle with l_n >= 2 becomes two of length l_n / 2 centred at x_n +- (l_n / 4) p_n
+A particle with l_n >= 2 becomes two of length l_n / 2 centred at x_n +- (l_n / 4) p_n
 (their outer tips are the mother's, their inner tips touch at x_n), with angles
 theta_n + eps * U(-1, 1), an independent uniform perturbation per daughter of amplitude
 eps = ``division_noise`` (radians) drawn from the run's seeded generator.  Both daughters get
@@ -19,43 +11,21 @@ to its initial ancestor a, and since division halves the length,
     l_n(t) = l_a(0) 2^(-g_n) prod_steps exp(dt exp(-lam sigma)),
 
 sigma at each step the stress of the ancestor of n then alive.
+
+After the divisions of a step the particles are put in spatial order (:func:`divide_in_order`,
+neighbours.spatial_order); ids, lineage and contact identities do not depend on that order.
+The growth law between divisions is in growth.py.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .neighbours import spatial_order
 from .state import ParticleState
 
 DIVISION_LENGTH = 2.0
 """Particles divide when l_n >= 2 (twice the birth length l0 = 1)."""
-
-
-def growth_rate(stress: np.ndarray, lam: float) -> np.ndarray:
-    """Specific growth rate g_n = (dl_n/dt) / l_n = exp(-lam sigma_n)."""
-    return np.exp(-lam * stress)
-
-
-def grow(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.ndarray:
-    """Lengths after a step: l(t + dt) = l exp(dt exp(-lam sigma)), sigma held over the step.
-
-    Parameters
-    ----------
-    length : array (N,)
-        l_n at the start of the step.
-    stress : array (N,)
-        Axial stress sigma_n of the step.
-    lam : float
-        Stress sensitivity lambda >= 0.
-    dt : float
-        Step length.
-
-    Returns
-    -------
-    array (N,)
-        The lengths l_n(t + dt).
-    """
-    return length * np.exp(dt * growth_rate(stress, lam))
 
 
 def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
@@ -109,3 +79,16 @@ def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
     state.stress[idx] = 0.0
     state.append(x - ox, y - oy, th + eps[:, 1], half, new_ids[m:], mother, gen)
     return m
+
+
+def divide_in_order(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
+    """The division rule (:func:`divide`), then the particles in spatial order.
+
+    Reordered (neighbours.spatial_order) only if a particle divided: the daughters that
+    :func:`divide` appends are far in memory from their neighbours in space otherwise.
+    Returns the number of divisions.
+    """
+    divisions = divide(state, rng, noise)
+    if divisions:
+        state.permute(spatial_order(state.x, state.y))
+    return divisions

@@ -1,4 +1,4 @@
-"""Contact geometry of sphero-cylinders: closest points, gaps, normals, arms, the axial stress.
+"""Contact geometry of sphero-cylinders: closest points, gaps, normals, arms, G coefficients.
 
 Particle n has centre x_n, axis p_n = (cos theta_n, sin theta_n), tip-to-tip length l_n and
 inner segment of length L_n = l_n - b.  For a candidate pair (i, j), i < j, the four
@@ -25,8 +25,8 @@ Crossing segments (distance 0, which the overlap tolerance rules out in a run) a
 with gap -b.
 
 From contact forces gamma >= 0 this module gives the generalised forces F = D gamma
-(:func:`generalised_forces`) and the axial stress sigma = G gamma (:func:`axial_stress`), the
-load that slows growth (growth.py).  ``B`` is the particle diameter b of the whole package.
+(:func:`generalised_forces`); the axial stress sigma = G gamma, the load that slows growth
+(growth.py), is stress.axial_stress.  ``B`` is the particle diameter b of the whole package.
 """
 
 from __future__ import annotations
@@ -330,7 +330,7 @@ def canonical_keys(keys: np.ndarray) -> np.ndarray:
     ``a``, ``b`` are the pair's ids, ``code`` its generating endpoint (0: a+, 1: a-, 2: b+,
     3: b-); when a > b the pair is written (b, a) and the code seen from it (code ^ 2: a+ <->
     b+, a- <-> b-).  So a contact keeps its identity when the particles are reordered in
-    memory (stepping.divide_in_order), and keys saved by earlier versions (index order) read
+    memory (division.divide_in_order), and keys saved by earlier versions (index order) read
     the same.
     """
     keys = np.asarray(keys, dtype=np.int64)
@@ -400,31 +400,6 @@ def generalised_forces(c: Contacts, gamma: np.ndarray, n: int) -> tuple[np.ndarr
     ti = c.rix * c.ny - c.riy * c.nx
     tz = np.bincount(c.j, gamma * tj, n) - np.bincount(c.i, gamma * ti, n)
     return fx, fy, tz
-
-
-def axial_stress(c: Contacts, gamma: np.ndarray, n: int) -> np.ndarray:
-    """Axial stress (load) sigma = G gamma of every particle, the quantity of the growth law.
-
-    sigma_n = sum over n's contacts k of G_nk gamma_k, G_nk = -d phi_k / d l_n: the generalised
-    force conjugate to the length l_n (model.md); ``(1/2) gamma_k |p_n . n_k|`` for a contact at
-    a segment end.  Called ``stress`` everywhere in the package (``ParticleState.stress``,
-    particles.csv, the trajectory's ``log/particles/stress``).
-
-    Parameters
-    ----------
-    c : Contacts
-        The contacts (pairs i, j and growth coefficients G_ik, G_jk) of the configuration.
-    gamma : array (M,)
-        Contact forces gamma_k >= 0.
-    n : int
-        Number of particles N.
-
-    Returns
-    -------
-    sigma : array (N,)
-        Axial stress sigma_n = sum_k G_nk gamma_k of every particle (0 without contacts).
-    """
-    return np.bincount(c.i, c.gi * gamma, n) + np.bincount(c.j, c.gj * gamma, n)
 
 
 def max_overlap(

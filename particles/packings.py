@@ -21,19 +21,17 @@ import os
 import numpy as np
 from numba import njit
 
-from .geometry import B, axial_stress, detect_contacts, generalised_forces, segments_cross
+from .config import FILL_LENGTHS, FILL_ORIENTATIONS
+from .geometry import B, detect_contacts, generalised_forces, segments_cross
 from .growth import grow
 from .output import read_init
 from .state import ParticleState
 from .stepping import warm_start
+from .stress import axial_stress
 
 __all__ = ["FILL_LENGTHS", "FILL_ORIENTATIONS", "fill_estimate", "fill_outline", "from_csv", "line",
            "packing_fractions", "ring_packing", "sample_lengths", "single_cell", "warm_problem"]
 
-#: Orientations of :func:`fill_outline` (the first is the default).
-FILL_ORIENTATIONS = ("tangent", "rows")
-#: Length distributions of :func:`sample_lengths` (the first is the default).
-FILL_LENGTHS = ("stable", "uniform", "birth")
 #: Lengths waiting for a place in :func:`fill_outline` (the oldest that fits is placed).
 FILL_WINDOW = 8
 #: Advance along a guide of :func:`fill_outline` after a rejected place.

@@ -3,7 +3,7 @@
 In the manner of Dedalus's solver (``step``, ``evolve``) and JAX-MD's ``init_fn`` / ``apply_fn``:
 one explicit mutable state (``state.ParticleState``), a ``step()`` that advances it by one
 time step (stepping.robust_step: detect, solve, move and grow, re-solve, halving; then the
-division rule and the spatial order, stepping.divide_in_order) and returns a typed
+division rule and the spatial order, division.divide_in_order) and returns a typed
 :class:`~particles.state.StepRecord` of what happened, and
 :func:`run`, a short loop that hands each step to the output writers (output.RunOutput), the
 checkpointer (checkpoint.py) and the progress bar, and writes the final files.
@@ -44,10 +44,11 @@ from .checkpoint import (
     save_checkpoint,
 )
 from .config import STEP_POLICY_FIELDS, Config
+from .division import divide_in_order
 from .output import RunOutput, write_config, write_history
 from .packings import from_csv, single_cell
 from .state import ParticleState, StepRecord
-from .stepping import Detections, detect, divide_in_order, next_dt, robust_step
+from .stepping import Detections, detect, next_dt, robust_step
 
 log = logging.getLogger(__name__)
 

@@ -4,11 +4,11 @@ The state is one mutable object, what a checkpoint saves; a step's record is one
 history.csv.
 
 Particle n: centre (x_n, y_n), angle theta_n (axis p_n = (cos, sin)), tip-to-tip length l_n,
-axial stress sigma_n = (G gamma)_n (``stress``, geometry.axial_stress; the load of the growth
+axial stress sigma_n = (G gamma)_n (``stress``, stress.axial_stress; the load of the growth
 law), a unique integer id (ids are never reused: they identify contacts between steps for the
 solver's warm start) and its lineage: ``parent`` = the id of the particle whose division made
 it (-1 for an initial particle) and ``generation`` = the number of divisions between it and its
-initial ancestor (0 for an initial particle; growth.divide).
+initial ancestor (0 for an initial particle; division.divide).
 
 Beyond the particles the state holds what the next step depends on: the time t, the step
 count, the random generator of the division noise, the previous step's contact forces by

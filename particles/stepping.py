@@ -3,7 +3,7 @@
 One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
 
 1. candidate pairs by cell lists, contacts with gap phi_k <= ``contact_margin`` (geometry.py);
-2. the convex problem E(gamma) solved by the selected solver (contact_solver.py), warm-started
+2. the convex problem E(gamma) solved by the selected solver (solvers/), warm-started
    from the previous step's forces matched by contact identity (particle ids + endpoint code);
 3. update x += dt F / l, theta += dt 12 T / l^3 (F, T = D gamma, l at the start of the step),
    l <- l exp(dt exp(-lam sigma)), sigma = G gamma;
@@ -14,7 +14,7 @@ One step of length dt from state (x, theta, l) (model.md, "Discrete model"):
    max(PASS_ITERATION_FLOOR, iterations of step 2) iterations, else OverlapError or
    ContactSolveError, upon which the step is redone from the same state as two steps of dt/2
    (``robust_step``, nested up to dt/16);
-5. divide particles with l >= 2 and put them in spatial order (:func:`divide_in_order`; done
+5. divide particles with l >= 2 and put them in spatial order (division.divide_in_order; done
    by ``Simulation.step`` after this module's :func:`robust_step`, with the time, step count
    and warm start).
 
@@ -38,25 +38,15 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
-from .apgd import solve_contacts_apgd
-from .contact_solver import ContactSolveError, solve_contacts
-from .geometry import Contacts, axial_stress, find_contacts, generalised_forces
-from .growth import divide, grow
-from .neighbours import candidate_pairs, spatial_order
+from .geometry import Contacts, find_contacts, generalised_forces
+from .growth import grow
+from .neighbours import candidate_pairs
+from .solvers import BY_NAME, ContactSolveError
 from .state import ParticleState
-from .twolevel import solve_contacts_twolevel
+from .stress import axial_stress
 
 if TYPE_CHECKING:
     from .config import Config
-
-SOLVERS = {
-    "bbpgd": solve_contacts,
-    "apgd": solve_contacts_apgd,
-    "twolevel": solve_contacts_twolevel,
-}
-"""Contact solvers by name: callables (contacts, length, dt, lam, gamma0, tol, maxiter, growth)
--> (gamma, residual history)."""
-
 
 THREADS_MIN_PARTICLES = 20_000
 """``Config.threads = "auto"``: more than one thread from this many particles on.  Measured on
@@ -69,7 +59,7 @@ def solver_threads(threads: int | str, n: int) -> int:
 
     ``threads`` itself when it is a number; for "auto" one thread below
     THREADS_MIN_PARTICLES and every core the process may use (at most NUMBA_NUM_THREADS)
-    from there on.  The iterates do not depend on it (contact_solver.BLOCK).
+    from there on.  The iterates do not depend on it (solvers.bbpgd.BLOCK).
     """
     if threads != "auto":
         return threads
@@ -217,7 +207,7 @@ def step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
     accumulates the solver iterations, also of a step that raises; ``detections`` (optional)
     keeps the last detection for the next (:class:`Detections`).
     """
-    solver = SOLVERS[config.solver]
+    solver = BY_NAME[config.solver]
     numba.set_num_threads(solver_threads(config.threads, state.n))
     stol = config.effective_solver_tol
     margin = config.contact_margin
@@ -306,22 +296,6 @@ def robust_step(state: ParticleState, config: Config, dt: float,  # noqa: PLR091
         info[k] = max(a[k], b[k])
     return info, warm
 
-
-def divide_in_order(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
-    """The division rule (growth.divide), then the particles in spatial order.
-
-    Reordered (neighbours.spatial_order) only if a particle divided: the daughters that
-    growth.divide appends are far in memory from their neighbours in space otherwise.
-    Returns the number of divisions.
-    """
-    divisions = divide(state, rng, noise)
-    if divisions:
-        state.permute(spatial_order(state.x, state.y))
-    return divisions
-
-
-STEP_CONTROLS = ("fixed", "overlap", "cost")
-"""Step controls of :func:`next_dt` (``Config.step_control``)."""
 
 DT_GROWTH, DT_SHRINK = 1.02, 0.7
 """Factors of the "cost" control of :func:`next_dt`."""

@@ -98,11 +98,13 @@ from pathlib import Path
 
 import numpy as np
 
-from particles.apgd import solve_contacts_apgd
-from particles.contact_solver import linearised_gap, solve_contacts
-from particles.geometry import axial_stress, detect_contacts
+from particles.geometry import detect_contacts
 from particles.packings import ring_packing, warm_problem
-from particles.twolevel import solve_contacts_twolevel
+from particles.solvers.apgd import solve_contacts_apgd
+from particles.solvers.bbpgd import solve_contacts
+from particles.solvers.problem import linearised_gap
+from particles.solvers.twolevel import solve_contacts_twolevel
+from particles.stress import axial_stress
 
 SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1),
            "twolevel": (solve_contacts_twolevel, 1)}

@@ -36,11 +36,11 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from particles.config import Config
-from particles.growth import divide
+from particles.config import SOLVERS, Config
+from particles.division import divide
 from particles.output import read_init
 from particles.state import ParticleState
-from particles.stepping import SOLVERS, step
+from particles.stepping import step
 
 DEFAULT_FOLDER = Path("runs/bench_particles")
 

@@ -55,10 +55,12 @@ from pathlib import Path
 
 import numpy as np
 
+import particles.division as division
 import particles.stepping as stepping
 from cases import analysis as A
 from particles import Config, run
 from particles.checkpoint import load_checkpoint
+from particles.config import SOLVERS, STEP_CONTROLS
 from particles.neighbours import spatial_order
 
 COLUMNS = ("lam", "policy", "uncapped", "cpu_s", "wall_s", "steps", "halved", "main_iterations",
@@ -70,15 +72,15 @@ CHECKPOINT_COLUMNS = ("checkpoint", "lam", "policy", "solver", "solver_tol", "th
 
 
 def parse_policy(text: str) -> tuple[str, float, float | None]:
-    """'CONTROL:DT[:TARGET]' -> (CONTROL, DT, TARGET or None), CONTROL in stepping.STEP_CONTROLS.
+    """'CONTROL:DT[:TARGET]' -> (CONTROL, DT, TARGET or None), CONTROL in STEP_CONTROLS.
 
     TARGET (control "overlap" only) replaces stepping.MAIN_OVERLAP for this policy.
     """
     kind, _, rest = text.partition(":")
     dt, *target = rest.split(":")
     message = (f"policy must be CONTROL:DT[:TARGET] with CONTROL in "
-               f"{', '.join(stepping.STEP_CONTROLS)} (TARGET: overlap only)")
-    if kind not in stepping.STEP_CONTROLS or len(target) > 1 or (target and kind != "overlap"):
+               f"{', '.join(STEP_CONTROLS)} (TARGET: overlap only)")
+    if kind not in STEP_CONTROLS or len(target) > 1 or (target and kind != "overlap"):
         raise ValueError(f"{message}, got {text!r}")
     try:
         values = [float(v) for v in (dt, *target)]
@@ -159,7 +161,7 @@ def measure_checkpoint(path: str | Path, policy: str, duration: float,  # noqa: 
             theta = state.theta.copy()
             info, warm = stepping.robust_step(state, config, dt, warm, detections=detections)
             turns.append(np.abs(state.theta - theta))
-            stepping.divide_in_order(state, rng, config.division_noise)
+            division.divide_in_order(state, rng, config.division_noise)
             rows.append(info)
             t += dt
             dt = stepping.next_dt(dt, info, dt_max, control)
@@ -237,7 +239,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
                     help="with --checkpoint: time advanced per policy")
     ap.add_argument("--threads", type=int, default=None,
                     help="with --checkpoint: contact solver threads (default: the run's)")
-    ap.add_argument("--solver", choices=sorted(stepping.SOLVERS), default=None,
+    ap.add_argument("--solver", choices=sorted(SOLVERS), default=None,
                     help="with --checkpoint: contact solver (default: the run's)")
     ap.add_argument("--solver-tol", type=float, default=None,
                     help="with --checkpoint: the solver's residual tolerance (default: the run's)")

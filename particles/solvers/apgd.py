@@ -1,9 +1,9 @@
 """Per-step contact problem by Jacobi-scaled APGD with adaptive restart, in Numba.
 
-Same problem, residual and stopping test as contact_solver.py (BBPGD), so the two are
+Same problem, residual and stopping test as bbpgd.py (BBPGD), so the two are
 interchangeable (``Config.solver``).  One time step is the convex problem over the
 contact forces gamma >= 0 (model.md, with the exact exponential length increment of
-contact_solver.py)::
+problem.py)::
 
     minimise  E(gamma),   grad E(gamma) = q(gamma) = Phi + dt D^T M D gamma - G^T dl(G gamma),
     dl_n(sigma) = l_n (exp(dt exp(-lam sigma_n)) - 1),
@@ -55,10 +55,10 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .contact_solver import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - G^T dl
-from .contact_solver import _residual as residual  # max_k |min(a_kk gam_k, q_k)|
-from .contact_solver import finish, incidence, particle_sums, prepare, problem_arrays
-from .geometry import Contacts
+from ..geometry import Contacts
+from .problem import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - G^T dl
+from .problem import _residual as residual  # max_k |min(a_kk gam_k, q_k)|
+from .problem import finish, incidence, particle_sums, prepare, problem_arrays
 
 NAME = "apgd"
 """Name under which the engine may register this solver (Config.solver)."""
@@ -263,7 +263,7 @@ def solve_contacts_apgd(
     """Minimise E(gamma) over gamma >= 0 by Jacobi-scaled APGD with adaptive restart.
 
     Same signature, problem, residual and stopping test as
-    :func:`particles.contact_solver.solve_contacts`.
+    :func:`particles.solvers.bbpgd.solve_contacts`.
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Per-step contact problem by a two-level method: BBPGD smoothing + coarse correction.
 
 The coarse correction is a smooth multiplicative correction of the contact forces (issue 4).
-Same problem, residual and stopping test as contact_solver.py (BBPGD): minimise over
+Same problem, residual and stopping test as bbpgd.py (BBPGD, problem.py): minimise over
 gamma >= 0 ::
 
     E(gamma) = gamma . Phi + (dt/2) gamma . (D^T M D) gamma + sum_n l_n H(sigma_n),
@@ -39,8 +39,10 @@ import scipy.sparse as sp
 from numba import njit
 from scipy.sparse.linalg import splu
 
-from .contact_solver import bb_smooth, finish, incidence, prepare
-from .geometry import B, Contacts
+from ..geometry import B, Contacts
+from ..growth import growth_rate
+from .bbpgd import bb_smooth
+from .problem import finish, incidence, prepare
 
 NAME = "twolevel"
 """Name under which the engine may register this solver (Config.solver)."""
@@ -156,7 +158,7 @@ def coarse_correction(gam, q, p, s, g, length, dt, lam, growth):
     hc = sa.T @ sa
     if growth and lam > 0:
         sig = g @ gam
-        r = dt * np.exp(-lam * sig)
+        r = dt * growth_rate.py_func(lam, sig)  # NumPy, on arrays (growth.growth_rate)
         hc = hc + ga.T @ sp.diags(length * lam * r * np.exp(r)) @ ga
     gc = a.T @ q
     d = hc.diagonal()
@@ -186,7 +188,7 @@ def solve_contacts_twolevel(
     """Minimise E(gamma) over gamma >= 0 by BBPGD smoothing + multiplicative coarse correction.
 
     Same signature, problem, residual and stopping test as
-    :func:`particles.contact_solver.solve_contacts`; ``maxiter`` counts smoothing iterations.
+    :func:`particles.solvers.bbpgd.solve_contacts`; ``maxiter`` counts smoothing iterations.
     The BB step carries over a coarse correction (it is not reset).
 
     Parameters

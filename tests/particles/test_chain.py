@@ -23,10 +23,11 @@ import pytest
 from scipy.linalg import solve_banded
 from scipy.optimize import brentq, root
 
-from particles.apgd import solve_contacts_apgd
-from particles.contact_solver import linearised_gap, solve_contacts
-from particles.geometry import axial_stress
-from particles.twolevel import solve_contacts_twolevel
+from particles.solvers.apgd import solve_contacts_apgd
+from particles.solvers.bbpgd import solve_contacts
+from particles.solvers.problem import linearised_gap
+from particles.solvers.twolevel import solve_contacts_twolevel
+from particles.stress import axial_stress
 
 
 def residual_reference(gamma, lengths, dt, lam):

@@ -13,17 +13,17 @@ import numpy as np
 import pytest
 
 import particles
-from particles.apgd import apgd_kernel, lipschitz_bound, solve_contacts_apgd
-from particles.contact_solver import (
-    BLOCK,
+from particles.geometry import detect_contacts, find_contacts, generalised_forces
+from particles.packings import ring_packing, warm_problem
+from particles.solvers.apgd import apgd_kernel, lipschitz_bound, solve_contacts_apgd
+from particles.solvers.bbpgd import BLOCK, solve_contacts
+from particles.solvers.problem import (
     ContactSolveError,
     incidence,
     linearised_gap,
     problem_arrays,
-    solve_contacts,
 )
-from particles.geometry import axial_stress, detect_contacts, find_contacts, generalised_forces
-from particles.packings import ring_packing, warm_problem
+from particles.stress import axial_stress
 
 
 def diagonal(c, length, dt):
@@ -159,7 +159,7 @@ def test_bad_input_raises_value_error(chain):
 
 def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
     """A small grown colony (lam = 1e-2) with APGD selected by name in the engine."""
-    assert particles.stepping.SOLVERS["apgd"] is solve_contacts_apgd
+    assert particles.solvers.BY_NAME["apgd"] is solve_contacts_apgd
     cfg = dict(lam=1e-2, time=3.0, dt=0.01, division_noise=0.02, seed=1)
     a = particles.run(particles.Config(solver="apgd", **cfg))
     ca, cb = a.state, particles.run(particles.Config(solver="bbpgd", **cfg)).state
@@ -172,13 +172,13 @@ def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
-@pytest.mark.parametrize("name", sorted(particles.stepping.SOLVERS))
+@pytest.mark.parametrize("name", sorted(particles.solvers.BY_NAME))
 def test_solvers_give_the_same_iterates_on_any_number_of_threads(name):
-    """More contacts than contact_solver.BLOCK, so the blocked sums have several blocks."""
+    """More contacts than solvers.bbpgd.BLOCK, so the blocked sums have several blocks."""
     x, y, th, length = ring_packing(2500, seed=7)
     c = detect_contacts(x, y, th, length, 0.1)
     assert len(c) > 2 * BLOCK
-    solve = particles.stepping.SOLVERS[name]
+    solve = particles.solvers.BY_NAME[name]
     out = []
     for threads in (1, 2):
         numba.set_num_threads(threads)
@@ -231,7 +231,7 @@ def dense_problem(c, length, dt):
 @pytest.mark.parametrize("nu", [1, 2, 7, 8])
 def test_bbpgd_iterates_are_textbook_bbpgd(grown, lam, nu):
     """bb_smooth's fused passes and swapped buffers against BBPGD written out in NumPy."""
-    from particles.contact_solver import bb_smooth
+    from particles.solvers.bbpgd import bb_smooth
 
     x, y, th, length = grown
     c = detect_contacts(x, y, th, length, 0.1)

@@ -9,15 +9,16 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from particles.contact_solver import ContactSolveError, solve_contacts
 from particles.geometry import (
-    axial_stress,
     find_contacts,
     generalised_forces,
     max_overlap,
     segment_distance,
 )
 from particles.neighbours import candidate_pairs
+from particles.solvers.bbpgd import solve_contacts
+from particles.solvers.problem import ContactSolveError
+from particles.stress import axial_stress
 
 B = 0.5
 

@@ -1,6 +1,6 @@
 """Lineage of the particles and the time of each trajectory frame.
 
-Lineage: state.ParticleState.parent, .generation; growth.divide. Time: log/Time. Checked by
+Lineage: state.ParticleState.parent, .generation; division.divide. Time: log/Time. Checked by
 invariants of the division tree, not by stored trajectories.
 """
 
@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from particles import Config, run
-from particles.growth import divide
+from particles.division import divide
 from particles.output import read_trajectory
 from particles.state import ParticleState
 

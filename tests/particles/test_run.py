@@ -10,10 +10,10 @@ import pytest
 
 import particles.stepping as stepping
 from particles import Config, Simulation, run
-from particles.contact_solver import ContactSolveError
+from particles.division import divide
 from particles.geometry import generalised_forces, max_overlap
-from particles.growth import divide
 from particles.simulation import initial_state
+from particles.solvers import ContactSolveError, solve_contacts
 from particles.stepping import MAX_HALVINGS, next_dt, step
 
 
@@ -370,9 +370,9 @@ def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
     def no_main_solve(c, length, dt, lam, gamma0, tol, maxiter, growth):
         if growth:
             return np.zeros(len(c)), np.zeros(1)
-        return stepping.solve_contacts(c, length, dt, lam, gamma0, tol, maxiter, growth)
+        return solve_contacts(c, length, dt, lam, gamma0, tol, maxiter, growth)
 
-    monkeypatch.setattr(stepping, "SOLVERS", {"bbpgd": no_main_solve})
+    monkeypatch.setattr(stepping, "BY_NAME", {"bbpgd": no_main_solve})
     info, _ = step(state.copy(), cfg, cfg.dt, warm)
     assert info["passes"] > 0 and 2 < info["pass_iterations"] <= info["passes"] * 1000
     monkeypatch.setattr(stepping, "PASS_ITERATION_FLOOR", 2)

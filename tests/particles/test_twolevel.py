@@ -9,21 +9,22 @@ import pytest
 from scipy.linalg import solve_banded
 from scipy.optimize import root
 
-from particles.contact_solver import (
+from particles.geometry import B, detect_contacts
+from particles.packings import ring_packing
+from particles.solvers.bbpgd import solve_contacts
+from particles.solvers.problem import (
     ContactSolveError,
     linearised_gap,
     problem_arrays,
-    solve_contacts,
 )
-from particles.geometry import B, axial_stress, detect_contacts
-from particles.packings import ring_packing
-from particles.twolevel import (
+from particles.solvers.twolevel import (
     coarse_correction,
     contact_operators,
     contact_points,
     hat_prolongation,
     solve_contacts_twolevel,
 )
+from particles.stress import axial_stress
 
 DT = 0.005
 

@@ -1,0 +1,74 @@
+"""The growth law, written once: dl_n/dt = l_n exp(-lam sigma_n).
+
+Between divisions a particle grows at the specific rate g_n = exp(-lam sigma_n)
+(:func:`growth_rate`), sigma_n the axial stress (stress.axial_stress, ``ParticleState.stress``).
+Over one step the stress sigma_n is that of the step's contact solve (held over the step), and
+the length is updated exactly:
+
+    l_n(t + dt) = l_n(t) exp(dt exp(-lam sigma_n))        (:func:`grow`),
+
+so at lam = 0 the total length is exactly exp(t) times its initial value (division keeps length).
+The contact solvers' kernels predict the same growth inside the solve, as the exact increment
+l_n (exp(dt exp(-lam sigma_n)) - 1) (:func:`length_increment`; solvers/problem.py).
+
+:func:`growth_rate` is a Numba function (the kernels call it per particle); :func:`grow` and
+the two-level solver's coarse step evaluate the same expression with NumPy on arrays
+(``growth_rate.py_func``).  The division rule is in division.py.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def growth_rate(lam, sigma):
+    """Specific growth rate g = (dl/dt) / l = exp(-lam sigma), the growth law.
+
+    Parameters
+    ----------
+    lam : float
+        Stress sensitivity lambda >= 0.
+    sigma : float or array
+        Axial stress sigma_n.
+
+    Returns
+    -------
+    float or array
+        exp(-lam sigma).  Numba; ``growth_rate.py_func(lam, sigma)`` is the same expression in
+        NumPy (what :func:`grow` uses on arrays).
+    """
+    return np.exp(-lam * sigma)
+
+
+@njit(cache=True)
+def length_increment(length, lam, sigma, dt):
+    """Exact length increment of a step, l (exp(dt exp(-lam sigma)) - 1), in Numba.
+
+    The growth the contact solvers predict inside a solve (solvers/problem.particle_moves);
+    :func:`grow` applies l + this (as l exp(dt exp(-lam sigma))).
+    """
+    return length * np.expm1(dt * growth_rate(lam, sigma))
+
+
+def grow(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.ndarray:
+    """Lengths after a step: l(t + dt) = l exp(dt exp(-lam sigma)), sigma held over the step.
+
+    Parameters
+    ----------
+    length : array (N,)
+        l_n at the start of the step.
+    stress : array (N,)
+        Axial stress sigma_n of the step.
+    lam : float
+        Stress sensitivity lambda >= 0.
+    dt : float
+        Step length.
+
+    Returns
+    -------
+    array (N,)
+        The lengths l_n(t + dt).
+    """
+    return length * np.exp(dt * growth_rate.py_func(lam, stress))
