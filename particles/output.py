@@ -121,15 +121,28 @@ def write_particles(out: Path, state: ParticleState) -> None:
 
 
 def read_init(path: str | os.PathLike) -> tuple[np.ndarray, ...]:
-    """Read an initial condition CSV with columns x,y,theta,length (header required)."""
+    """Read an initial condition CSV with columns x,y,theta,length (header required).
+
+    ValueError (one line naming the file) for a missing file or header, a row shorter than the
+    header (its row number and line) or a non-numeric value.
+    """
     p = Path(path)
     if not p.is_file():
         raise ValueError(f"init file not found: {p}")
     with open(p, newline="") as f:
-        rows = list(csv.DictReader(f))
+        reader = csv.DictReader(f)
+        rows, lines = [], []
+        for r in reader:
+            rows.append(r)
+            lines.append(reader.line_num)
     need = ("x", "y", "theta", "length")
     if not rows or any(c not in rows[0] for c in need):
         raise ValueError(f"init file {p} needs a header with columns x,y,theta,length")
+    for k, r in enumerate(rows):
+        missing = [c for c in need if r[c] is None]  # DictReader's None: the row ended before
+        if missing:
+            raise ValueError(f"init file {p}: row {k + 1} (line {lines[k]}) is shorter than the "
+                             f"header, no value for {','.join(missing)}")
     try:
         return tuple(np.array([float(r[c]) for r in rows]) for c in need)
     except ValueError as e:

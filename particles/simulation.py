@@ -114,7 +114,9 @@ def check_initial(config: Config, require_stop: bool = True,
                   state: ParticleState | None = None) -> ParticleState:
     """The initial state of ``config``, checked before any step.
 
-    Checks a goal (with ``require_stop``), no overlap beyond ``config.tol`` (every gap
+    Checks a goal (with ``require_stop``), what this machine can do (``Config.check_budget``:
+    the steps and the colony, first before reading any state, then the steps of a radius goal
+    from the initial colony's radius), no overlap beyond ``config.tol`` (every gap
     phi_k >= -tol), and a ``radius`` goal larger than the initial colony radius (the
     configuration itself was checked when it was made).
 
@@ -140,6 +142,7 @@ def check_initial(config: Config, require_stop: bool = True,
     """
     if require_stop:
         require_goal(config)
+    config.check_budget()  # before any work: a time goal, a radius goal from one cell
     state = initial_state(config) if state is None else state
     c = detect(state, 0.0)
     if c.gap.size and c.gap.min() < -config.tol:
@@ -153,6 +156,7 @@ def check_initial(config: Config, require_stop: bool = True,
     if config.radius is not None and config.radius <= r0:
         raise ValueError(f"radius {config.radius:g} is not larger than the initial colony "
                          f"radius {r0:.6g}: nothing to grow")
+    config.check_budget(r0)  # a radius goal from this colony (init file, shape)
     return state
 
 
@@ -219,8 +223,11 @@ class Simulation:
             if change_step_policy:
                 write_config(out, config, step=self.state.step, policy=STEP_POLICY_FIELDS)
             return
-        self.state = (check_initial(config, require_stop=False) if state is None
-                      else state.copy())
+        if state is None:
+            self.state = check_initial(config, require_stop=False)
+        else:
+            config.check_budget(state.enclosing_radius())  # before any work, as check_initial
+            self.state = state.copy()
         if self.state.rng is None:
             self.state.rng = np.random.default_rng(config.seed)
         if self.state.dt_next is None:
@@ -485,7 +492,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     Raises
     ------
     ValueError
-        No goal in ``config``, or a mismatched checkpoint.
+        No goal in ``config``, a run this machine cannot do (``Config.check_budget``, before
+        any work), or a mismatched checkpoint.
     OverlapError, ParticleLimitError, ContactSolveError
         A step failed (see their docstrings).
     """

@@ -1,0 +1,59 @@
+"""From Python, the engine refuses what the CLI refuses, before any work, in one line."""
+
+import numpy as np
+import pytest
+
+import particles
+from particles import Config, Simulation, run
+from particles.output import read_init
+
+
+def test_run_refuses_millions_of_steps_before_any_work(tmp_path):
+    """Config(lam=1e-2, dt=1e-300) to a radius: Config.check_budget, as the CLI's."""
+    config = Config(lam=1e-2, radius=8.0, dt=1e-300)
+    with pytest.raises(ValueError, match=r"dt = 1e-300 takes .* steps to radius 8"):
+        run(config, tmp_path)
+    assert list(tmp_path.iterdir()) == []  # nothing written
+    with pytest.raises(ValueError, match="steps to radius 8"):
+        Simulation(config)
+    with pytest.raises(ValueError, match="steps to time 1"):
+        run(Config(lam=0.0, time=1.0, dt=1e-9))
+
+
+def test_budget_of_a_given_state_and_an_init_file(tmp_path):
+    """A radius goal's steps from the initial colony: a given state, an init file."""
+    config = Config(lam=1e-2, radius=50.0, dt=1e-7)
+    with pytest.raises(ValueError, match="steps to radius 50 from the initial radius 0.5"):
+        run(config, state=particles.single_cell())
+    init = tmp_path / "init.csv"
+    init.write_text("x,y,theta,length\n0,0,0,1\n2,0,0,1\n")
+    with pytest.raises(ValueError, match="steps to radius 50 from the initial radius 1.5"):
+        Simulation(Config(lam=1e-2, radius=50.0, dt=1e-7, init=str(init)))
+
+
+def test_a_simulation_stepped_by_hand_has_no_goal_to_refuse():
+    """Without radius or time there is no budget: a tiny dt steps."""
+    sim = Simulation(Config(lam=0.0, dt=1e-12))
+    assert sim.step().dt == 1e-12
+
+
+def test_init_row_shorter_than_its_header(tmp_path):
+    init = tmp_path / "short.csv"
+    init.write_text("x,y,theta,length\n0,0,0,1\n\n3,0,0\n")
+    with pytest.raises(ValueError) as err:
+        read_init(init)
+    message = str(err.value)
+    assert message == (f"init file {init}: row 2 (line 4) is shorter than the header, "
+                       "no value for length")
+    assert "\n" not in message
+    with pytest.raises(ValueError, match=r"row 2 \(line 4\) is shorter"):
+        run(Config(lam=0.0, time=0.1, init=str(init)))
+
+
+def test_init_file_reads(tmp_path):
+    """A well-formed file still reads (and a longer row's extra values are ignored)."""
+    p = tmp_path / "ok.csv"
+    p.write_text("x,y,theta,length\n0,0,0,1\n3,0,0.5,1.5,9\n")
+    x, y, theta, length = read_init(p)
+    np.testing.assert_array_equal(x, [0.0, 3.0])
+    np.testing.assert_array_equal(length, [1.0, 1.5])
