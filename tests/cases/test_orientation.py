@@ -124,3 +124,22 @@ def test_smoke_case(tmp_path):
     assert_figures([p for p in paths if p.suffix == ".png"])
     assert "isotropic floor" in (tmp_path / "out" / "results.md").read_text()
     assert len(list(Path(tmp_path / "out" / "vtu").glob("*.vtu"))) == 4
+
+
+def test_committed_medium(tmp_path):
+    """cases/data/orientation (radius 40, 4 seeds per lam): redrawn; what docs/results.md says.
+
+    Radial alignment beyond R/2 at lam = 1e-2 is more than 4 seed std above that at lam = 0;
+    at every lam the edge annulus is tangent (q_r < -0.15) and the order above its floor.
+    """
+    data = Path(case.__file__).parents[1] / "data" / "orientation"
+    assert (data / "README.md").is_file()
+    paths = case.plot(data, tmp_path)
+    assert_figures([p for p in paths if p.suffix == ".png"])
+    s = A.read_csv(data / "summary.csv")
+    assert s["seeds"].tolist() == [4, 4, 4, 4]
+    gap = s["q_r_outer_mean"][3] - s["q_r_outer_mean"][0]
+    assert gap > 4 * max(s["q_r_outer_std"][0], s["q_r_outer_std"][3])
+    p = A.read_csv(data / "profile.csv")
+    assert np.all(p["q_r_mean"][p["r"] == p["r"].max()] < -0.15)
+    assert np.all(s["S_local_mean"] > 2 * s["S_local_iso_mean"])
