@@ -6,9 +6,10 @@ the mesh, from the nodal velocity u of the state:
 
 - grad u on every triangle from the P1 interpolant of u (constant per element), averaged to the
   nodes weighted by the triangle areas (the patch average, as continuum.velocity's recovery
-  without SPR), so E_n = sum_T |T| E_T / sum_T |T| over the triangles T around node n;
-- in polar coordinates about the centre c (default: the area centroid of the boundary), with
-  e_r = (x - c)/|x - c| and e_t = z x e_r::
+  without SPR), so E_n = sum_T A_T E_T / sum_T A_T over the triangles T around node n (A_T
+  the area of T);
+- in polar coordinates about the centre c (default: the area centroid of the mesh), with
+  e_r = (x - c) / norm(x - c) and e_t = z x e_r::
 
       e_rr = e_r . E e_r,   e_tt = e_t . E e_t,   e_rt = e_r . E e_t,
 
@@ -59,15 +60,15 @@ def velocity_gradient(points: NDArray, triangles: NDArray, u: NDArray) -> NDArra
 
     On each triangle the P1 interpolant of u has the constant gradient
     L_T = sum_a u_a (grad lambda_a)^T (lambda_a the barycentric coordinates); the node's value is
-    sum_T |T| L_T / sum_T |T| over its triangles (O(h^2) at interior nodes of smooth meshes,
-    O(h) at the boundary).
+    sum_T A_T L_T / sum_T A_T over its triangles of areas A_T (O(h^2) at interior nodes of
+    smooth meshes, O(h) at the boundary).
     """
     points = np.asarray(points, dtype=float)
     tris = np.asarray(triangles, dtype=np.int64)
     u = np.asarray(u, dtype=float)[:, :2]
     p = points[tris]                                   # (M, 3, 2)
     d1, d2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]    # 2 |T| (signed)
+    det = d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0]    # twice the signed area
     # gradients of lambda_1, lambda_2 (rows of the inverse Jacobian), lambda_0 = -sum
     g1 = np.column_stack([d2[:, 1], -d2[:, 0]]) / det[:, None]
     g2 = np.column_stack([-d1[:, 1], d1[:, 0]]) / det[:, None]
@@ -92,7 +93,7 @@ def strain_rate(points: NDArray, triangles: NDArray, u: NDArray) -> NDArray:
 
 
 def mesh_centroid(points: NDArray, triangles: NDArray) -> NDArray:
-    """Area centroid of a triangulation: sum_T |T| (centroid of T) / sum_T |T|."""
+    """Area centroid of a triangulation: sum_T A_T (centroid of T) / sum_T A_T."""
     p = np.asarray(points, dtype=float)[np.asarray(triangles, dtype=np.int64)]
     d1, d2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
     area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])

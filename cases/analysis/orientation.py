@@ -125,7 +125,7 @@ def annulus_order(x, y, theta, center, radius, width: float = WIDTH,
 
     Columns: r (mid radius), count; q_r = <cos 2 (theta - phi)>, q_s = <sin 2 (theta - phi)>;
     S_polar = hypot(q_r, q_s); angle = atan2(q_s, q_r) / 2 in degrees (the director's angle from
-    the radius, 0 radial, +-90 azimuthal); mean_abs_angle = < |theta - phi| > folded into
+    the radius, 0 radial, +-90 azimuthal); mean_abs_angle = the mean of abs(theta - phi) folded into
     [0, 90] degrees (45 for isotropic rods); S_iso = isotropic_order(count); with ``grid``
     (:func:`orientation_grid`), S_local = the count-weighted mean S of the filled cells whose
     centre is in the annulus and S_local_iso its isotropic floor.
