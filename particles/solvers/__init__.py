@@ -14,11 +14,8 @@ from __future__ import annotations
 
 from .apgd import solve_contacts_apgd
 from .bbpgd import solve_contacts
-from .problem import ContactSolveError
+from .problem import ContactSolveError as ContactSolveError  # re-exported
 from .twolevel import solve_contacts_twolevel
-
-__all__ = ["BY_NAME", "ContactSolveError", "solve_contacts", "solve_contacts_apgd",
-           "solve_contacts_twolevel"]
 
 BY_NAME = {
     "bbpgd": solve_contacts,
