@@ -120,3 +120,20 @@ def test_readme_example(capsys):
     n, t, smax = capsys.readouterr().out.split()
     assert record.step == 1 and int(n) == state.n > 40 and float(smax) > 0
     assert state.enclosing_radius() >= 6.0
+
+
+def test_option_names_live_in_the_config():
+    """config.py imports no engine module (no circle through stepping or packings).
+
+    The solvers by name are those of config.SOLVERS.
+    """
+    import ast
+    from pathlib import Path
+
+    import particles.config
+    from particles.solvers import BY_NAME
+
+    tree = ast.parse(Path(particles.config.__file__).read_text())
+    local = {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level == 1}
+    assert local == {"geometry"}
+    assert tuple(BY_NAME) == particles.config.SOLVERS
