@@ -6,10 +6,10 @@ grown from the initial disc to ``--radius`` with the default configuration other
 mean length of the transported Psi, ``mean_length_psi``, is compared with the closed form for
 Psi0 = delta(l - 1), lbar = 2^frac(G / ln 2) (continuum.growth.mean_length):
 
-- at every node: the median and largest |mean_length_psi - lbar| over all nodes and away from
+- at every node: the median and largest ``abs(mean_length_psi - lbar)`` over all nodes and away from
   the ring jumps (nodes with frac(G / ln 2) in [0.1, 0.9]);
 - in the radial profile the figures draw (profile.csv, cases.analysis.continuum_profile): the
-  median and largest |mean_length_psi - mean_length_phase| over the annuli.
+  median and largest ``abs(mean_length_psi - mean_length_phase)`` over the annuli.
 
 The two runs have the same mesh, pressure and G bit for bit (Psi does not act on the flow).
 
