@@ -19,10 +19,14 @@ import numpy as np
 
 from continuum import rings as _rings
 from continuum.mesh import triangle_areas
+from continuum.strain import strain_rate_fields
 
 from .io import continuum_frames, read_continuum_frame, read_csv
 from .profiles import PSI_FIELDS, field_profile
 from .rings import contour_wavelength, profile_wavelength
+
+#: Strain-rate columns of a continuum profile (the polar components of continuum.strain).
+STRAIN_COLUMNS = ("e_rr", "e_tt", "e_rr_minus_e_tt")
 
 __all__ = [
     "mesh_radius",
@@ -88,14 +92,24 @@ def continuum_profile(points: np.ndarray, triangles: np.ndarray, fields: dict,
       one-sigma band of Fig 4A);
     - mean_length_phase (no _std): the closed form 2^frac(<G> / ln 2) of the annulus mean of G,
       the mean length for Psi0 = delta(l - 1), the check beside mean_length_psi;
+    - e_rr, e_tt, e_rr_minus_e_tt: the strain rate of the Darcy flow in polar components about
+      the colony's centroid (:func:`continuum.strain.strain_rate_fields`; the frame's fields,
+      else from the velocity u), whose difference is the flow's anisotropy;
     - count: samples in the annulus.
 
-    Frames written before a field existed (G, length_std_psi) lack its columns.
+    Frames written before a field existed (G, length_std_psi, the strain rate without u) lack
+    its columns.
     """
     values = {"mean_length": fields["mean_length"], "pressure": fields["p"]}
     for name in ("G", *PSI_FIELDS):
         if name in fields:
             values[name] = fields[name]
+    strain = fields
+    if "e_rr" not in fields and "u" in fields:
+        strain = strain_rate_fields(points, triangles, np.asarray(fields["u"])[:, :2])
+    for name in STRAIN_COLUMNS:
+        if name in strain:
+            values[name] = strain[name]
     return field_profile(points, triangles, values, edge_width=edge_width)
 
 

@@ -367,3 +367,21 @@ def test_field_profile_of_the_transported_psi_pools_the_cells_of_an_annulus():
             np.testing.assert_allclose(prof["mean_length_psi"][ok],
                                        prof["Nm"][ok] / prof["number"][ok], rtol=1e-12)
             assert np.all(prof["mean_length_psi"][ok] > prof["m"][ok])  # weighted outwards
+
+
+def test_continuum_profile_holds_the_flows_strain_rate(continuum_run):
+    """The profile's (profile.csv's) e_rr, e_tt of a disc against the radial closed form.
+
+    The run (lam = 1e-2, radius 2, P1) is a disc, so the annulus means of the recovered strain
+    rate follow continuum.strain.radial_strain_rate within the P1 recovery error (a few
+    percent of div u = g ~ 1), at every annulus but the outermost two.
+    """
+    from continuum.strain import radial_strain_rate
+
+    profile = A.final_continuum_profile(continuum_run)
+    R = float(A.read_csv(continuum_run / "history.csv")["radius"][-1])
+    exact = radial_strain_rate(profile["r"], R, 1e-2)
+    inner = slice(0, -2)
+    for name in ("e_rr", "e_tt"):
+        np.testing.assert_allclose(profile[name][inner], exact[name][inner], atol=0.03)
+    np.testing.assert_allclose(profile["e_rr"] + profile["e_tt"], 1.0, atol=0.05)  # div u = g
