@@ -296,9 +296,9 @@ def parser() -> argparse.ArgumentParser:
                    help="compute both engines (default), the continuum only, or the continuum "
                    "plus the particle runs already finished under --runs (none started)")
     k.add_argument("--lams", type=_lam_list, default=None, metavar="L[,L...]",
-                   help=f"only these lam of the figure ({', '.join(FIGURE_CASES)}; default "
-                   "all), e.g. a new paper colony, to merge into the committed data with "
-                   "python -m cases.figures.merge")
+                   help=f"only these lam of the figure ({', '.join(FIGURE_CASES)}) or of "
+                   "ensemble (default all), e.g. a new paper colony or ensemble lam, to merge "
+                   "into the committed data with python -m cases.figures.merge")
     k.add_argument("--runs", help="folder of the engine runs, shared between cases "
                    "(default OUT/runs); finished runs in it are reused")
     k.add_argument("--print-runs", action="store_true",
@@ -492,10 +492,11 @@ def _case_data(module, args, out: Path) -> Path:
     finished_only = ("particles",) if args.engines == "finished" else ()
     lams = {}
     if args.lams is not None:
-        if args.name not in FIGURE_CASES:
-            raise UsageError(f"--lams applies to the figure cases ({', '.join(FIGURE_CASES)}), "
-                             f"not to {args.name}")
-        select_lams(module.runs_needed(args.scale, engines)[1], args.lams, args.name)
+        if args.name not in (*FIGURE_CASES, "ensemble"):
+            raise UsageError(f"--lams applies to the figure cases ({', '.join(FIGURE_CASES)}) "
+                             f"and ensemble, not to {args.name}")
+        if args.name in FIGURE_CASES:  # the ensemble checks its lam itself
+            select_lams(module.runs_needed(args.scale, engines)[1], args.lams, args.name)
         lams = {"lams": args.lams}
     return module.compute(scale=args.scale, out=out, scheduler=args.scheduler,
                           n_workers=args.workers, runs=args.runs, engines=engines,

@@ -139,10 +139,13 @@ def _band_lams(ens: Path) -> str:
     return "lam " + ", ".join(f"{lam:g}" for lam in lams) if lams.size < 4 else "every lam"
 
 
-def _seed_bars(ax, ens: Path, key: str) -> None:
-    """The ensemble's 2.5-97.5 % seed range of ``key`` at each lam > 0 (grey bars)."""
+def _seed_bars(ax, ens: Path, key: str, lams: np.ndarray) -> None:
+    """The ensemble's 2.5-97.5 % seed range of ``key`` at each lam > 0 of ``lams`` (grey bars).
+
+    Only the lam the figure draws: the ensemble may hold others (radius 40: lam = 1e-4).
+    """
     s = A.read_csv(ens / "summary.csv")
-    pos = s["lam"] > 0
+    pos = (s["lam"] > 0) & np.isin(s["lam"], lams)
     lo, hi = s[f"{key}_q025"][pos], s[f"{key}_q975"][pos]
     ax.vlines(s["lam"][pos], lo, hi, color="0.4", lw=3, alpha=0.5,
               label=f"particles, {_seeds(ens)} seeds: 2.5-97.5 %")
@@ -230,7 +233,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             pass
         a.plot(lam, y, style, mfc="none", label=label)
     if ens is not None:
-        _seed_bars(a, ens, "central_max")
+        _seed_bars(a, ens, "central_max", lam)
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel="max stress", title="(C)")
     a.legend(fontsize=8)
 
@@ -240,7 +243,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         if np.isfinite(summary[key][pos]).any():
             a.plot(lam, summary[key][pos], style, mfc="none", label=label)
     if ens is not None:
-        _seed_bars(a, ens, "slope")
+        _seed_bars(a, ens, "slope", lam)
     a.plot(lam, summary["slope_exact"][pos], "k:", label=r"disc $4cR$ at final $R$")
     _asymptote(a, lam)
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel=r"$dR/dt$ at $t_f$",

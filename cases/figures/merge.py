@@ -18,6 +18,9 @@ the others. :func:`merge` completes them from the earlier data set, lam by lam:
 So NEW may also hold only some lam (``colony case CASE --lams L,...``): a new particle colony
 is then reduced with its continuum run alone, and the other lam keep their earlier data.
 
+The seed ensemble (``ensemble``: ``colony case ensemble --lams L,...``) is merged by
+:func:`cases.studies.ensemble.merge`: NEW's lam replace or add whole rows and per-lam files.
+
 Command line::
 
     python -m cases.figures.merge CASE NEW_DATA OLD_DATA OUT
@@ -47,7 +50,7 @@ TABLES = {"fig3": ("summary.csv", fig3.PARTICLE_COLUMNS),
           "crosscheck": ("table.csv", crosscheck.PARTICLE_COLUMNS)}
 """Per case, its summary table and the table's particle columns."""
 
-CASES = ("fig2", *TABLES)
+CASES = ("fig2", *TABLES, "ensemble")
 
 
 def is_particle_file(name: str) -> bool:
@@ -113,6 +116,10 @@ def merge(case: str, new: str | Path, old: str | Path, out: str | Path) -> Path:
     """Write to ``out`` the data of ``case`` merged from ``new`` and ``old`` (module docstring)."""
     if case not in CASES:
         raise ValueError(f"case must be one of {', '.join(CASES)}, got {case!r}")
+    if case == "ensemble":
+        from cases.studies import ensemble
+
+        return ensemble.merge(new, old, out)
     new, old, out = Path(new), Path(old), Path(out)
     for d in (new, old):
         if not d.is_dir():
@@ -157,7 +164,8 @@ def main(argv: list[str] | None = None) -> int:
     except ValueError as err:
         print(f"merge: error: {err}", file=sys.stderr)
         return 2
-    print(f"{a.case}: merged {a.new} with the particle part of {a.old} into {a.out}")
+    part = "the other lam" if a.case == "ensemble" else "the particle part"
+    print(f"{a.case}: merged {a.new} with {part} of {a.old} into {a.out}")
     return 0
 
 

@@ -24,14 +24,18 @@ scale, with the solver's tolerance doubled (tol / 2 -> tol, the engine's default
 18), against the seed spread.
 
 Scales (:data:`ENSEMBLES`): "smoke" (radius 8, lam = 0.1, 2 seeds; about 40 s of CPU) and "medium"
-(radius 40, the lam of the medium figure cases, 8 seeds each; about 50 particle runs of 30-80 s
-CPU each). Committed data: cases/data/ensemble (``colony case ensemble --from-data``).
+(radius 40, the lam of the medium figure cases and 1e-4, 8 seeds each; about 60 particle runs of
+30-80 s CPU each). Committed data: cases/data/ensemble (``colony case ensemble --from-data``).
+Some lam only (``compute(lams=...)``, ``colony case ensemble --lams L,...``), merged into earlier
+data by :func:`merge` (``python -m cases.figures.merge ensemble NEW OLD OUT``).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import shutil
+from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
 from typing import Any
@@ -48,17 +52,18 @@ from particles.measures import centroid, enclosing_radius
 __all__ = ["ENSEMBLES", "particle_params", "continuum_params", "compute", "reduce", "plot",
            "QUANTITIES", "ensemble_data", "central_packing", "continuum_mean_pressure",
            "cycle_mean", "mean_stress_ratio", "history_growth", "trailing_rate",
-           "DIVISION_PERIOD", "markdown_tables"]
+           "DIVISION_PERIOD", "markdown_tables", "merge", "merge_rows", "LAM_TABLES"]
 
-#: Ensemble sizes. medium: the lam of the medium figure cases (Fig 3, Fig 4) at radius 40, 8
-#: seeds each (the lam of the figures' curves first); "numerics": one run per changed setting
-#: at the first seed of ``numerics_lam`` (dt and tol halved; medium: also the contact solver's
-#: residual tolerance doubled, from tol / 2 to tol). Engine settings of the figure scale
-#: ``scale`` (cases.sweep.SCALES) with the radius replaced.
+#: Ensemble sizes. medium: the lam of the medium figure cases (Fig 3, Fig 4) and 1e-4 (a paper
+#: panel's) at radius 40, 8 seeds each (the lam of the figures' curves first); "numerics": one
+#: run per changed setting at the first seed of ``numerics_lam`` (dt and tol halved; medium:
+#: also the contact solver's residual tolerance doubled, from tol / 2 to tol). Engine settings
+#: of the figure scale ``scale`` (cases.sweep.SCALES) with the radius replaced.
 ENSEMBLES: dict[str, dict[str, Any]] = {
     "smoke": {"scale": "smoke", "radius": 8.0, "lams": (0.1,), "seeds": 2,
               "numerics_lam": 0.1, "numerics": ({"dt": 0.005}, {"tol": 5e-4})},
-    "medium": {"scale": "medium", "radius": 40.0, "lams": (0.0, 1e-3, 1e-2, 3e-2, 3e-3, 1e-1),
+    "medium": {"scale": "medium", "radius": 40.0,
+               "lams": (0.0, 1e-3, 1e-2, 3e-2, 3e-3, 1e-1, 1e-4),
                "seeds": 8, "numerics_lam": 1e-3,
                "numerics": ({"dt": 0.005}, {"tol": 5e-4}, {"solver_tol": 1e-3})},
 }
@@ -111,22 +116,32 @@ def continuum_params(lam: float, scale: str) -> dict[str, Any]:
         "radius": ens["radius"]}
 
 
-def _run_list(scale: str) -> tuple[dict, dict, dict]:
+def _run_list(scale: str, lams: Sequence[float] | None = None) -> tuple[dict, dict, dict]:
     """({(lam, seed): params}, {lam: params}, {setting: params}) of the ensemble at ``scale``.
 
     Particle runs seed by seed (all lam of seed 0, then of seed 1, ...), the figures' curve lam
     first, so that a stopped sweep leaves whole seeds; the numerics runs after the first half.
+    ``lams``: only these lam of the ensemble (ValueError for others); the numerics runs only
+    if ``numerics_lam`` is one of them.
     """
     ens = _ensemble(scale)
-    curves = [lam for lam in ens["lams"] if lam in scale_config(ens["scale"])["lams"]
+    chosen = [float(lam) for lam in ens["lams"]]
+    if lams is not None:
+        bad = sorted({float(lam) for lam in lams} - set(chosen))
+        if bad or not lams:
+            raise ValueError(f"lam {', '.join(f'{lam:g}' for lam in bad) or 'none'} not among "
+                             f"the lam of the {scale} ensemble: "
+                             f"{', '.join(f'{lam:g}' for lam in sorted(chosen))}")
+        chosen = [lam for lam in chosen if lam in {float(v) for v in lams}]
+    curves = [lam for lam in chosen if lam in scale_config(ens["scale"])["lams"]
               or lam == 0.0]
-    others = [lam for lam in ens["lams"] if lam not in curves]
+    others = [lam for lam in chosen if lam not in curves]
     order = ([(lam, s) for s in range(ens["seeds"]) for lam in curves]
              + [(lam, s) for s in range(ens["seeds"]) for lam in others])
     particles = {(float(lam), s): particle_params(lam, s, scale) for lam, s in order}
-    continuum = {float(lam): continuum_params(lam, scale) for lam in ens["lams"]}
+    continuum = {float(lam): continuum_params(lam, scale) for lam in chosen}
     numerics = {_setting_name(kw): particle_params(ens["numerics_lam"], 0, scale, **kw)
-                for kw in ens["numerics"]}
+                for kw in ens["numerics"] if float(ens["numerics_lam"]) in chosen}
     return particles, continuum, numerics
 
 
@@ -137,13 +152,16 @@ def _setting_name(settings: dict[str, Any]) -> str:
 def compute(scale: str = "smoke", out: str | Path = "runs/case-ensemble-smoke",
             scheduler: str | None = None, n_workers: int = 2,
             runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES,
-            finished_only: tuple[str, ...] = ()) -> Path:
+            finished_only: tuple[str, ...] = (),
+            lams: Sequence[float] | None = None) -> Path:
     """Run (or reuse) the ensemble's runs under ``runs`` (default ``out/runs``); reduce to data.
 
     ``engines`` must hold both engines (the ensemble compares them). ``finished_only``: engines
     whose runs are only reused where finished (``--engines finished``: the particle seeds
     finished so far; a lam without any is left out, ``n_seeds`` in summary.csv says how many
-    each lam has).
+    each lam has). ``lams``: only these lam of the ensemble (``colony case ensemble --lams``),
+    e.g. a new lam, to add to the committed data with :func:`merge`; numerics.csv only if
+    ``numerics_lam`` is one of them.
     """
     if set(engines) != set(ENGINES):
         raise ValueError("the ensemble compares particles with the continuum: it needs both "
@@ -152,7 +170,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-ensemble-smoke",
     if bad:
         raise ValueError(f"finished_only must be a subset of {ENGINES}, got {bad!r}")
     root = Path(runs) if runs else Path(out) / "runs"
-    particles, continuum, numerics = _run_list(scale)
+    particles, continuum, numerics = _run_list(scale, lams)
     todo = []
     if "continuum" not in finished_only:
         todo += list(continuum.values())
@@ -498,6 +516,73 @@ def _write_numerics(data: Path, numerics: dict[str, Path],
         _append(rows, {"lam": lam, "seed": 0, "dt": config.dt, "tol": config.tol,
                        "solver_tol": config.effective_solver_tol} | row)
     A.write_csv(data / "numerics.csv", rows)
+
+
+# --------------------------------------------------------------------------- merge
+
+#: The tables with one row per lam (seeds.csv: per lam and seed) that :func:`merge` replaces
+#: lam by lam; numerics.csv and the files of cases.studies.stress_offset (estimators.csv,
+#: growth_paper.csv) are the earlier data set's.
+LAM_TABLES = ("seeds.csv", "summary.csv", "differences.csv", "growth_rates.csv")
+
+
+def merge_rows(new: str, old: str) -> str:
+    """CSV text: ``old``'s rows of the lam ``new`` has no row of, and ``new``'s rows.
+
+    The rows are ordered by lam (the first column), stably: a lam's rows keep their order (the
+    seeds of seeds.csv) and every row is kept as its text, so the untouched lam's rows stay
+    byte for byte. ValueError when the headers differ.
+    """
+    new_lines, old_lines = new.splitlines(keepends=True), old.splitlines(keepends=True)
+    if not new_lines or not old_lines or new_lines[0] != old_lines[0]:
+        raise ValueError("the tables' columns differ: "
+                         f"{new_lines[:1]!r} and {old_lines[:1]!r}")
+    if not new_lines[0].startswith("lam,"):
+        raise ValueError(f"the first column must be lam, got {new_lines[0]!r}")
+
+    def lam(line: str) -> float:
+        return float(line.split(",", 1)[0])
+
+    replaced = {lam(line) for line in new_lines[1:]}
+    rows = [line for line in old_lines[1:] if lam(line) not in replaced] + new_lines[1:]
+    rows = [line if line.endswith("\n") else line + "\n" for line in rows]
+    return old_lines[0] + "".join(sorted(rows, key=lam))
+
+
+def merge(new: str | Path, old: str | Path, out: str | Path) -> Path:
+    """The ensemble data ``old`` with the lam of the partial reduction ``new`` added or replaced.
+
+    ``new``: the data of ``colony case ensemble --lams L,...`` (:func:`compute` with ``lams``).
+    Written to ``out`` (which must not exist; staged as OUT.partial, then renamed, as
+    :func:`cases.figures.merge.merge`): every file of ``old``, the per-lam files of ``new``
+    (``profile_lam=``, ``radius_lam=``, ``time_lam=``, ``growth_lam=``), and in each table of
+    :data:`LAM_TABLES` the rows of ``new``'s lam in place of ``old``'s (:func:`merge_rows`).
+    """
+    from cases.figures.merge import lam_of
+
+    new, old, out = Path(new), Path(old), Path(out)
+    for d in (new, old):
+        if not (d / "summary.csv").is_file():
+            raise ValueError(f"no ensemble data (summary.csv) in {d}")
+    if out.exists():
+        raise ValueError(f"{out} exists already")
+    tables = {name: merge_rows((new / name).read_text(), (old / name).read_text())
+              for name in LAM_TABLES}
+    lams = set(np.atleast_1d(A.read_csv(new / "summary.csv")["lam"]).tolist())
+    files = [p for p in sorted(new.iterdir()) if lam_of(p.name) is not None]
+    for p in files:
+        if lam_of(p.name) not in lams:
+            raise ValueError(f"{p.name} of {new} belongs to no lam of its summary.csv")
+    stage = out.with_name(out.name + ".partial")
+    if stage.exists():
+        shutil.rmtree(stage)
+    shutil.copytree(old, stage)
+    for p in files:
+        shutil.copy2(p, stage / p.name)
+    for name, text in tables.items():
+        (stage / name).write_text(text)
+    stage.rename(out)
+    return out
 
 
 # --------------------------------------------------------------------------- figures

@@ -220,8 +220,10 @@ def test_case_lams_select_some_lam_or_are_refused_before_any_work(tmp_path, caps
     assert cli.main(["case", "fig3", "--scale", "smoke", "--lams", "0.5", "--out", str(out)]) == 2
     assert "lam 0.5 not among the lam of fig3 at this scale: 0, " in capsys.readouterr().err
     assert not out.exists()
-    assert cli.main(["case", "ensemble", "--lams", "0", "--out", str(out)]) == 2
+    assert cli.main(["case", "stability", "--lams", "0", "--out", str(out)]) == 2
     assert "--lams applies to the figure cases" in capsys.readouterr().err
+    assert cli.main(["case", "ensemble", "--lams", "0", "--out", str(out)]) == 2
+    assert "lam 0 not among the lam of the smoke ensemble: 0.1" in capsys.readouterr().err
     with pytest.raises(SystemExit):
         cli.main(["case", "fig3", "--lams", "x"])
     assert not out.exists()

@@ -189,3 +189,74 @@ def test_plot_and_offset_tables_from_committed_data(tmp_path):
     assert stress_offset.main(["--out", str(tmp_path)]) == 0
     for name in ("estimators.csv", "growth_paper.csv"):  # the committed tables, reproduced
         assert (tmp_path / name).read_bytes() == (data / name).read_bytes()
+
+
+# ------------------------------------------------------------------ partial-lam merge
+
+
+def _tables(folder, lams, value):
+    """Small ensemble data in ``folder``: the four lam tables, per-lam files, other tables."""
+    rows = {"lam": [lam for lam in lams for _ in range(2)], "seed": [0, 1] * len(lams),
+            "t_final": [value + lam + 0.1 * s for lam in lams for s in (0, 1)]}
+    A.write_csv(folder / "seeds.csv", rows)
+    for name, col in (("summary.csv", "t_final_mean"), ("differences.csv", "rel_t_final_mean"),
+                      ("growth_rates.csv", "rate_t")):
+        A.write_csv(folder / name, {"lam": lams, col: [value + 1 / 3 + lam for lam in lams]})
+    for lam in lams:
+        for kind in ("profile", "radius", "time", "growth"):
+            A.write_csv(folder / f"{kind}_lam={lam:g}.csv", {"r": [1.0, 2.0], "v": [value] * 2})
+    for name in ("numerics.csv", "estimators.csv", "growth_paper.csv"):
+        A.write_csv(folder / name, {"lam": [1e-3], "x": [value]})
+
+
+def test_merge_adds_and_replaces_lam_and_keeps_the_rest_byte_for_byte(tmp_path):
+    from cases.figures import merge as figure_merge
+
+    old, new = tmp_path / "old", tmp_path / "new"
+    old.mkdir(), new.mkdir()
+    _tables(old, [0.0, 1e-3, 1e-2], 1.0)
+    _tables(new, [1e-4, 1e-2], 2.0)  # 1e-4 added, 1e-2 replaced
+    (old / "README.md").write_text("old readme\n")
+    out = tmp_path / "merged"
+    assert figure_merge.main(["ensemble", str(new), str(old), str(out)]) == 0
+    assert not (tmp_path / "merged.partial").exists()
+
+    def lines(path):
+        return path.read_bytes().splitlines(keepends=True)
+
+    for name in ensemble.LAM_TABLES:
+        got, was, add = lines(out / name), lines(old / name), lines(new / name)
+        assert got[0] == was[0]
+        lam_of_row = [float(r.split(b",")[0]) for r in got[1:]]
+        assert lam_of_row == sorted(lam_of_row)  # ordered by lam
+        kept = [r for r in was[1:] if float(r.split(b",")[0]) in (0.0, 1e-3)]
+        assert [r for r in got[1:] if float(r.split(b",")[0]) in (0.0, 1e-3)] == kept
+        assert [r for r in got[1:] if float(r.split(b",")[0]) in (1e-4, 1e-2)] == add[1:]
+    s = A.read_csv(out / "seeds.csv")
+    assert s["lam"].tolist() == [0, 0, 1e-4, 1e-4, 1e-3, 1e-3, 1e-2, 1e-2]
+    assert s["seed"].tolist() == [0, 1] * 4
+    for lam, source in ((0.0, old), (1e-4, new), (1e-3, old), (1e-2, new)):
+        for kind in ("profile", "radius", "time", "growth"):
+            name = f"{kind}_lam={lam:g}.csv"
+            assert (out / name).read_bytes() == (source / name).read_bytes()
+    for name in ("numerics.csv", "estimators.csv", "growth_paper.csv", "README.md"):
+        assert (out / name).read_bytes() == (old / name).read_bytes()
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        {p.name for p in old.iterdir()} | {p.name for p in new.iterdir()})
+
+    with pytest.raises(ValueError, match="exists already"):
+        ensemble.merge(new, old, out)
+    A.write_csv(new / "growth_rates.csv", {"lam": [1e-4, 1e-2], "other": [1.0, 2.0]})
+    with pytest.raises(ValueError, match="columns differ"):
+        ensemble.merge(new, old, tmp_path / "bad")
+    assert not (tmp_path / "bad").exists() and not (tmp_path / "bad.partial").exists()
+
+
+def test_lams_select_runs_of_the_ensemble():
+    particles, continuum, numerics = ensemble._run_list("medium", [1e-4])
+    assert sorted(particles) == [(1e-4, s) for s in range(8)]
+    assert list(continuum) == [1e-4] and numerics == {}
+    particles, continuum, numerics = ensemble._run_list("medium")
+    assert len(particles) == 56 and len(continuum) == 7 and len(numerics) == 3
+    with pytest.raises(ValueError, match="lam 0.5 not among the lam of the medium ensemble"):
+        ensemble._run_list("medium", [0.5])
