@@ -100,6 +100,23 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
                        step_policy=STEP_POLICY_FIELDS if change_step_policy else ())
 
 
+def run(config, out: str | os.PathLike, *, overwrite: bool = False, progress: bool = False):
+    """The command line's run from Python: the same folder as ``colony ENGINE --out out``.
+
+    ``config`` a ``continuum.Config`` or ``particles.Config``; the folder (created, staged,
+    resumed after a stop, published) holds run.json, the engine's files, profile.csv, rings.csv
+    (continuum) and the picture, where the engines' own ``run(config, out)`` writes the engine's
+    files into an existing folder only. Returns the final state.
+    """
+    engine = type(config).__module__.split(".")[0]
+    if engine == "continuum":
+        return run_continuum(config, Path(out), overwrite, progress)
+    if engine == "particles":
+        return run_particles(config, Path(out), overwrite, progress)
+    raise TypeError(f"config must be a continuum.Config or particles.Config, got "
+                    f"{type(config).__name__}")
+
+
 #: Checkpoint files of either engine in a stage (a stopped run resumes from them; from the
 #: previous one when the last is damaged, or its process died while replacing it).
 CHECKPOINTS = ("checkpoint.npz", "checkpoint.prev.npz")
