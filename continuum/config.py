@@ -54,7 +54,7 @@ _RULES = [  # (field, test, what the value must be), checked by Config.validate 
     ("psi_transport", lambda v: v in TRANSPORTS, " or ".join(map(repr, TRANSPORTS))),
     ("element", lambda v: v in ELEMENTS, " or ".join(map(repr, ELEMENTS))),
     ("output_every", lambda v: v >= 0, ">= 0"),
-    ("max_steps", lambda v: v > 0, "a positive integer"),
+    ("step_limit", lambda v: v > 0, "a positive integer"),
     ("checkpoint_seconds", lambda v: v >= 0, ">= 0"),
 ]
 
@@ -128,8 +128,9 @@ class Config:
         Time between field frames (VTU); 0 writes only the first and last.
     write_fields : bool
         Write the VTU series (history, boundary and config are always written).
-    max_steps : int
-        Safety limit on the number of time steps.
+    step_limit : int
+        Safety limit on the number of time steps of the whole run: a ValueError when passed
+        (not a pause: ``run(config, out, max_steps=N)`` pauses a call after N steps).
     checkpoint_seconds : float
         Wall time between checkpoints when writing to a folder (an execution setting,
         ``EXECUTION_FIELDS``: a checkpoint resumes under another value, with the same result).
@@ -154,7 +155,7 @@ class Config:
     element: str = "P1"
     output_every: float = 1.0
     write_fields: bool = True
-    max_steps: int = 200_000
+    step_limit: int = 200_000
     checkpoint_seconds: float = 300.0
 
     def __post_init__(self) -> None:

@@ -361,10 +361,10 @@ class Simulation:
         check_goal(radius, time)
         return radius, time
 
-    def _check_max_steps(self) -> None:
-        if len(self.history) > self.config.max_steps:
+    def _check_step_limit(self) -> None:
+        if len(self.history) > self.config.step_limit:
             raise RuntimeError(
-                f"max_steps={self.config.max_steps} reached at {self.state.where()}")
+                f"step_limit={self.config.step_limit} reached at {self.state.where()}")
 
     def advance(self, radius: float | None = None, time: float | None = None,
                 progress: bool = False) -> State:
@@ -396,14 +396,14 @@ class Simulation:
         ValueError
             No goal (:meth:`done`).
         RuntimeError
-            ``config.max_steps`` steps taken.
+            ``config.step_limit`` steps taken.
         PressureDivergence
             No pressure solution (e.g. lam < 0 beyond the critical size).
         """
         radius, time = self._goal(radius, time)
         with _ProgressBar(self, radius, time, progress) as bar:
             while not self._reached(radius, time):
-                self._check_max_steps()
+                self._check_step_limit()
                 bar.show(self._step(radius, time))
         return self.state
 
@@ -593,8 +593,8 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
         holds a checkpoint.
     max_steps : int, optional
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
-        the returned simulation has ``finished = False``. (``Config.max_steps`` is another
-        thing: the most steps a run may take in all, an error beyond.)
+        the returned simulation has ``finished = False``. (``Config.step_limit`` is the most
+        steps a run may take in all, an error beyond.)
 
     Returns
     -------
@@ -637,7 +637,7 @@ def _steps(sim: Simulation, progress: bool, max_steps: int | None,
     steps_here = 0
     with _ProgressBar(sim, progress=progress, **goal) as bar:
         while not sim._reached(**goal):
-            sim._check_max_steps()
+            sim._check_step_limit()
             bar.show(sim._step(**goal))
             steps_here += 1
             done = sim._reached(**goal)

@@ -253,3 +253,16 @@ def test_a_full_disk_stops_the_run_with_its_checkpoint_intact(reference, tmp_pat
     monkeypatch.setattr(output.shutil, "disk_usage", real)
     state = run(small_config(checkpoint_seconds=0.0), out=tmp_path)
     assert_same_run(reference, tmp_path, state, skip=("config.json",))
+
+
+def test_a_checkpoint_of_the_former_step_limit_name_loads(folder):
+    """A checkpoint from before Config.step_limit (``max_steps`` in its config) loads as it."""
+    path = folder / CHECKPOINT
+    expected = load_checkpoint(path).config
+
+    def renamed(meta):
+        meta["config"]["max_steps"] = meta["config"].pop("step_limit")
+
+    rewrite(path, legacy(renamed))
+    assert "max_steps" in json.loads(str(np.load(path)["meta"]))["config"]
+    assert load_checkpoint(path).config == expected
