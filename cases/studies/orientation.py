@@ -39,7 +39,7 @@ from cases.analysis import orientation as O
 from continuum import strain
 
 __all__ = ["SCALES", "CELL", "SMOOTH", "WIDTH", "run_params", "compute", "plot",
-           "markdown_table", "flow_profile"]
+           "markdown_table", "flow_profile", "paper_colonies"]
 
 #: Per scale: the ensemble scale of the runs (cases.studies.ensemble.ENSEMBLES: radius and
 #: engine settings), the lams and the number of seeds (0, 1, ...).
@@ -182,6 +182,39 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-orientation-smoke
         _append(summ, srow)
     A.write_csv(data / "profile.csv", _arrays(prof))
     A.write_csv(data / "summary.csv", _arrays(summ))
+    return data
+
+
+def paper_colonies(folders: dict[int, str | Path], lam: float, data: str | Path) -> Path:
+    """The same reductions of the radius-150 colonies of one lam (seed: run folder).
+
+    Writes ``paper_seeds.csv`` (lam, seed, the last frame's scalars of
+    :func:`cases.analysis.orientation.frame_orientation`, the mean angle to the radius beyond
+    R/2 and the flow's relative anisotropy there) and ``paper_annuli.csv`` (lam, seed, per
+    annulus of width WIDTH, with the flow's relative anisotropy at the annulus) into ``data``.
+    These colonies are kept only on the machine that grew them (cases/data/ensemble_paper), so
+    their numbers are committed rather than recomputed.
+    """
+    data = Path(data)
+    seeds: dict[str, list] = {}
+    ann: dict[str, list] = {}
+    for seed, folder in sorted(folders.items()):
+        ((t, last),) = A.particle_frames(folder, last_only=True)
+        res = O.frame_orientation(last, cell=CELL, smooth=SMOOTH, width=WIDTH)
+        R = res["scalars"]["radius"]
+        a = res["annuli"]
+        flow = flow_profile(a["r"], R, lam)["relative_anisotropy"]
+        n = a["r"].size
+        _append(ann, {"lam": np.full(n, lam), "seed": np.full(n, seed)}
+                | {k: a[k] for k in ("r", "count", "S_local", "q_r", "mean_abs_angle")}
+                | {"relative_anisotropy": flow})
+        outer = a["r"] > R / 2
+        w = a["count"][outer]
+        _append(seeds, {"lam": lam, "seed": seed, "t": t} | res["scalars"]
+                | {"mean_abs_angle_outer": float(np.sum(w * a["mean_abs_angle"][outer]) / w.sum()),
+                   "relative_anisotropy_outer": float(np.sum(w * flow[outer]) / w.sum())})
+    A.write_csv(data / "paper_seeds.csv", _arrays(seeds))
+    A.write_csv(data / "paper_annuli.csv", _arrays(ann))
     return data
 
 

@@ -143,3 +143,18 @@ def test_committed_medium(tmp_path):
     p = A.read_csv(data / "profile.csv")
     assert np.all(p["q_r_mean"][p["r"] == p["r"].max()] < -0.15)
     assert np.all(s["S_local_mean"] > 2 * s["S_local_iso_mean"])
+
+
+def test_paper_colonies_reduce_given_run_folders(particle_run, tmp_path):
+    """paper_colonies: the last frame's scalars per seed and the annuli, with the flow beside."""
+    from cases.studies.orientation import paper_colonies
+
+    data = paper_colonies({0: particle_run, 3: particle_run}, 1e-2, tmp_path)
+    seeds = A.read_csv(data / "paper_seeds.csv")
+    np.testing.assert_array_equal(seeds["seed"], [0, 3])
+    ((_, last),) = A.particle_frames(particle_run, last_only=True)
+    expected = O.frame_orientation(last)["scalars"]
+    for k in ("q_r", "S_local", "n_plus", "radius"):
+        assert seeds[k][0] == pytest.approx(expected[k], rel=1e-7) and seeds[k][1] == seeds[k][0]
+    ann = A.read_csv(data / "paper_annuli.csv")
+    assert ann["r"].size % 2 == 0 and np.all(ann["relative_anisotropy"] >= 0)
