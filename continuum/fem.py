@@ -21,8 +21,7 @@ stiffness and mass matrices ::
     K_ij = int grad phi_i . grad phi_j,   M_ij = int phi_i phi_j,
 
 assembled by scikit-fem (``BilinearForm`` on a ``CellBasis``; quadrature of degree 2 for P1,
-4 for P2: exact on affine elements) and the lumped mass m (HRZ: the diagonal of M scaled to the
-total area, ``m_i = M_ii sum(M) / trace(M)``; for P1 the row sums ``sum_T |T| / 3``). The
+4 for P2: exact on affine elements). The
 load of the growth rate is b = M g, g = exp(-lam p) at the degrees of freedom (the consistent
 load of the interpolant of g; for P1 exactly the hand-written assembly's).
 
@@ -102,24 +101,20 @@ class Operators:
 
     Attributes
     ----------
-    K_data : ndarray (nnz,)
-        CSR data of the stiffness matrix on the space's pattern (no boundary rows).
-    M : scipy.sparse.csr_matrix
-        The mass matrix (same pattern).
-    m : ndarray (n,)
-        Lumped (HRZ) mass of every degree of freedom.
+    K_data, M_data : ndarray (nnz,)
+        CSR data of the stiffness and mass matrices on the space's pattern (no boundary rows).
     basis : skfem.CellBasis
         The basis of this position (for gradients).
     """
 
     K_data: np.ndarray
-    M: sp.csr_matrix
-    m: np.ndarray
+    M_data: np.ndarray
+    space: LagrangeSpace
     basis: skfem.CellBasis
 
     def load(self, g: np.ndarray) -> np.ndarray:
         """Consistent load b = M g of the interpolant of g."""
-        return self.M @ g
+        return self.space.matrix(self.M_data) @ g
 
 
 class LagrangeSpace:
@@ -142,7 +137,7 @@ class LagrangeSpace:
         Number of degrees of freedom (N for P1, N + number of edges for P2).
     boundary_dofs : ndarray
         Degrees of freedom on the boundary (p = 0 there), ascending.
-    indices, indptr, nnz, diag : the CSR pattern of the element-dof graph and its diagonal.
+    indices, indptr, rows, nnz, diag : the CSR pattern of the element-dof graph (rows: the row of each entry) and its diagonal.
     """
 
     def __init__(self, element: str, tris: np.ndarray, n_nodes: int, n_boundary: int):
@@ -182,6 +177,7 @@ class LagrangeSpace:
         r, c = np.divmod(uniq, self.n)
         self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=self.n))])
         self.indices = c
+        self.rows = r
         self.nnz = len(uniq)
         isb = np.zeros(self.n, dtype=bool)
         isb[self.boundary_dofs] = True
@@ -235,14 +231,11 @@ class LagrangeSpace:
         return np.bincount(self.scatter, weights=coo.data, minlength=self.nnz)
 
     def assemble(self, points: np.ndarray) -> Operators:
-        """Stiffness K, mass M and lumped mass m at these vertex positions (module docstring)."""
+        """Stiffness K and mass M at these vertex positions (module docstring)."""
         basis = self.basis(points)
         K = self._csr_data(_stiffness.elemental(basis))
         M = self._csr_data(_mass.elemental(basis))
-        diag = M[self.diag]
-        m = np.zeros(self.n)
-        m[self.indices[self.diag]] = diag * (M.sum() / diag.sum())
-        return Operators(K, self.matrix(M), m, basis)
+        return Operators(K, M, self, basis)
 
     def matrix(self, data: np.ndarray) -> sp.csr_matrix:
         """CSR matrix with this pattern and the given data."""

@@ -12,10 +12,12 @@ of freedom (the growth law, :func:`continuum.growth.growth_rate`) and b(g) = M g
 M_ij = int phi_i phi_j, the consistent load of the interpolant of g (for P1 element-wise
 ``|T|/12 (g_i + sum_{j in T} g_j)``).
 
-Newton step: J delta = -F with the symmetric positive (for lam >= 0) approximation
-J = K + lam diag(m g) of the Jacobian K + lam M diag(g) (m the lumped mass; HRZ for P2, whose
-row sums vanish at the vertices); the difference is O(lam h^2) relative to K, so the iteration
-converges at an (almost) quadratic rate. K and M are assembled once per node position (a
+Newton step: J delta = -F with the symmetric part of the Jacobian K + lam M diag(g),
+J_ij = K_ij + lam M_ij (g_i + g_j) / 2 (positive definite for lam >= 0 on these meshes; CG
+reports it otherwise); the difference lam M_ij (g_j - g_i) / 2 is O(lam h |grad g|) M_ij, so
+Newton from the warm start of a time step meets its tolerance in one iteration (measured:
+1.0-1.1 iterations per solve; the lumped approximation K + lam diag(M g) used before was
+O(lam h^2) off relative to K and needed about 1.8). K and M are assembled once per node position (a
 solve): every Newton iteration is then matrix-vector products and a diagonal update of J on the
 same pattern. Each linear system is solved by conjugate gradients preconditioned with a pyamg
 smoothed-aggregation hierarchy. The hierarchy is reused across Newton iterations and time steps
@@ -39,6 +41,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pyamg
 import scipy.sparse as sp
+from numba import njit
 
 from continuum.fem import LagrangeSpace, check_element
 from continuum.growth import growth_rate
@@ -50,7 +53,8 @@ __all__ = [
     "SKFEM_P1",
     "NewtonStats",
     "pcg",
-    "vcycle",
+    "VCycle",
+    "SMOOTHING",
     "limit_blas_threads",
     "amg_hierarchy",
 ]
@@ -97,21 +101,31 @@ AMG_SEED = 20240611
 """Seed of numpy's global generator during an AMG setup (see ``amg_hierarchy``)."""
 
 
+SMOOTHING = (("gauss_seidel", {"sweep": "forward"}), ("gauss_seidel", {"sweep": "backward"}))
+"""Pre- and post-smoother of the V-cycle: one forward, then one backward Gauss-Seidel sweep.
+
+The cycle is then symmetric (a valid CG preconditioner) with half the sweeps of pyamg's default
+symmetric Gauss-Seidel before and after (docs/benchmarks.md, "Continuum solver")."""
+
+
 def amg_hierarchy(A: sp.csr_matrix):
     """The pyamg smoothed-aggregation hierarchy of the SPD matrix A, the same on every call.
 
-    pyamg estimates the spectral radius rho(D^-1 S) of the prolongation smoother
-    (``approximate_spectral_radius``, Lanczos/Arnoldi) from a random start vector drawn from
-    numpy's *global* generator, so two setups of one matrix differ in the last digits of P
-    and thus of every CG iterate. Here the global generator is seeded with ``AMG_SEED`` for
-    the setup and its previous state is put back afterwards (callers' random streams are not
-    disturbed). Not thread-safe with respect to other users of the global generator.
+    Smoothers ``SMOOTHING``. pyamg estimates the spectral radius rho(D^-1 S) of the
+    prolongation smoother (``approximate_spectral_radius``, Lanczos/Arnoldi) from a random
+    start vector drawn from numpy's *global* generator, so two setups of one matrix differ in
+    the last digits of P and thus of every CG iterate. Here the global generator is seeded
+    with ``AMG_SEED`` for the setup and its previous state is put back afterwards (callers'
+    random streams are not disturbed). Not thread-safe with respect to other users of the
+    global generator.
     """
     # pyamg draws from the legacy global generator: seeded here on purpose (docstring)
     saved = np.random.get_state()  # noqa: NPY002
     np.random.seed(AMG_SEED)  # noqa: NPY002
     try:
-        return pyamg.smoothed_aggregation_solver(A, symmetry="hermitian", max_coarse=200)
+        return pyamg.smoothed_aggregation_solver(A, symmetry="hermitian", max_coarse=200,
+                                                 presmoother=SMOOTHING[0],
+                                                 postsmoother=SMOOTHING[1])
     finally:
         np.random.set_state(saved)  # noqa: NPY002
 
@@ -121,20 +135,36 @@ def _dot(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.einsum("i,i->", a, b))
 
 
-def vcycle(ml, b: np.ndarray, lvl: int = 0) -> np.ndarray:
-    """One V-cycle of a pyamg hierarchy from x = 0 (pre/post smoothing, coarse solve).
+class VCycle:
+    """One V-cycle of a pyamg hierarchy from x = 0, as a preconditioner ``M(b)``.
 
-    Equivalent to ``ml.solve(b, maxiter=1)`` without its residual-norm bookkeeping.
+    Level by level: a forward Gauss-Seidel sweep, the residual restricted (R = P^T), the
+    coarser level's cycle prolonged and added, a backward sweep (``SMOOTHING``); the coarsest
+    level is solved by the hierarchy's coarse solver. Equal to pyamg's
+    ``ml.solve(b, maxiter=1)`` to round-off, with every level's A, P and R in CSR (pyamg keeps
+    the coarse levels of smoothed aggregation in BSR with 1 x 1 blocks, slower per nonzero in
+    its Gauss-Seidel and products) and its compiled sweep called without the wrapper's checks.
     """
-    level = ml.levels[lvl]
-    if lvl == len(ml.levels) - 1:
-        return ml.coarse_solver(level.A, b)
-    x = np.zeros_like(b)
-    level.presmoother(level.A, x, b)
-    r = b - level.A @ x
-    x += level.P @ vcycle(ml, level.R @ r, lvl + 1)
-    level.postsmoother(level.A, x, b)
-    return x
+
+    def __init__(self, ml):
+        self.ml = ml
+        self.levels = [(sp.csr_matrix(lv.A), sp.csr_matrix(lv.P), sp.csr_matrix(lv.R))
+                       for lv in ml.levels[:-1]]
+        self.coarse = ml.levels[-1].A
+
+    def __call__(self, b: np.ndarray) -> np.ndarray:
+        return self._cycle(0, b)
+
+    def _cycle(self, lvl: int, b: np.ndarray) -> np.ndarray:
+        if lvl == len(self.levels):
+            return self.ml.coarse_solver(self.coarse, b)
+        A, P, R = self.levels[lvl]
+        n = len(b)
+        x = np.zeros_like(b)
+        pyamg.amg_core.gauss_seidel(A.indptr, A.indices, A.data, x, b, 0, n, 1)
+        x += P @ self._cycle(lvl + 1, R @ (b - A @ x))
+        pyamg.amg_core.gauss_seidel(A.indptr, A.indices, A.data, x, b, n - 1, -1, -1)
+        return x
 
 
 def pcg(
@@ -175,8 +205,51 @@ class PressureDivergence(RuntimeError):  # noqa: N818 - the public name
     """Newton's method for the pressure did not converge (no solution, or non-finite values)."""
 
 
+@njit(cache=True)
+def _geometry(points, tris, area, grads):  # pragma: no cover - compiled
+    """In place: ``area[T] = |T|`` and ``grads[T, i] = rot(x_k - x_j) / (2 |T|)``, (i, j, k) cyclic."""
+    for t in range(tris.shape[0]):
+        for i in range(3):
+            j, k = tris[t, (i + 1) % 3], tris[t, (i + 2) % 3]
+            grads[t, i, 0] = -(points[k, 1] - points[j, 1])
+            grads[t, i, 1] = points[k, 0] - points[j, 0]
+        # |T| = (x_1 - x_0) x (x_2 - x_0) / 2 = e_2 x (-e_1) / 2
+        a = 0.5 * (grads[t, 2, 1] * grads[t, 1, 0] - grads[t, 2, 0] * grads[t, 1, 1])
+        area[t] = a
+        for i in range(3):
+            grads[t, i, 0] /= 2.0 * a
+            grads[t, i, 1] /= 2.0 * a
+
+
+@njit(cache=True)
+def _stiffness_mass(area, grads, scatter, nnz):  # pragma: no cover - compiled
+    """CSR data of K and M: entry (i, j) of element T, |T| grad lambda_i . grad lambda_j and
+    |T| (1 + delta_ij) / 12, added at ``scatter[9 T + 3 i + j]``."""
+    K = np.zeros(nnz)
+    M = np.zeros(nnz)
+    for t in range(area.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                k = scatter[9 * t + 3 * i + j]
+                K[k] += area[t] * (grads[t, i, 0] * grads[t, j, 0]
+                                   + grads[t, i, 1] * grads[t, j, 1])
+                M[k] += area[t] * (2.0 if i == j else 1.0) / 12.0
+    return K, M
+
+
+@njit(cache=True)
+def _load(tris, area, g, n):  # pragma: no cover - compiled
+    """``b_i = sum_T |T|/12 (g_i + sum_{j in T} g_j)``, node i in T."""
+    b = np.zeros(n)
+    for t in range(tris.shape[0]):
+        s = g[tris[t, 0]] + g[tris[t, 1]] + g[tris[t, 2]]
+        for i in range(3):
+            b[tris[t, i]] += area[t] / 12.0 * (g[tris[t, i]] + s)
+    return b
+
+
 class P1Assembler:
-    """P1 stiffness, lumped mass and consistent load on a fixed triangle topology.
+    """P1 stiffness, mass and consistent load on a fixed triangle topology.
 
     The CSR pattern of K and the scatter map from the 9 entries of each element matrix to
     CSR data positions are computed once per topology; ``stiffness(points)`` then costs one
@@ -193,7 +266,7 @@ class P1Assembler:
     """
 
     def __init__(self, tris: np.ndarray, n_nodes: int, n_boundary: int):
-        self.tris = np.asarray(tris, dtype=np.int64)
+        self.tris = np.ascontiguousarray(tris, dtype=np.int64)
         self.n = int(n_nodes)
         self.nb = int(n_boundary)
         rows = np.repeat(self.tris, 3, axis=1).ravel()
@@ -205,6 +278,7 @@ class P1Assembler:
         np.add.at(indptr, r + 1, 1)
         self.indptr = np.cumsum(indptr)
         self.indices = c
+        self.rows = r
         self.nnz = len(uniq)
         # Dirichlet: rows/columns of boundary nodes become identity rows
         bnd_entry = (r < self.nb) | (c < self.nb)
@@ -215,35 +289,24 @@ class P1Assembler:
     def geometry(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Element areas ``|T|`` and gradients of the barycentric coordinates, shape (M, 3, 2).
 
-        ``grad lambda_i = rot(x_k - x_j) / (2 |T|)`` for (i, j, k) cyclic.
+        ``grad lambda_i = rot(x_k - x_j) / (2 |T|)`` for (i, j, k) cyclic, rot(a, b) = (-b, a).
         """
-        x = points[self.tris]  # (M, 3, 2)
-        e0 = x[:, 2] - x[:, 1]
-        e1 = x[:, 0] - x[:, 2]
-        e2 = x[:, 1] - x[:, 0]
-        area = 0.5 * (e2[:, 0] * (-e1[:, 1]) - e2[:, 1] * (-e1[:, 0]))
-        grads = np.stack([e0, e1, e2], axis=1)[:, :, ::-1] * np.array([-1.0, 1.0])
-        grads /= (2.0 * area)[:, None, None]
+        area = np.empty(len(self.tris))
+        grads = np.empty((len(self.tris), 3, 2))
+        _geometry(np.ascontiguousarray(points, dtype=float), self.tris, area, grads)
         return area, grads
 
     def stiffness_data(self, area: np.ndarray, grads: np.ndarray) -> np.ndarray:
         """CSR data of ``K_ij = sum_T |T| grad lambda_i . grad lambda_j`` (no boundary rows)."""
-        ke = np.einsum("mid,mjd->mij", grads, grads) * area[:, None, None]
-        return np.bincount(self.scatter, weights=ke.ravel(), minlength=self.nnz)
+        return _stiffness_mass(area, grads, self.scatter, self.nnz)[0]
+
+    def load(self, area: np.ndarray, g: np.ndarray) -> np.ndarray:
+        """Consistent load ``b_i = int (sum_j g_j phi_j) phi_i = sum_T |T|/12 (g_i + sum_T g)``."""
+        return _load(self.tris, area, np.asarray(g, dtype=float), self.n)
 
     def matrix(self, data: np.ndarray) -> sp.csr_matrix:
         """CSR matrix with this pattern and the given data."""
         return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
-
-    def lumped_mass(self, area: np.ndarray) -> np.ndarray:
-        """Lumped mass ``m_i = sum_{T containing i} |T| / 3``."""
-        return np.bincount(self.tris.ravel(), weights=np.repeat(area / 3.0, 3), minlength=self.n)
-
-    def load(self, area: np.ndarray, g: np.ndarray) -> np.ndarray:
-        """Consistent load ``b_i = int (sum_j g_j phi_j) phi_i = sum_T |T|/12 (g_i + sum_T g)``."""
-        gt = g[self.tris]
-        w = (area / 12.0)[:, None] * (gt + gt.sum(axis=1, keepdims=True))
-        return np.bincount(self.tris.ravel(), weights=w.ravel(), minlength=self.n)
 
     def dirichlet(self, data: np.ndarray) -> np.ndarray:
         """Copy of the CSR data with boundary rows and columns replaced by identity."""
@@ -261,10 +324,13 @@ class P1Assembler:
         """Nodal values as they are (the interface of continuum.fem.LagrangeSpace)."""
         return np.array(p_nodes, dtype=float)
 
-    def assemble(self, points: np.ndarray) -> HandOperators:
-        """K, the load and the lumped mass at these node positions, hand-written (P1)."""
-        area, grads = self.geometry(points)
-        return HandOperators(self, area, self.stiffness_data(area, grads), self.lumped_mass(area))
+    def assemble(self, points: np.ndarray, geometry=None) -> HandOperators:
+        """K, M and the load at these node positions, hand-written (P1).
+
+        ``geometry``: (areas, barycentric gradients) of these positions, if already computed.
+        """
+        area, grads = self.geometry(points) if geometry is None else geometry
+        return HandOperators(self, area, *_stiffness_mass(area, grads, self.scatter, self.nnz))
 
 
 @dataclass
@@ -274,7 +340,7 @@ class HandOperators:
     assembler: P1Assembler
     area: np.ndarray
     K_data: np.ndarray
-    m: np.ndarray
+    M_data: np.ndarray
 
     def load(self, g: np.ndarray) -> np.ndarray:
         """Consistent load b = M g, element by element."""
@@ -388,7 +454,7 @@ class PressureSolver:
         data = np.array(data, dtype=float)
         if self.space is None or data.shape != (self.space.nnz,):
             raise ValueError("restore_amg: the matrix does not fit the current mesh topology")
-        self._amg = amg_hierarchy(self.space.matrix(data))
+        self._amg = VCycle(amg_hierarchy(self.space.matrix(data)))
         self._amg_source = data
 
     def _setup(self, A: sp.csr_matrix, st: NewtonStats) -> None:
@@ -396,7 +462,7 @@ class PressureSolver:
         import time
 
         t0 = time.perf_counter()
-        self._amg = amg_hierarchy(A)
+        self._amg = VCycle(amg_hierarchy(A))
         self._amg_source = A.data.copy()
         st.amg_setups += 1
         st.time_amg += time.perf_counter() - t0
@@ -408,8 +474,7 @@ class PressureSolver:
             self._setup(A, st)
         for attempt in range(2):
             t0 = time.perf_counter()
-            ml = self._amg
-            x, its, ok = pcg(A, rhs, lambda r, ml=ml: vcycle(ml, r), tol)
+            x, its, ok = pcg(A, rhs, self._amg, tol)
             st.time_krylov += time.perf_counter() - t0
             st.krylov_iterations += its
             if ok and its <= self.reuse_factor:
@@ -472,7 +537,7 @@ class PressureSolver:
         area, grads = self.assembler.geometry(points)
         if np.any(area <= 0):
             raise PressureDivergence(f"inverted mesh element ({where})")
-        ops = S.assemble(points)
+        ops = S.assemble(points, (area, grads)) if S is self.assembler else S.assemble(points)
         K = S.matrix(ops.K_data)
         st.time_assembly += time.perf_counter() - t0
         bnd = S.boundary_dofs
@@ -506,8 +571,7 @@ class PressureSolver:
             if it >= 3 and st.history[-1] > 0.9 * st.history[-2] and st.history[-1] > 1e-3:
                 break  # stagnating far from the solution
             t0 = time.perf_counter()
-            Jd = ops.K_data.copy()
-            Jd[S.diag] += lam * ops.m * g
+            Jd = ops.K_data + (0.5 * lam) * ops.M_data * (g[S.rows] + g[S.indices])
             J = S.matrix(S.dirichlet(Jd))
             st.time_assembly += time.perf_counter() - t0
             try:

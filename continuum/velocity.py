@@ -40,6 +40,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.sparse as sp
+from numba import njit
 
 from continuum.pressure import P1Assembler
 
@@ -55,15 +56,52 @@ __all__ = [
 ]
 
 
-def _inv3_row0(A: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """First row of the inverse of a batch of symmetric 3x3 matrices (cofactors) and det."""
-    a, b, c = A[:, 0, 0], A[:, 0, 1], A[:, 0, 2]
-    d, e, f = A[:, 1, 1], A[:, 1, 2], A[:, 2, 2]
-    c0 = d * f - e * e
-    c1 = c * e - b * f
-    c2 = b * e - c * d
-    det = a * c0 + b * c1 + c * c2
-    return np.stack([c0, c1, c2], axis=1), det
+@njit(cache=True)
+def _spr_weights(tris, points):  # pragma: no cover - compiled
+    """The weights of :func:`spr_weights`, one pass over the elements for the moments A_n."""
+    n, m = points.shape[0], tris.shape[0]
+    A = np.zeros((n, 6))  # a00 (= patch size), a01, a02, a11, a12, a22
+    d = np.empty((m, 3, 2))
+    area = np.zeros(n)
+    for t in range(m):
+        cx = (points[tris[t, 0], 0] + points[tris[t, 1], 0] + points[tris[t, 2], 0]) / 3.0
+        cy = (points[tris[t, 0], 1] + points[tris[t, 1], 1] + points[tris[t, 2], 1]) / 3.0
+        x0, y0 = points[tris[t, 0], 0], points[tris[t, 0], 1]
+        at = 0.5 * abs((points[tris[t, 1], 0] - x0) * (points[tris[t, 2], 1] - y0)
+                       - (points[tris[t, 1], 1] - y0) * (points[tris[t, 2], 0] - x0))
+        for k in range(3):
+            i = tris[t, k]
+            dx, dy = cx - points[i, 0], cy - points[i, 1]
+            d[t, k, 0], d[t, k, 1] = dx, dy
+            A[i, 0] += 1.0
+            A[i, 1] += dx
+            A[i, 2] += dy
+            A[i, 3] += dx * dx
+            A[i, 4] += dx * dy
+            A[i, 5] += dy * dy
+            area[i] += at
+    row = np.empty((n, 3))
+    ok = np.empty(n, dtype=np.bool_)
+    for i in range(n):
+        a, b, c, dd, e, f = A[i, 0], A[i, 1], A[i, 2], A[i, 3], A[i, 4], A[i, 5]
+        c0, c1, c2 = dd * f - e * e, c * e - b * f, b * e - c * dd
+        det = a * c0 + b * c1 + c * c2
+        h2 = (dd + f) / max(a, 1.0)
+        ok[i] = abs(det) > 1e-6 * a * h2 * h2
+        if ok[i]:
+            row[i, 0], row[i, 1], row[i, 2] = c0 / det, c1 / det, c2 / det
+    w = np.empty(3 * m)
+    for t in range(m):
+        x0, y0 = points[tris[t, 0], 0], points[tris[t, 0], 1]
+        at = 0.5 * abs((points[tris[t, 1], 0] - x0) * (points[tris[t, 2], 1] - y0)
+                       - (points[tris[t, 1], 1] - y0) * (points[tris[t, 2], 0] - x0))
+        for k in range(3):
+            i = tris[t, k]
+            if ok[i]:
+                w[3 * t + k] = row[i, 0] + row[i, 1] * d[t, k, 0] + row[i, 2] * d[t, k, 1]
+            else:
+                w[3 * t + k] = at / area[i]
+    return w
 
 
 def spr_weights(tris: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -72,35 +110,14 @@ def spr_weights(tris: np.ndarray, points: np.ndarray) -> np.ndarray:
     At node n the linear polynomial a + b.(x - x_n) fitted by least squares to the element
     gradients at the centroids c_T of the patch {T containing n} has the value
     a = sum_T w_(n,T) (grad f_h)|_T with w_(n,T) = [A_n^{-1}]_0 . [1, c_T - x_n],
-    A_n = sum_T [1, c_T - x_n]^T [1, c_T - x_n]. Returned in the order of ``tris.ravel()``
-    (entry 3 T + k pairs node tris[T, k] with element T). Patches with a singular fit (fewer
-    than 3 non-collinear centroids) fall back to the area-weighted average.
+    A_n = sum_T [1, c_T - x_n]^T [1, c_T - x_n] (its first row of the inverse by cofactors).
+    Returned in the order of ``tris.ravel()`` (entry 3 T + k pairs node tris[T, k] with
+    element T). Patches with a singular fit (fewer than 3 non-collinear centroids:
+    ``|det A_n| <= 1e-6 a00 (trace of the second moments / a00)^2``) fall back to the
+    area-weighted average.
     """
-    n = len(points)
-    idx = tris.ravel()
-    cen = points[tris].mean(axis=1)
-    d = np.repeat(cen, 3, axis=0) - points[idx]
-    P = (np.ones(len(idx)), d[:, 0], d[:, 1])
-    A = np.empty((n, 3, 3))
-    for a in range(3):
-        for b in range(a, 3):
-            A[:, a, b] = A[:, b, a] = np.bincount(idx, weights=P[a] * P[b], minlength=n)
-    row, det = _inv3_row0(A)
-    h2 = A[:, 1, 1] + A[:, 2, 2]
-    ok = np.abs(det) > 1e-6 * A[:, 0, 0] * (h2 / np.maximum(A[:, 0, 0], 1)) ** 2
-    row[ok] /= det[ok, None]
-    w = row[idx, 0] + row[idx, 1] * P[1] + row[idx, 2] * P[2]
-    bad = ~ok[idx]
-    if np.any(bad):
-        x = points[tris]
-        area = 0.5 * np.abs(
-            (x[:, 1, 0] - x[:, 0, 0]) * (x[:, 2, 1] - x[:, 0, 1])
-            - (x[:, 1, 1] - x[:, 0, 1]) * (x[:, 2, 0] - x[:, 0, 0])
-        )
-        ar = np.repeat(area, 3)
-        patch = np.bincount(idx, weights=ar, minlength=n)
-        w[bad] = ar[bad] / patch[idx[bad]]
-    return w
+    return _spr_weights(np.ascontiguousarray(tris, dtype=np.int64),
+                        np.ascontiguousarray(points, dtype=float))
 
 
 def recovered_gradient(
