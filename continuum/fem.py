@@ -137,7 +137,8 @@ class LagrangeSpace:
         Number of degrees of freedom (N for P1, N + number of edges for P2).
     boundary_dofs : ndarray
         Degrees of freedom on the boundary (p = 0 there), ascending.
-    indices, indptr, rows, nnz, diag : the CSR pattern of the element-dof graph (rows: the row of each entry) and its diagonal.
+    indices, indptr, rows, nnz, diag : the CSR pattern of the element-dof graph (``rows``: the
+        row of each entry) and its diagonal.
     """
 
     def __init__(self, element: str, tris: np.ndarray, n_nodes: int, n_boundary: int):

@@ -153,6 +153,7 @@ class VCycle:
         self.coarse = ml.levels[-1].A
 
     def __call__(self, b: np.ndarray) -> np.ndarray:
+        """The cycle's approximation of A^-1 b."""
         return self._cycle(0, b)
 
     def _cycle(self, lvl: int, b: np.ndarray) -> np.ndarray:
@@ -207,7 +208,7 @@ class PressureDivergence(RuntimeError):  # noqa: N818 - the public name
 
 @njit(cache=True)
 def _geometry(points, tris, area, grads):  # pragma: no cover - compiled
-    """In place: ``area[T] = |T|`` and ``grads[T, i] = rot(x_k - x_j) / (2 |T|)``, (i, j, k) cyclic."""
+    """In place: ``area[T] = |T|``, ``grads[T, i] = rot(x_k - x_j) / (2 |T|)``, (i, j, k) cyclic."""
     for t in range(tris.shape[0]):
         for i in range(3):
             j, k = tris[t, (i + 1) % 3], tris[t, (i + 2) % 3]
@@ -223,8 +224,11 @@ def _geometry(points, tris, area, grads):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _stiffness_mass(area, grads, scatter, nnz):  # pragma: no cover - compiled
-    """CSR data of K and M: entry (i, j) of element T, |T| grad lambda_i . grad lambda_j and
-    |T| (1 + delta_ij) / 12, added at ``scatter[9 T + 3 i + j]``."""
+    """CSR data of K and M, element by element.
+
+    Entry (i, j) of element T, |T| grad lambda_i . grad lambda_j and |T| (1 + delta_ij) / 12,
+    is added at ``scatter[9 T + 3 i + j]``.
+    """
     K = np.zeros(nnz)
     M = np.zeros(nnz)
     for t in range(area.shape[0]):
