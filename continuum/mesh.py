@@ -22,6 +22,7 @@ import math
 
 import numpy as np
 import triangle as tr
+from numba import njit
 from scipy.interpolate import CubicSpline
 from scipy.spatial import cKDTree
 
@@ -207,12 +208,28 @@ def resample_polygon(
     return spline(np.interp(target, arc, fine))
 
 
+@njit(cache=True)
+def _areas_quality(points, tris, quality):  # pragma: no cover - compiled
+    """Signed areas and (``quality``) the shape quality of the triangles, one pass."""
+    m = tris.shape[0]
+    out = np.empty(m)
+    for t in range(m):
+        ax, ay = points[tris[t, 0], 0], points[tris[t, 0], 1]
+        bx, by = points[tris[t, 1], 0], points[tris[t, 1], 1]
+        cx, cy = points[tris[t, 2], 0], points[tris[t, 2], 1]
+        area = 0.5 * ((bx - ax) * (cy - ay) - (by - ay) * (cx - ax))
+        if quality:
+            s2 = (((bx - ax) ** 2 + (by - ay) ** 2) + ((cx - bx) ** 2 + (cy - by) ** 2)
+                  + ((ax - cx) ** 2 + (ay - cy) ** 2))
+            area = 4.0 * np.sqrt(3.0) * area / s2
+        out[t] = area
+    return out
+
+
 def triangle_areas(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
-    """Signed areas ``|T|`` of the triangles (positive when counter-clockwise)."""
-    a, b, c = points[tris[:, 0]], points[tris[:, 1]], points[tris[:, 2]]
-    return 0.5 * (
-        (b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1]) - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0])
-    )
+    """Signed areas ``|T| = (b - a) x (c - a) / 2`` of the triangles abc (> 0: anticlockwise)."""
+    return _areas_quality(np.ascontiguousarray(points, dtype=float),
+                          np.ascontiguousarray(tris, dtype=np.int64), False)
 
 
 def triangle_quality(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
@@ -220,9 +237,8 @@ def triangle_quality(points: np.ndarray, tris: np.ndarray) -> np.ndarray:
 
     q = 1 for an equilateral triangle, q -> 0 for a degenerate one, q < 0 if inverted.
     """
-    a, b, c = points[tris[:, 0]], points[tris[:, 1]], points[tris[:, 2]]
-    s2 = np.sum((b - a) ** 2, axis=1) + np.sum((c - b) ** 2, axis=1) + np.sum((a - c) ** 2, axis=1)
-    return 4.0 * np.sqrt(3.0) * triangle_areas(points, tris) / s2
+    return _areas_quality(np.ascontiguousarray(points, dtype=float),
+                          np.ascontiguousarray(tris, dtype=np.int64), True)
 
 
 def h_for_nodes(area: float, n_nodes: float) -> float:

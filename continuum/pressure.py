@@ -52,6 +52,7 @@ __all__ = [
     "PressureSolver",
     "SKFEM_P1",
     "NewtonStats",
+    "NEWTON_RTOL",
     "pcg",
     "VCycle",
     "SMOOTHING",
@@ -374,6 +375,16 @@ test_elements.py) but 10-20 % slower per solve at 1.5e4-1.5e5 nodes (docs/benchm
 ``Config.element``."""
 
 
+NEWTON_RTOL = {"P1": 1e-7, "P2": 1e-8}
+"""Newton's default relative residual tolerance per element.
+
+The residual relative to the load bounds the relative error of the smooth part of p, so the
+tolerance sits below the element's discretisation error on the finest meshes validated: P1's
+max nodal error at 1.5e5 nodes is 7e-6 of max p (70x above 1e-7), P2's 7e-9 (docs/benchmarks.md,
+"Pressure elements"). From a time step's warm start P1 then takes one Newton iteration where
+1e-8 took two (docs/benchmarks.md, "Continuum solver")."""
+
+
 class PressureSolver:
     """Newton solver for -Laplace p = exp(-lam p), p = 0 on the boundary, on a moving mesh.
 
@@ -385,8 +396,9 @@ class PressureSolver:
         "P1" (default): the hand-written P1 assembly (``P1Assembler``), measured faster than
         scikit-fem's and equal to it to round-off; "P2": the P2 space assembled by scikit-fem
         (continuum.fem.LagrangeSpace); ``SKFEM_P1``: P1 assembled by scikit-fem.
-    rtol : float
-        Newton stops when ``||F(p)||_2 <= rtol ||b(g(p))||_2``.
+    rtol : float, optional
+        Newton stops when ``||F(p)||_2 <= rtol ||b(g(p))||_2``; by default ``NEWTON_RTOL`` of
+        the element.
     max_newton : int
         Iteration limit; exceeding it raises PressureDivergence.
     krylov_rtol : float
@@ -408,7 +420,7 @@ class PressureSolver:
         self,
         lam: float,
         element: str = "P1",
-        rtol: float = 1e-8,
+        rtol: float | None = None,
         max_newton: int = 30,
         krylov_rtol: float = 1e-10,
         reuse_factor: int = 25,
@@ -419,7 +431,7 @@ class PressureSolver:
             check_element(element)
         self.lam = float(lam)
         self.element = element
-        self.rtol = rtol
+        self.rtol = NEWTON_RTOL["P2" if element == "P2" else "P1"] if rtol is None else rtol
         self.max_newton = max_newton
         self.krylov_rtol = krylov_rtol
         self.reuse_factor = reuse_factor
