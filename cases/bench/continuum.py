@@ -10,15 +10,26 @@
    ring radii (where G = k ln 2, mean over 24 rays) against the 1D reference
    (continuum.radial.ring_radii), absolute and relative to the local ring spacing.
 
-Run: ``python -m cases.bench.continuum [--sizes 1000 10000 100000] [--radius 150]``.
-Timings depend on the machine's load: CPU seconds are printed beside wall seconds.
+3. With ``--against DIR`` (a checkout of another commit, e.g. a ``git worktree``): the target
+   run of this code and of DIR's, each in a fresh process, alternated ``--repeats`` times on the
+   same machine; medians of wall and CPU seconds, their ratio, and both runs' ring errors
+   (:func:`compare`). Speed claims are these ratios, never absolute seconds across machines.
+
+Run: ``python -m cases.bench.continuum [--sizes 1000 10000 100000] [--radius 150]
+[--against DIR --repeats 3]``. Timings depend on the machine's load: CPU seconds are printed
+beside wall seconds.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
+import os
+import subprocess
+import sys
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -116,6 +127,51 @@ def target_run(radius: float = 150.0, lam: float = 1e-2, **overrides) -> dict:
     }
 
 
+_CHILD = """
+import json, sys
+from cases.bench.continuum import target_run
+r = target_run(float(sys.argv[1]))
+keep = ("wall_s", "cpu_s", "steps", "n_nodes", "outer_max_abs_err", "radius_error_at_t")
+out = {k: r[k] for k in keep}
+out["outer4_max_abs_err"] = max(abs(e) for _, _, e, _ in r["rings"][-4:])
+out["all_max_abs_err"] = max(abs(e) for _, _, e, _ in r["rings"])
+print("RESULT " + json.dumps(out))
+"""
+
+
+def _child_run(code: Path, radius: float) -> dict:
+    """The target run of the code checked out at ``code``, in a fresh process (its imports)."""
+    env = dict(os.environ, PYTHONPATH=str(code))
+    res = subprocess.run([sys.executable, "-c", _CHILD, str(radius)], cwd=code, env=env,
+                         capture_output=True, text=True)
+    if res.returncode:
+        raise RuntimeError(f"target run of {code} failed:\n{res.stderr[-2000:]}")
+    line = [ln for ln in res.stdout.splitlines() if ln.startswith("RESULT ")][-1]
+    return json.loads(line[len("RESULT "):])
+
+
+def compare(base: Path, radius: float = 150.0, repeats: int = 3) -> dict:
+    """Target runs of this checkout and of ``base``, alternated, each ``repeats`` times.
+
+    Returns {"this": [runs], "base": [runs], "wall_ratio", "cpu_ratio"}: the ratios of the
+    medians (this / base).
+    """
+    here = Path(__file__).resolve().parents[2]
+    runs = {"this": [], "base": []}
+    for i in range(repeats):
+        for name, code in (("base", Path(base).resolve()), ("this", here)):
+            r = _child_run(code, radius)
+            runs[name].append(r)
+            print(f"  {name} run {i + 1}: wall {r['wall_s']:.1f} s, CPU {r['cpu_s']:.1f} s, "
+                  f"{r['steps']} steps, {r['n_nodes']} nodes, outer four rings "
+                  f"{r['outer4_max_abs_err']:.4f}, all rings {r['all_max_abs_err']:.4f}",
+                  flush=True)
+    med = {n: {k: float(np.median([r[k] for r in v])) for k in ("wall_s", "cpu_s")}
+           for n, v in runs.items()}
+    return dict(runs, wall_ratio=med["this"]["wall_s"] / med["base"]["wall_s"],
+                cpu_ratio=med["this"]["cpu_s"] / med["base"]["cpu_s"], medians=med)
+
+
 def main(argv=None) -> None:
     """Command line (module docstring)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -123,7 +179,19 @@ def main(argv=None) -> None:
     ap.add_argument("--steps", type=int, default=5)
     ap.add_argument("--radius", type=float, default=150.0, help="target run radius (0: skip)")
     ap.add_argument("--set", nargs="*", default=[], help="continuum.Config overrides KEY=VALUE")
+    ap.add_argument("--against", type=Path, default=None,
+                    help="checkout of another commit: compare the target runs (no --sizes)")
+    ap.add_argument("--repeats", type=int, default=3, help="runs of each code with --against")
     args = ap.parse_args(argv)
+    if args.against is not None:
+        if not (args.against / "continuum" / "__init__.py").is_file():
+            sys.exit(f"bench: {args.against} is not a checkout of this project")
+        c = compare(args.against, args.radius, args.repeats)
+        m = c["medians"]
+        print(f"median wall: this {m['this']['wall_s']:.1f} s, base {m['base']['wall_s']:.1f} s "
+              f"(ratio {c['wall_ratio']:.3f}); median CPU: this {m['this']['cpu_s']:.1f} s, "
+              f"base {m['base']['cpu_s']:.1f} s (ratio {c['cpu_ratio']:.3f})")
+        return
     if args.sizes:
         print("nodes  " + "  ".join(f"{k:>10s}" for k in STAGES) + "  step(no remesh) [s]")
         for n in args.sizes:
