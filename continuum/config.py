@@ -120,10 +120,10 @@ class Config:
         "finite-volume" (flux-limited Lax-Wendroff, continuum.sizes.SizeDistribution).
     element : str
         Lagrange element of the pressure: "P1" (default: hand-written assembly, equal to
-        scikit-fem's to round-off and faster; velocity by patch recovery and residual flux,
-        continuum.velocity) or "P2" (scikit-fem, continuum.fem; isoparametric at the boundary;
-        velocity from the element gradients at the vertices, one order more accurate; 6-12x
-        the cost per solve on the same mesh, docs/benchmarks.md).
+        scikit-fem's to round-off, 2x faster over a whole run; velocity by patch recovery and
+        residual flux, continuum.velocity) or "P2" (scikit-fem, continuum.fem; isoparametric
+        at the boundary; velocity from the element gradients at the vertices, one order more
+        accurate; 15-24x the cost per solve on the same mesh, docs/benchmarks.md).
     output_every : float
         Time between field frames (VTU); 0 writes only the first and last.
     write_fields : bool

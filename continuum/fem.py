@@ -2,7 +2,7 @@
 
 The colony mesh (continuum.mesh: vertices 0..K-1 on the boundary, in order) carries the
 Lagrange space of ``element`` (the pressure solver, continuum.pressure, uses it for P2; its P1
-is the reference of the hand-written P1 assembly, equal to round-off and 10-20 % slower per
+is the reference of the hand-written P1 assembly, equal to round-off and about 2x slower per
 solve, docs/benchmarks.md):
 
 - "P1": one degree of freedom per vertex (``skfem.ElementTriP1``, affine elements);

@@ -113,11 +113,12 @@ def test_bad_lam(lam):
 def test_warm_start_and_amg_reuse():
     """Moving the nodes slightly: the warm-started solve reuses the hierarchy.
 
-    It contracts the residual by >= 100 per Newton step (the Jacobian's lumped reaction term is
-    O(lam h^2) off).
+    It contracts the residual by >= 100 per Newton step (the symmetric part of the Jacobian is
+    O(lam h |grad g|) off; a tolerance below the default, so that the inexact CG, which solves
+    just enough to meet it, does not set the contraction).
     """
     bnd, pts, tri = disc(0.5)
-    S = PressureSolver(1e-2)
+    S = PressureSolver(1e-2, rtol=1e-9)
     S.set_mesh(tri, len(pts), len(bnd))
     p = S.solve(pts)
     first = S.stats
