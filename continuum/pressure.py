@@ -14,7 +14,7 @@ M_ij = int phi_i phi_j, the consistent load of the interpolant of g (for P1 elem
 
 Newton step: J delta = -F with the symmetric part of the Jacobian K + lam M diag(g),
 J_ij = K_ij + lam M_ij (g_i + g_j) / 2 (positive definite for lam >= 0 on these meshes; CG
-reports it otherwise); the difference lam M_ij (g_j - g_i) / 2 is O(lam h |grad g|) M_ij, so
+reports it otherwise); the difference lam M_ij (g_j - g_i) / 2 is O(lam h grad g) M_ij, so
 Newton from the warm start of a time step meets its tolerance in one iteration (measured:
 1.0-1.1 iterations per solve; the lumped approximation K + lam diag(M g) used before was
 O(lam h^2) off relative to K and needed about 1.8). K and M are assembled once per node position (a

@@ -114,7 +114,7 @@ def test_warm_start_and_amg_reuse():
     """Moving the nodes slightly: the warm-started solve reuses the hierarchy.
 
     It contracts the residual by >= 100 per Newton step (the symmetric part of the Jacobian is
-    O(lam h |grad g|) off; a tolerance below the default, so that the inexact CG, which solves
+    O(lam h grad g) off; a tolerance below the default, so that the inexact CG, which solves
     just enough to meet it, does not set the contraction).
     """
     bnd, pts, tri = disc(0.5)
