@@ -199,14 +199,22 @@ def links_inside(folder: Path) -> list[str]:
 
 
 def check_no_links(folder: Path) -> None:
-    """Refuse (one line naming the entry) a run folder that holds a symbolic link."""
+    """Refuse (one line naming the entry) a run folder that holds a symbolic link.
+
+    The line offers --overwrite only when every link has a name colony writes (--overwrite
+    removes those links, not what they point to, and refuses entries colony did not write).
+    """
     links = links_inside(folder)
     if links:
         more = f" (and {len(links) - 1} more)" if len(links) > 1 else ""
+        ours = all(_written_by_us(name) or (name.startswith("fields/") and name.endswith(".vtu"))
+                   for name in links)
+        remedy = ("remove it, or give --overwrite to start afresh (removes the links, not what "
+                  "they point to)" if ours else
+                  "colony did not write it: remove it or choose another --out")
         raise RunFolderError(
             f"{Path(folder) / links[0]} is a symbolic link{more}; colony never reads, writes or "
-            "deletes through links in a run folder: remove it, or give --overwrite to start "
-            "afresh (removes the links, not what they point to)")
+            f"deletes through links in a run folder: {remedy}")
 
 
 def _names(names: list[str]) -> str:

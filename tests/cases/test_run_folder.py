@@ -156,6 +156,22 @@ def test_link_in_a_stopped_particle_stage_is_refused(colony, tmp_path, neighbour
     assert snapshot(neighbour) == before
 
 
+def test_foreign_link_in_a_stage_is_not_offered_overwrite(colony, tmp_path, neighbour):
+    """A link colony did not write: the line says to remove it, and --overwrite refuses it too."""
+    out = tmp_path / "run"
+    partial = rundir.partial_of(out)
+    partial.mkdir()
+    (partial / "config.json").write_text("{}")
+    (partial / "notes").symlink_to(neighbour / "notes.txt")
+    before = snapshot(neighbour)
+    status, err = colony(*SMALL_PARTICLES, "--out", str(out))
+    one_line_error(status, err, "notes is a symbolic link")
+    assert "colony did not write it" in err and "--overwrite" not in err
+    status, err = colony(*SMALL_PARTICLES, "--out", str(out), "--overwrite")
+    one_line_error(status, err, "did not write")
+    assert snapshot(neighbour) == before and (partial / "notes").is_symlink()
+
+
 def test_out_as_a_link_to_another_run_is_refused(colony, tmp_path):
     other = tmp_path / "other"
     assert colony(*SMALL_CONTINUUM, "--out", str(other))[0] == 0
