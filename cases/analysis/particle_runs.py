@@ -168,12 +168,21 @@ def progress_wall(log: str | Path) -> tuple[np.ndarray, np.ndarray]:
 
     The lines written once a minute when stderr is not a terminal, ``... step S, dt D, W s``
     (W: seconds since the command started; the bar's carriage returns count as line ends),
-    after (0, 0): the start, before the first step.
+    after (0, 0): the start, before the first step. A log of a stopped and resumed run (the
+    commands' stderr one after the other) counts on: where W starts again from a smaller
+    value, the later lines are shifted by the last W before (the seconds between that line and
+    the stop are not counted).
     """
     found = re.findall(r"step (\d+), dt \S+, (\d+) s\s*$",
                        Path(log).read_text().replace("\r", "\n"), flags=re.MULTILINE)
-    return (np.array([0] + [int(a) for a, _ in found], dtype=float),
-            np.array([0] + [int(b) for _, b in found], dtype=float))
+    wall, offset, last = [0.0], 0.0, 0.0
+    for _, b in found:
+        w = float(b)
+        if w < last:  # a resumed command's clock
+            offset += last
+        last = w
+        wall.append(offset + w)
+    return np.array([0] + [int(a) for a, _ in found], dtype=float), np.array(wall)
 
 
 def history_segments(run: str | Path, min_particles: float = 0.0,

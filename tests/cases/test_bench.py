@@ -212,6 +212,12 @@ def test_history_stretches_of_size_with_wall_times(tmp_path, capsys):
                    "something else\n"
                    "colony: radius 9 of 9, t = 4, 400 particles, step 400, dt 0.01, 360 s\n")
     np.testing.assert_array_equal(A.progress_wall(log)[0], [0, 100, 400])
+    # a stopped and resumed run's log counts on from the last line before the stop
+    resumed = tmp_path / "resumed.log"
+    resumed.write_text(log.read_text().replace("step 400, dt 0.01, 360 s", "step 300, dt 0.01, "
+                       "300 s\ncolony: terminated\ncolony: resuming\n"
+                       "colony: radius 9 of 9, t = 4, 400 particles, step 400, dt 0.01, 70 s"))
+    np.testing.assert_array_equal(A.progress_wall(resumed)[1], [0, 60, 300, 370])
     rows = bench_timestep.main(["--history", str(run), "--sizes", "100", "300",
                                 "--logs", str(log)])
     assert [(r["first_step"], r["last_step"]) for r in rows] == [(1, 99), (100, 299), (300, 400)]
