@@ -129,8 +129,10 @@ def _lam_files(data: Path, prefix: str) -> dict[float, Path]:
     return dict(sorted(out.items()))
 
 
-def _seeds(ens: Path) -> int:
-    return int(np.max(A.read_csv(ens / "summary.csv")["n_seeds"]))
+def _seeds(ens: Path) -> str:
+    """How many seeds the ensemble's lam have: "4", or the range "2-4" when they differ."""
+    n = A.read_csv(ens / "summary.csv")["n_seeds"].astype(int)
+    return f"{n.min()}" if n.min() == n.max() else f"{n.min()}-{n.max()}"
 
 
 def _band_lams(ens: Path) -> str:
