@@ -144,12 +144,18 @@ def test_link_in_a_stopped_continuum_stage_is_refused(colony, tmp_path, neighbou
     assert snapshot(neighbour) == before and not (out / entry).is_symlink()
 
 
-def test_link_in_a_stopped_particle_stage_is_refused(colony, tmp_path, neighbour):
+def particle_stage_with_link(tmp_path, neighbour, name):
+    """A stopped particle stage DIR.partial holding a link ``name`` to a file outside; DIR."""
     out = tmp_path / "run"
     partial = rundir.partial_of(out)
     partial.mkdir()
     (partial / "config.json").write_text("{}")
-    (partial / "trajectory.gsd").symlink_to(neighbour / "notes.txt")
+    (partial / name).symlink_to(neighbour / "notes.txt")
+    return out
+
+
+def test_link_in_a_stopped_particle_stage_is_refused(colony, tmp_path, neighbour):
+    out = particle_stage_with_link(tmp_path, neighbour, "trajectory.gsd")
     before = snapshot(neighbour)
     status, err = colony(*SMALL_PARTICLES, "--out", str(out))
     one_line_error(status, err, "trajectory.gsd is a symbolic link")
@@ -158,11 +164,8 @@ def test_link_in_a_stopped_particle_stage_is_refused(colony, tmp_path, neighbour
 
 def test_foreign_link_in_a_stage_is_not_offered_overwrite(colony, tmp_path, neighbour):
     """A link colony did not write: the line says to remove it, and --overwrite refuses it too."""
-    out = tmp_path / "run"
+    out = particle_stage_with_link(tmp_path, neighbour, "notes")
     partial = rundir.partial_of(out)
-    partial.mkdir()
-    (partial / "config.json").write_text("{}")
-    (partial / "notes").symlink_to(neighbour / "notes.txt")
     before = snapshot(neighbour)
     status, err = colony(*SMALL_PARTICLES, "--out", str(out))
     one_line_error(status, err, "notes is a symbolic link")
