@@ -222,10 +222,20 @@ def _names(names: list[str]) -> str:
     return shown + (f" and {len(names) - 3} more" if len(names) > 3 else "")
 
 
+EMPTY = ([], (), {}, None)
+"""Values of a configuration field that equal the field's absence (:func:`config_differences`)."""
+
+
 def config_differences(saved: dict, config: dict, ignore=()) -> list[str]:
-    """Names of the configuration fields whose values differ (execution fields ignored)."""
+    """Names of the configuration fields whose values differ (execution fields ignored).
+
+    A field the saved record lacks whose value now is empty ([], {}, None) is the same: a field
+    added to a Config later with an empty default (e.g. the continuum's ``strains``) changes
+    nothing in the runs recorded before it.
+    """
     keys = (set(saved) | set(config)) - set(EXECUTION_FIELDS) - set(ignore)
-    return sorted(k for k in keys if saved.get(k) != config.get(k))
+    return sorted(k for k in keys
+                  if saved.get(k) != config.get(k) and (k in saved or config.get(k) not in EMPTY))
 
 
 def _clear(folder: Path, keep_folder: bool = False) -> None:

@@ -37,7 +37,11 @@ Modules, one concept each:
 - ``checkpoint``: checkpoint files (``save_checkpoint``, ``load_checkpoint``), SIGINT /
   SIGTERM / SIGHUP deferred to the end of a step (``StopRequest``);
 - ``output``: the run folder's files (history, boundary, rings, VTU frames);
+- ``strains``: strains of a colony (stress sensitivity, growth factor), their fractions phi
+  carried by the material, the mixture's source, initial layouts and interfaces
+  (``Config.strains``, ``Simulation(config, fractions=...)``);
 - ``radial``: the exact 1D reference of a disc colony (R(t), p, u, characteristics, rings);
+- ``radial_strains``: the exact 1D reference of concentric strains (core and shells);
 - ``ellipse``: the exact lam = 0 ellipse (semi-axes in time; a polygon's moment axes);
 - ``stability``: the linear rate of a mode-K boundary perturbation of a disc colony;
 - ``rings``: the rings G = k ln 2 of a 2D field (contours and their radii);

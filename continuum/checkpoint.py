@@ -6,9 +6,9 @@ on, so a simulation loaded from it continues bit-identically:
 - the arrays of the :class:`~continuum.state.State`: ``points``, ``tris``, ``G``, ``p``,
   ``u``, ``g``, ``psi`` (Psi's cell values), ``psi_phase`` (the phase offsets of Psi's windows
   with ``psi_transport = "characteristics"``) or, for the delta Psi0 (``initial_sizes =
-  "delta"``), ``psi_delta`` and ``psi_log_length`` (continuum.sizes.DeltaSizes), ``p_prev``
-  (when set) and ``amg``, the CSR data
-  of the matrix the pressure solver's AMG hierarchy was built from (when there is one; the
+  "delta"``), ``psi_delta`` and ``psi_log_length`` (continuum.sizes.DeltaSizes), with strains
+  ``phi`` and ``G_strains`` (n, S) (continuum.strains), ``p_prev`` (when set) and ``amg``, the
+  CSR data of the matrix the pressure solver's AMG hierarchy was built from (when there is one; the
   loaded solver rebuilds the identical hierarchy, continuum.pressure.amg_hierarchy);
 - ``frame_times``, the times of the VTU frames written (frame k is ``fields/frame_k.vtu``,
   its name made by continuum.output.frame_name, never read from the checkpoint);
@@ -387,6 +387,8 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
         arrays["psi"] = state.sizes.n
     if isinstance(state.sizes, CharacteristicSizes):
         arrays["psi_phase"] = state.sizes.phase
+    if state.phi is not None:
+        arrays["phi"], arrays["G_strains"] = state.phi, state.G_strains
     if state.p_prev is not None:
         arrays["p_prev"] = state.p_prev
     if checkpoint.amg is not None:
@@ -400,17 +402,22 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
     log.debug("checkpoint at t = %.6g written to %s", state.t, path)
 
 
-def _check_arrays(path: Path, arrays: dict, n_cells: int) -> None:
+def _check_arrays(path: Path, arrays: dict, n_cells: int, n_strains: int = 0) -> None:
     """CheckpointError unless the state's arrays are there, of the shapes of one mesh.
 
-    n nodes: points (n, 2), u (n, 2), G, p, g, psi_phase, p_prev (n,), psi (n, n_cells);
-    triangles (m, 3) of node indices; amg and frame_times one-dimensional; all real numbers.
+    n nodes: points (n, 2), u (n, 2), G, p, g, psi_phase, p_prev (n,), psi (n, n_cells),
+    with S = ``n_strains`` >= 1 strains phi and G_strains (n, S); triangles (m, 3) of node
+    indices; amg and frame_times one-dimensional; all real numbers.
     """
     n = checked(path, lambda: arrays["points"].shape[0])
     shapes = {"points": (n, 2), "u": (n, 2), "G": (n,), "p": (n,), "g": (n,), "psi_phase": (n,),
-              "p_prev": (n,), "psi": (n, n_cells), "psi_delta": (n,), "psi_log_length": (n,)}
+              "p_prev": (n,), "psi": (n, n_cells), "psi_delta": (n,), "psi_log_length": (n,),
+              "phi": (n, n_strains), "G_strains": (n, n_strains)}
     psi = ("psi_delta", "psi_log_length") if "psi_delta" in arrays else ("psi",)
-    for name in ("points", "tris", "G", "p", "u", "g", *psi):
+    strains = ("phi", "G_strains") if n_strains else ()
+    if not n_strains and arrays.keys() & {"phi", "G_strains"}:
+        raise damaged(path, "unexpected content (phi)")
+    for name in ("points", "tris", "G", "p", "u", "g", *psi, *strains):
         checked(path, lambda name=name: arrays[name])
     for name in sorted(arrays.keys() & {*shapes, "tris", "amg"}):
         a = arrays[name]
@@ -440,6 +447,8 @@ def _state(arrays: dict, meta: dict, saved: dict, default_step: int) -> State:
         step=scalars.get("step", default_step),
         timings=dict(scalars["timings"]),
         p_prev=np.array(arrays["p_prev"]) if "p_prev" in arrays else None,
+        phi=np.array(arrays["phi"]) if "phi" in arrays else None,
+        G_strains=np.array(arrays["G_strains"]) if "G_strains" in arrays else None,
     )
 
 
@@ -484,6 +493,7 @@ def _saved_config(path: Path, arrays: dict) -> dict:
         raise damaged(path, "unexpected content (config)")
     saved.setdefault("element", "P1")  # checkpoints from before Config.element solved with P1
     saved.setdefault("initial_sizes", "bump")  # and from before Config.initial_sizes the bump
+    saved.setdefault("strains", [])  # and from before Config.strains one strain
     if "max_steps" in saved:  # Config.step_limit's former name
         saved["step_limit"] = saved.pop("max_steps")
     return saved
@@ -541,7 +551,8 @@ def load_checkpoint(path: Path, config: Config | None = None, *,
     history = _history(path, checked(path, lambda: meta["history"]))
     times = _frame_times(path, arrays, meta)
     arrays.pop("frame_times", None)
-    _check_arrays(path, arrays, checked(path, lambda: int(saved["n_length_cells"])))
+    _check_arrays(path, arrays, checked(path, lambda: int(saved["n_length_cells"])),
+                  checked(path, lambda: len(saved["strains"])))
     state = checked(path, lambda: _state(arrays, meta, saved, len(history) - 1))
     next_frame, done = _bookkeeping(path, meta)
     if config is None:

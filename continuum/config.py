@@ -20,6 +20,7 @@ from continuum import mesh, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
 from continuum.sizes import INITIAL_SIZES, TRANSPORTS
+from continuum.strains import as_strains
 
 __all__ = ["Config", "config_fields"]
 
@@ -41,6 +42,7 @@ _TYPES = {
     "str": (lambda v: isinstance(v, str), "a string"),
     "bool": (lambda v: isinstance(v, bool), "true or false"),
     "None": (lambda v: v is None, "None"),
+    "tuple": (lambda v: isinstance(v, (tuple, list)), "a list of strains [lam, growth]"),
 }
 
 _RULES = [  # (field, test, what the value must be), checked by Config.validate after the types
@@ -134,6 +136,14 @@ class Config:
     checkpoint_seconds : float
         Wall time between checkpoints when writing to a folder (an execution setting,
         ``EXECUTION_FIELDS``: a checkpoint resumes under another value, with the same result).
+    strains : tuple of continuum.strains.Strain
+        The strains i = 0..S-1 of the colony, each its stress sensitivity lam_i >= 0 and growth
+        factor a_i > 0 (growth rate a_i exp(-lam_i p); given as Strain, (lam, growth) pairs or
+        {"lam", "growth"} tables, stored as a tuple of Strain). Empty (default): one strain of
+        stress sensitivity ``lam`` and growth 1, the model as before, bit for bit. With strains
+        ``lam`` is not used by the model (each strain's lam_i is), and a simulation of S >= 2
+        strains needs its initial fractions (``Simulation(config, fractions=phi0)``,
+        continuum.strains).
     """
 
     lam: float
@@ -157,8 +167,11 @@ class Config:
     write_fields: bool = True
     step_limit: int = 200_000
     checkpoint_seconds: float = 300.0
+    strains: tuple = ()
 
     def __post_init__(self) -> None:
+        if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
+            object.__setattr__(self, "strains", as_strains(self.strains))
         self.validate()
 
     def validate(self) -> None:

@@ -9,13 +9,15 @@ with the growth phase advanced by the trapezoidal rule along the same paths::
 
     G^{n+1} = G^n + dt/2 (g(x^n) + g(x*)),
 
-and Psi transported in l at the same mean growth rate (continuum.sizes: exactly along
-the characteristics, a shift by dt g_avg / ln 2 in log2 l, or by finite volumes). u and g at x* come
-from a pressure solve on the moved mesh (continuum.darcy.darcy_flow), warm-started from the
-linear extrapolation in time p^n + (p^n - p^{n-1}) dt / dt_prev; the solve at x^{n+1} from the
-predictor's p* moved by its own gradient, p* - u(x*) . (x^{n+1} - x*) (measured: one Newton
-iteration where p* alone needed two at radius 150). The step is halved (up to
-five times) while the predictor or the corrector would invert an element or the predictor's
+with every strain's growth phase likewise, G_i^{n+1} = G_i^n + dt/2 (g_i(p(x^n)) + g_i(p(x*))),
+g_i = a_i exp(-lam_i p) (continuum.strains; the strain fractions phi are constant on the
+material nodes), and Psi transported in l at the same mean growth rate (continuum.sizes: exactly
+along the characteristics, a shift by dt g_avg / ln 2 in log2 l, or by finite volumes). u and g
+at x* come from a pressure solve on the moved mesh (continuum.darcy.darcy_flow), warm-started
+from the linear extrapolation in time p^n + (p^n - p^{n-1}) dt / dt_prev; the solve at x^{n+1}
+from the predictor's p* moved by its own gradient, p* - u(x*) . (x^{n+1} - x*) (measured: one
+Newton iteration where p* alone needed two at radius 150). The step is halved (up to five
+times) while the predictor or the corrector would invert an element or the predictor's
 pressure solve fails.
 
 Explicit node motion is stable only for dt <~ h / u_edge (short boundary wiggles grow,
@@ -38,6 +40,7 @@ import numpy as np
 from continuum.mesh import boundary_spacing, colony_radius, triangle_areas
 from continuum.pressure import PressureDivergence
 from continuum.state import State
+from continuum.strains import strain_rates
 from continuum.velocity import boundary_normals
 
 __all__ = ["Flow", "heun_step", "stable_dt", "radius_rate"]
@@ -66,11 +69,13 @@ def radius_rate(boundary: np.ndarray, u_boundary: np.ndarray) -> float:
     return dA / (2 * math.pi * colony_radius(boundary))
 
 
-def heun_step(state: State, flow: Flow, dt: float, lam: float) -> float:
+def heun_step(state: State, flow: Flow, dt: float, lam: float, strains: tuple | None = None
+              ) -> float:
     """Advance ``state`` by one Heun step of size dt (halved while it fails); returns the dt taken.
 
     In place: points, G, Psi, t, the step count, the warm start (p_prev, dt_prev), and p, u, g
-    solved on the moved mesh. ``flow`` is the Darcy solve (:data:`Flow`).
+    solved on the moved mesh; with strain fractions (``state.phi``) also each strain's G_i, of
+    the ``strains`` (continuum.strains.Strain). ``flow`` is the Darcy solve (:data:`Flow`).
 
     Raises
     ------
@@ -102,6 +107,9 @@ def heun_step(state: State, flow: Flow, dt: float, lam: float) -> float:
     g_avg = 0.5 * (state.g + g1)
     state.points = x2
     state.G = state.G + dt * g_avg
+    if state.phi is not None:
+        rates = 0.5 * (strain_rates(state.p, strains) + strain_rates(p1, strains))
+        state.G_strains = state.G_strains + dt * rates
     state.sizes.advance(g_avg, dt)
     state.timings["transport"] += time.perf_counter() - t0
     state.t += dt

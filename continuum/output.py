@@ -1,6 +1,7 @@
 """Run outputs of the continuum engine (docs/DESIGN.md, "Output contract").
 
-- ``config.json``: the run's Config fields;
+- ``config.json``: the run's Config fields (``strains`` only when given: a one-strain run's
+  file is as before);
 - ``history.csv``: one row per time step (t, radius, area, max_pressure, n_nodes, ...);
 - ``boundary.csv``: final boundary polygon, columns x,y;
 - ``fields.pvd`` + ``fields/frame_NNNNN.vtu``: point data p, u, G, mean_length (delta initial
@@ -11,6 +12,11 @@
   e_tt, e_rt about the colony's area centroid; e_rr_minus_e_tt; shear, the difference of E's
   eigenvalues; axis_angle, the extension axis from the radius in radians); meshio VTU (binary,
   zlib), one file per output step;
+- strains (continuum.strains; S >= 2 of them): history.csv's columns area_0, area_1, ... (the
+  area int phi_i dA of each strain), the point data phi_i, G_i and mean_length_i of every
+  strain i in the frames, and ``interfaces.csv`` (:func:`write_interfaces`): the contours
+  phi_i = 1/2, one row per strain (strain, level, area, mean_radius, min_radius, max_radius,
+  length, cx, cy, n_pieces);
 - ``rings.csv`` (:func:`write_rings`): the rings G = k ln 2 of a final field, one row per ring
   (k, level, mean_radius, min_radius, max_radius, length, cx, cy, n_pieces;
   :mod:`continuum.rings`).
@@ -60,7 +66,8 @@ from continuum.growth import ring_index
 from continuum.strain import FIELDS as STRAIN_FIELDS
 from continuum.strain import strain_rate_fields
 
-__all__ = ["write_config", "write_history", "write_boundary", "write_rings", "FieldWriter",
+__all__ = ["write_config", "write_history", "write_boundary", "write_rings", "write_interfaces",
+           "FieldWriter",
            "ring_index", "read_frame_time", "frame_name", "fields_folder", "remove_frames_from",
            "ensure_space", "RESERVE_BYTES"]
 
@@ -80,9 +87,16 @@ def _check_finite(name: str, values) -> None:
 
 
 def write_config(out: Path, config) -> Path:
-    """Write config.json with the dataclass fields of ``config``."""
+    """Write config.json with the dataclass fields of ``config``.
+
+    An empty ``strains`` (one strain) is left out, so a one-strain run writes the file it
+    wrote before strains existed (reading it back gives the same Config).
+    """
     path = Path(out) / "config.json"
-    path.write_text(json.dumps(dataclasses.asdict(config), indent=2) + "\n")
+    fields = dataclasses.asdict(config)
+    if "strains" in fields and not fields["strains"]:
+        del fields["strains"]
+    path.write_text(json.dumps(fields, indent=2) + "\n")
     return path
 
 
@@ -162,6 +176,28 @@ def write_rings(out: Path, points: np.ndarray, triangles: np.ndarray, G: np.ndar
         for i in range(len(table["k"])):
             w.writerow([int(table[c][i]) if c in ("k", "n_pieces") else repr(float(table[c][i]))
                         for c in COLUMNS])
+    return path
+
+
+def write_interfaces(out: Path, points: np.ndarray, triangles: np.ndarray, phi: np.ndarray,
+                     center: np.ndarray | None = None) -> Path:
+    """Write interfaces.csv: the contours phi_i = 1/2 of the strain fractions, one row per strain.
+
+    continuum.strains.interface_table (columns INTERFACE_COLUMNS: strain, level, area,
+    mean_radius, min_radius, max_radius, length, cx, cy, n_pieces); radii about the colony's
+    area centroid, or ``center``; a header only when no fraction crosses 1/2.
+    """
+    from continuum.strains import INTERFACE_COLUMNS, interface_table
+
+    _check_finite("phi", phi)
+    table = interface_table(points, triangles, phi, center=center)
+    path = Path(out) / "interfaces.csv"
+    with path.open("w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(INTERFACE_COLUMNS)
+        for i in range(len(table["strain"])):
+            w.writerow([int(table[c][i]) if c in ("strain", "n_pieces")
+                        else repr(float(table[c][i])) for c in INTERFACE_COLUMNS])
     return path
 
 

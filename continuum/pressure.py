@@ -31,6 +31,14 @@ Assembly reuses the sparsity pattern and the element-to-CSR scatter map of a mes
 when nodes move. ``P1Assembler`` also serves the vertex mesh's geometry to the velocity recovery
 and the remesh transfer (continuum.velocity, continuum.remesh).
 
+Strains (continuum.strains; ``strains`` and the nodal fractions phi given by ``set_mesh``): the
+source is the mixture's g = sum_i phi_i a_i exp(-lam_i p) at the degrees of freedom (phi at a P2
+edge node the mean of its vertices'), and the Jacobian's part lam g becomes the nodal slope
+-dg/dp = lam v, v = sum_i phi_i (lam_i / lam) a_i exp(-lam_i p) >= 0 with lam = max_i lam_i
+(continuum.strains.mixed_growth): J_ij = K_ij + lam M_ij (v_i + v_j) / 2. One strain is
+v = g; a node of a single strain whose lam_i is the largest has v = g bit for bit, so a
+colony of identical strains in a layout of pure regions computes the one-strain run's bits.
+
 Non-convergence (lam < 0 beyond the critical size, where ``-Laplace p = |lam|^{-1} ...`` has no
 solution, or non-finite values) raises ``PressureDivergence``.
 """
@@ -46,6 +54,7 @@ from numba import njit
 
 from continuum.fem import LagrangeSpace, check_element
 from continuum.growth import growth_rate
+from continuum.strains import mixed_growth, slope_scale
 
 __all__ = [
     "PressureDivergence",
@@ -410,6 +419,10 @@ class PressureSolver:
         just enough for the next residual to meet ``rtol``.
     reuse_factor : int
         Rebuild the AMG hierarchy when CG needs more than this many iterations.
+    strains : tuple of continuum.strains.Strain, optional
+        The strains of a mixture (source sum_i phi_i a_i exp(-lam_i p); module docstring);
+        their fractions are given with the mesh (``set_mesh``); ``lam`` must then be
+        max_i lam_i, the scale of the slope. None: the one strain exp(-lam p).
 
     Attributes
     ----------
@@ -427,6 +440,7 @@ class PressureSolver:
         max_newton: int = 30,
         krylov_rtol: float = 1e-10,
         reuse_factor: int = 25,
+        strains: tuple | None = None,
     ):
         if not np.isfinite(lam):
             raise ValueError(f"lam must be finite, got {lam}")
@@ -438,6 +452,11 @@ class PressureSolver:
         self.max_newton = max_newton
         self.krylov_rtol = krylov_rtol
         self.reuse_factor = reuse_factor
+        self.strains = tuple(strains) if strains else None
+        if self.strains is not None and self.lam != slope_scale(self.strains):
+            raise ValueError(f"with strains lam must be their largest lam_i, "
+                             f"{slope_scale(self.strains)!r}, got {lam!r}")
+        self.fractions: np.ndarray | None = None
         self.assembler: P1Assembler | None = None
         self.space = None
         self._amg = None
@@ -445,8 +464,13 @@ class PressureSolver:
         self.stats = NewtonStats()
         self.last: dict | None = None
 
-    def set_mesh(self, tris: np.ndarray, n_nodes: int, n_boundary: int) -> None:
-        """Change topology: new pattern and scatter map, and forget the AMG hierarchy."""
+    def set_mesh(self, tris: np.ndarray, n_nodes: int, n_boundary: int,
+                 fractions: np.ndarray | None = None) -> None:
+        """Change topology: new pattern and scatter map, and forget the AMG hierarchy.
+
+        ``fractions``: the strain fractions phi (n_nodes, S) at the vertices, constant while
+        the topology is (the nodes are material points); required with ``strains``.
+        """
         self.assembler = P1Assembler(tris, n_nodes, n_boundary)
         if self.element == "P1":
             self.space = self.assembler
@@ -454,6 +478,30 @@ class PressureSolver:
             element = "P1" if self.element == SKFEM_P1 else self.element
             self.space = LagrangeSpace(element, tris, n_nodes, n_boundary)
         self._amg = None
+        self.fractions = None
+        if self.strains is None:
+            if fractions is not None:
+                raise ValueError("strain fractions given to a solver without strains")
+            return
+        phi = np.asarray(fractions if fractions is not None else np.empty((0, 0)), dtype=float)
+        if phi.shape != (int(n_nodes), len(self.strains)):
+            raise ValueError(f"the strain fractions must have shape ({n_nodes}, "
+                             f"{len(self.strains)}), got {phi.shape}")
+        if self.space.n > len(phi):  # P2: an edge node's fractions the mean of its vertices'
+            a, b = self.space.edge_vertices
+            phi = np.concatenate([phi, 0.5 * (phi[a] + phi[b])])
+        self.fractions = phi
+
+    def _growth(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The source g(p) at the degrees of freedom and its scaled slope v = -g'(p) / lam.
+
+        One strain: g = v = exp(-lam p) (continuum.growth.growth_rate); strains: the
+        mixture's (continuum.strains.mixed_growth).
+        """
+        if self.strains is None:
+            g = growth_rate(p, self.lam)
+            return g, g
+        return mixed_growth(p, self.fractions, self.strains)
 
     def amg_state(self) -> np.ndarray | None:
         """CSR data (on the space's pattern) of the matrix the AMG hierarchy was built from.
@@ -516,7 +564,7 @@ class PressureSolver:
         r_i = int_boundary (dp/dn) phi_i ds is the consistent flux.
         """
         ops = self.space.assemble(points)
-        b = ops.load(growth_rate(p, self.lam))
+        b = ops.load(self._growth(p)[0])
         return self.space.matrix(ops.K_data) @ p - b, b
 
     def solve(
@@ -565,7 +613,7 @@ class PressureSolver:
         p[bnd] = 0.0
         cause = "lam < 0 beyond the critical size (no solution)" if lam < 0 else "no convergence"
         for it in range(self.max_newton + 1):
-            g = growth_rate(p, lam)
+            g, v = self._growth(p)
             b = ops.load(g)
             r_full = K @ p - b
             F = r_full.copy()
@@ -590,7 +638,7 @@ class PressureSolver:
             if it >= 3 and st.history[-1] > 0.9 * st.history[-2] and st.history[-1] > 1e-3:
                 break  # stagnating far from the solution
             t0 = time.perf_counter()
-            Jd = ops.K_data + (0.5 * lam) * ops.M_data * (g[S.rows] + g[S.indices])
+            Jd = ops.K_data + (0.5 * lam) * ops.M_data * (v[S.rows] + v[S.indices])
             J = S.matrix(S.dirichlet(Jd))
             st.time_assembly += time.perf_counter() - t0
             try:

@@ -2,9 +2,9 @@
 
 Strain i (i = 0 the core, then the shells outwards) occupies r_{i-1} < r < r_i (r_{-1} = 0,
 the last radius the colony's edge R) and grows at g_i(p) = a_i exp(-lam_i p) (growth factor
-a_i, stress sensitivity lam_i; ``Strain``). Daughters inherit the strain and the material does
-not mix, so the interfaces are material circles: the colony stays a set of concentric rings.
-The instantaneous Darcy problem (model.md) ::
+a_i, stress sensitivity lam_i; ``Strain``, continuum.strains). Daughters inherit the strain and
+the material does not mix, so the interfaces are material circles: the colony stays a set of
+concentric rings. The instantaneous Darcy problem (model.md) ::
 
     -(1/r) (r p')' = g(p, r),   p'(0) = 0,   p(R) = 0,   g = g_i(p) on strain i,
 
@@ -34,28 +34,12 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq
 
+from continuum.strains import Strain
+
 __all__ = ["Strain", "Layers", "layers", "pressure_lam0", "radii"]
 
 EPS = 1e-6
 """Relative start of a shot, eps = EPS r_0 (the series there is exact to O(eps^4))."""
-
-
-@dataclass(frozen=True)
-class Strain:
-    """An inherited trait: growth rate g(p) = a exp(-lam p) (a: ``growth``, lam: ``lam``)."""
-
-    lam: float
-    growth: float = 1.0
-
-    def __post_init__(self):
-        if not (math.isfinite(self.lam) and self.lam >= 0):
-            raise ValueError(f"a strain's lam must be finite and >= 0, got {self.lam!r}")
-        if not (math.isfinite(self.growth) and self.growth > 0):
-            raise ValueError(f"a strain's growth must be finite and > 0, got {self.growth!r}")
-
-    def rate(self, p):
-        """g(p) = a exp(-lam p)."""
-        return self.growth * np.exp(-self.lam * p)
 
 
 def _check(radii_now: ArrayLike, strains) -> tuple[NDArray, tuple[Strain, ...]]:

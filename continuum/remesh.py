@@ -25,6 +25,13 @@ It is a linear map, a sparse matrix W (n_new x n_old) applied to G and to p (the
 of the next pressure solve). New nodes slightly outside the old polygon (spline boundary) are
 extrapolated from the nearest old triangle.
 
+Strains (continuum.strains). Each strain's growth phase G_i is smooth (g_i(p) of the smooth p,
+at every node) and is transferred as G is, with W. The strain fractions phi are transferred
+with the convex weights C of :func:`convex_weights` (linear interpolation, its extrapolation cut
+to a convex combination) and nothing else: C >= 0 with rows summing to 1, so every new row is a
+convex combination of old rows and stays in [0, 1] with sum 1 (to round-off). A sharp interface
+is smeared by about one element per remesh (linear interpolation of a ramp one element wide).
+
 The model's delta Psi0 (``initial_sizes = "delta"``, continuum.sizes.DeltaSizes): the number per
 material element with its divisions undone is interpolated with the convex weights below and the
 delta put at the new node's growth phase G_new / ln 2, so its mean length stays
@@ -186,13 +193,13 @@ def remesh(
     interior_coarsening: float,
     grading: float,
 ) -> None:
-    """New mesh of the current domain at boundary spacing h; G, Psi and p transferred.
+    """New mesh of the current domain at boundary spacing h; G, Psi, p (and phi, G_i) transferred.
 
-    In place: the mesh of ``state``, its fields G, Psi and p (p, the warm start of the next
-    pressure solve, without the extrapolation in time: ``p_prev`` is dropped), ``n_remesh``
-    and the timings. ``assembler`` is the pressure solver's P1 assembler of the old mesh (its
-    gradient recovery gives W). The velocity and growth rate are left for the caller to solve
-    on the new mesh.
+    In place: the mesh of ``state``, its fields G, Psi, the strains' phi and G_i, and p (p, the
+    warm start of the next pressure solve, without the extrapolation in time: ``p_prev`` is
+    dropped), ``n_remesh`` and the timings. ``assembler`` is the pressure solver's P1
+    assembler of the old mesh (its gradient recovery gives W). The velocity and growth rate are
+    left for the caller to solve on the new mesh.
     """
     old_points, old_tris = state.points, state.triangles
     boundary = mesh.resample_polygon(old_points[: state.n_boundary], spacing=h, min_points=16)
@@ -204,11 +211,14 @@ def remesh(
     locator = mesh.Locator(old_points, old_tris)
     L = interpolation_matrix(locator, state.points)
     W = gradient_corrected_matrix(locator, assembler, state.points, linear=L)
-    W_psi = (convex_weights(L) if isinstance(state.sizes, (CharacteristicSizes, DeltaSizes))
-             else W)
+    convex = isinstance(state.sizes, (CharacteristicSizes, DeltaSizes))
+    W_psi = convex_weights(L) if convex else W
     G_old = state.G
     state.G = W @ G_old
     state.sizes = transfer_sizes(state.sizes, W_psi, G_old, state.G)
+    if state.phi is not None:
+        state.phi = (W_psi if convex else convex_weights(L)) @ state.phi
+        state.G_strains = W @ state.G_strains
     p0 = W @ state.p
     state.timings["remeshing"] += time.perf_counter() - t0
     state.n_remesh += 1

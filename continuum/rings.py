@@ -41,8 +41,8 @@ from scipy.sparse.csgraph import connected_components
 from continuum.growth import LN2
 from continuum.mesh import triangle_areas
 
-__all__ = ["LN2", "COLUMNS", "area_centroid", "contour_segments", "ring_levels", "ring_table",
-           "ring_wavelength"]
+__all__ = ["LN2", "COLUMNS", "area_centroid", "contour_segments", "level_curve", "ring_levels",
+           "ring_table", "ring_wavelength"]
 
 
 COLUMNS = ("k", "level", "mean_radius", "min_radius", "max_radius", "length", "cx", "cy",
@@ -145,6 +145,20 @@ def _segment_radii(seg: np.ndarray, center: np.ndarray) -> tuple[float, float, f
     return float(length.sum()), integral, r_min, r_max
 
 
+def level_curve(points: ArrayLike, triangles: ArrayLike, f: ArrayLike, level: float,
+                center: ArrayLike) -> tuple[float, float, float, float, int] | None:
+    """The contour {f_h = level} of a P1 field f measured about ``center``; None when not crossed.
+
+    (mean radius rbar, min radius, max radius, length L, chained pieces), as in the module
+    docstring (a ring of :func:`ring_table`, a strain interface of continuum.strains).
+    """
+    seg, ids = contour_segments(points, triangles, f, level)
+    if len(seg) == 0:
+        return None
+    length, integral, r_min, r_max = _segment_radii(seg, np.asarray(center, dtype=float))
+    return integral / max(length, 1e-300), r_min, r_max, length, _pieces(ids)
+
+
 def ring_levels(G: ArrayLike, period: float = LN2, first: int = 1) -> np.ndarray:
     """Integers k >= ``first`` with min G < k period <= max G: the rings present in G."""
     G = np.asarray(G, dtype=float)
@@ -186,12 +200,10 @@ def ring_table(points: ArrayLike, triangles: ArrayLike, G: ArrayLike,
     rows: dict[str, list] = {name: [] for name in COLUMNS}
     for k in ring_levels(G, period):
         level = k * period
-        seg, ids = contour_segments(points, tris, G, level)
-        if len(seg) == 0:
+        curve = level_curve(points, tris, G, level, c)
+        if curve is None:
             continue
-        length, integral, r_min, r_max = _segment_radii(seg, c)
-        for name, v in zip(COLUMNS, (k, level, integral / max(length, 1e-300), r_min, r_max,
-                                     length, c[0], c[1], _pieces(ids)), strict=True):
+        for name, v in zip(COLUMNS, (k, level, *curve[:4], c[0], c[1], curve[4]), strict=True):
             rows[name].append(v)
     out = {name: np.asarray(v, dtype=float) for name, v in rows.items()}
     out["k"] = out["k"].astype(int)

@@ -67,6 +67,7 @@ from continuum.sizes import (
     SizeDistribution,
 )
 from continuum.state import State, StepRecord
+from continuum.strains import check_fractions, fractions_at, slope_scale
 
 # Config and config_fields live in continuum.config; imported here for older imports
 # (``from continuum.simulation import Config``), documented there.
@@ -145,6 +146,48 @@ def initial_sizes(config: Config, n: int
                                     remap=TRANSPORT_REMAP[config.psi_transport])
 
 
+def _solver(config: Config) -> PressureSolver:
+    """The pressure solver of ``config``: its element, and its strains when it has some.
+
+    With strains its lam is the largest lam_i (continuum.strains.slope_scale; ``lam`` is the
+    one strain's).
+    """
+    if not config.strains:
+        return PressureSolver(config.lam, config.element)
+    return PressureSolver(slope_scale(config.strains), config.element, strains=config.strains)
+
+
+def initial_fractions(config: Config, state: State, fractions=None) -> None:
+    """Set the strain fractions phi and phases G_i = 0 of a state at t = 0 (in place).
+
+    ``fractions`` (``Simulation``): a callable phi0(x, y) or nodal values, checked
+    (continuum.strains.fractions_at); None keeps the state's phi, or sets all 1 for a single
+    strain. Without ``config.strains`` the state stays as it is (no fractions allowed).
+
+    Raises
+    ------
+    ValueError
+        Fractions without strains, none for S >= 2 strains, or bad ones (one line).
+    """
+    n_strains = len(config.strains)
+    if n_strains == 0:
+        if fractions is not None or state.phi is not None:
+            raise ValueError("strain fractions need strains in the Config (Config.strains)")
+        return
+    n = len(state.points)
+    if fractions is not None:
+        state.phi = fractions_at(fractions, state.points, n_strains)
+    elif state.phi is not None:
+        state.phi = check_fractions(state.phi, n, n_strains)
+    elif n_strains == 1:
+        state.phi = np.ones((n, 1))
+    else:
+        raise ValueError(f"give the initial fractions of the {n_strains} strains "
+                         "(fractions=phi0, e.g. continuum.strains.core(r1))")
+    if state.G_strains is None or state.G_strains.shape != (n, n_strains):
+        state.G_strains = np.zeros((n, n_strains))
+
+
 def _target_spacing(config: Config, area: float) -> float:
     """Boundary mesh spacing min(h_max, h_N(area)) of this configuration."""
     return mesh.target_spacing(area, config.h_max, config.n_nodes)
@@ -172,6 +215,12 @@ class Simulation:
         ``config.output_every`` of time (not at a goal of :meth:`advance`), and :meth:`save`
         defaults to ``out/checkpoint.npz``. The final files (history.csv, boundary.csv, the
         last frame) are :func:`run`'s.
+    fractions : callable or ndarray, optional
+        The initial strain fractions phi0 of ``config.strains`` (continuum.strains): a callable
+        phi0(x, y) -> (n, S) evaluated at the nodes (e.g. continuum.strains.core(r1)), or the
+        (n_nodes, S) values at the nodes of ``state``; rows in [0, 1] summing to 1. Needed for
+        S >= 2 strains unless ``state`` carries them (``State.phi``); one strain: all 1. Not
+        allowed without strains. A checkpoint in ``out`` takes precedence.
 
     Attributes
     ----------
@@ -202,7 +251,7 @@ class Simulation:
     """
 
     def __init__(self, config: Config, state: State | None = None,
-                 out: Path | str | None = None):
+                 out: Path | str | None = None, *, fractions=None):
         limit_blas_threads(1)
         self.config = config
         self.finished = True
@@ -215,9 +264,10 @@ class Simulation:
                      saved.state.step)
             return
         check_memory(config)
-        self.solver = PressureSolver(config.lam, config.element)
+        self.solver = _solver(config)
         self.state = initial_state(config) if state is None else state.copy()
-        self.solver.set_mesh(self.state.triangles, len(self.state.points), self.state.n_boundary)
+        initial_fractions(config, self.state, fractions)
+        self._set_mesh()
         self._solve_flow()
         self.history = [StepRecord.of(self.state, 0.0, None).row()]
         if self.output is not None:
@@ -225,12 +275,17 @@ class Simulation:
 
     def _restore(self, state: State, amg: np.ndarray | None, history: list) -> None:
         """Continue from a loaded state: the solver's topology and AMG hierarchy rebuilt."""
-        self.solver = PressureSolver(self.config.lam, self.config.element)
-        self.solver.set_mesh(state.triangles, len(state.points), state.n_boundary)
-        self.solver.restore_amg(amg)
+        self.solver = _solver(self.config)
         self.state, self.history = state, history
+        self._set_mesh()
+        self.solver.restore_amg(amg)
 
     # ------------------------------------------------------------------ the physics
+    def _set_mesh(self) -> None:
+        """The solver on the state's mesh (and strain fractions)."""
+        s = self.state
+        self.solver.set_mesh(s.triangles, len(s.points), s.n_boundary, s.phi)
+
     def _flow(self, points: np.ndarray, p0: np.ndarray):
         """Darcy flow (p, u, g) at these node positions; counts iterations and times stages."""
         t0 = _time.perf_counter()
@@ -262,7 +317,7 @@ class Simulation:
     def _remesh(self, h: float) -> None:
         s, cfg = self.state, self.config
         remesh(s, self.solver.assembler, h, cfg.interior_coarsening, cfg.grading)
-        self.solver.set_mesh(s.triangles, len(s.points), s.n_boundary)
+        self._set_mesh()
         self._solve_flow()
 
     def remesh(self) -> None:
@@ -324,7 +379,8 @@ class Simulation:
         """
         try:
             reason = self._remesh_if_due()
-            dt = heun_step(self.state, self._flow, self._dt(radius, time), self.config.lam)
+            dt = heun_step(self.state, self._flow, self._dt(radius, time), self.solver.lam,
+                           self.solver.strains)
         except PressureDivergence:
             if self.output is not None:  # keep the history up to the failure for diagnosis
                 self.output.write_history(self)
@@ -558,10 +614,13 @@ class _Outputs:
         self.output.write_history(self.out, sim.history)
 
     def finish(self, sim: Simulation) -> None:
-        """history.csv, boundary.csv and the last frame, at the goal."""
+        """history.csv, boundary.csv, the last frame, and with S >= 2 strains interfaces.csv."""
         self.ensure_space(sim)
         self.write_history(sim)
-        self.output.write_boundary(self.out, sim.state.boundary)
+        s = sim.state
+        self.output.write_boundary(self.out, s.boundary)
+        if s.phi is not None and s.phi.shape[1] > 1:
+            self.output.write_interfaces(self.out, s.points, s.triangles, s.phi)
         self.frame(sim)
 
 
@@ -569,7 +628,8 @@ class _Outputs:
 
 
 def run(config: Config, out: Path | str | None = None, progress: bool = False,
-        state: State | None = None, max_steps: int | None = None) -> Simulation:
+        state: State | None = None, max_steps: int | None = None, *,
+        fractions=None) -> Simulation:
     """Grow the colony until ``config.radius`` or ``config.time``; optionally write ``out``.
 
     The loop over the steps of a :class:`Simulation` that hands each step to the run folder's
@@ -595,6 +655,8 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
         the returned simulation has ``finished = False``. (``Config.step_limit`` is the most
         steps a run may take in all, an error beyond.)
+    fractions : callable or ndarray, optional
+        The initial strain fractions of ``config.strains`` (:class:`Simulation`).
 
     Returns
     -------
@@ -618,7 +680,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
     """
     require_goal(config)
     with checkpoint.StopRequest() as stop:
-        sim = Simulation(config, state, out)
+        sim = Simulation(config, state, out, fractions=fractions)
         _steps(sim, progress, max_steps, stop)
     stop.reraise()
     return sim

@@ -23,6 +23,12 @@ Fields (:attr:`State.fields`), nodal values:
   length_std_psi is the bump's width away from the rings and, across a ring, where part of
   the bump has divided, the spread of a bimodal distribution (up to ~0.5).
 
+Strains (continuum.strains; only when the state has strain fractions ``phi``, S of them):
+phi_i, the fraction of strain i, G_i = int g_i dt, its growth phase, and
+mean_length_i = 2^frac(G_i / ln 2), its mean length from a delta Psi0, for i = 0..S-1.
+G stays the phase of the mixture's growth rate g = sum_i phi_i g_i (the area stretch exp(G),
+which Psi is transported with).
+
 ``sizes`` is a continuum.sizes.DeltaSizes (the delta's undivided number and position), a
 continuum.sizes.CharacteristicSizes (values and phase offsets) or a
 continuum.sizes.SizeDistribution (cell averages), as ``Config.initial_sizes`` and
@@ -40,6 +46,7 @@ import numpy as np
 from continuum import mesh
 from continuum.growth import mean_length
 from continuum.sizes import CharacteristicSizes, DeltaSizes, SizeDistribution
+from continuum.strains import phase_areas
 
 __all__ = ["State", "StepRecord", "HISTORY_COLUMNS", "REMESH_CODES", "TIMING_STAGES"]
 
@@ -87,6 +94,12 @@ class State:
         The previous step.
     timings : dict
         Accumulated wall-clock seconds per stage (``TIMING_STAGES``).
+    phi : ndarray (N, S) or None
+        Strain fractions of each material element (continuum.strains): in [0, 1], rows summing
+        to 1, constant along the characteristics (on the nodes between remeshes). None: one
+        strain (``Config.strains`` empty).
+    G_strains : ndarray (N, S) or None
+        Growth phase G_i = int g_i dt of each strain, g_i = a_i exp(-lam_i p) (None with phi).
     """
 
     points: np.ndarray
@@ -107,6 +120,8 @@ class State:
     p_prev: np.ndarray | None = None
     dt_prev: float = 1.0
     timings: dict = field(default_factory=lambda: dict.fromkeys(TIMING_STAGES, 0.0))
+    phi: np.ndarray | None = None
+    G_strains: np.ndarray | None = None
 
     def set_mesh(self, points: np.ndarray, triangles: np.ndarray, n_boundary: int,
                  h: float) -> None:
@@ -135,16 +150,24 @@ class State:
         return f"t={self.t:.6g}, area={self.area:.6g}"
 
     @property
+    def strain_areas(self) -> np.ndarray | None:
+        """Area of each strain, int phi_i dA (continuum.strains.phase_areas); None: one strain."""
+        if self.phi is None:
+            return None
+        return phase_areas(self.points, self.triangles, self.phi)
+
+    @property
     def fields(self) -> dict[str, np.ndarray]:
         """Nodal fields (new arrays): p, u, G, mean_length and the moments of Psi.
 
         mean_length_psi, length_std_psi, number, total_length: see the module docstring;
-        number and total length are per current area (Psi moments times exp(-G)).
+        number and total length are per current area (Psi moments times exp(-G)). With strains,
+        phi_i, G_i and mean_length_i of every strain i (module docstring).
         """
         stretch = np.exp(-self.G)
         number = self.sizes.number()
         total = self.sizes.total_length()
-        return {
+        out = {
             "p": self.p.copy(),
             "u": self.u.copy(),
             "G": self.G.copy(),
@@ -154,6 +177,12 @@ class State:
             "number": number * stretch,
             "total_length": total * stretch,
         }
+        if self.phi is not None:
+            for i in range(self.phi.shape[1]):
+                out[f"phi_{i}"] = self.phi[:, i].copy()
+                out[f"G_{i}"] = self.G_strains[:, i].copy()
+                out[f"mean_length_{i}"] = mean_length(self.G_strains[:, i])
+        return out
 
     def sample(self, xy: np.ndarray) -> dict[str, np.ndarray]:
         """P1 interpolation of every field at the points xy (P, 2); NaN outside the domain."""
@@ -217,6 +246,9 @@ class StepRecord:
         Newton and Krylov iterations of all pressure solves so far (cumulative).
     remesh : str or None
         Why the mesh was rebuilt before this step ("quality", "boundary", "size"), or None.
+    strain_areas : tuple of float
+        With S >= 2 strains the area of each, int phi_i dA (history.csv's columns area_0,
+        area_1, ... after HISTORY_COLUMNS); empty for one strain.
     """
 
     step: int
@@ -233,11 +265,13 @@ class StepRecord:
     newton_iterations: int
     krylov_iterations: int
     remesh: str | None
+    strain_areas: tuple = ()
 
     @classmethod
     def of(cls, state: State, dt: float, remesh: str | None) -> StepRecord:
         """The record of ``state`` after a step of size dt (remeshed first for ``remesh``)."""
         area = state.area
+        strains = state.phi is not None and state.phi.shape[1] > 1
         return cls(
             step=state.step,
             t=state.t,
@@ -253,13 +287,16 @@ class StepRecord:
             newton_iterations=state.newton,
             krylov_iterations=state.krylov,
             remesh=remesh,
+            strain_areas=tuple(float(a) for a in state.strain_areas) if strains else (),
         )
 
     def row(self) -> dict:
         """The history.csv row: every attribute but ``step``, in the order of HISTORY_COLUMNS.
 
-        ``remesh`` as its code (``REMESH_CODES``: 0 none, 1 quality, 2 boundary, 3 size).
+        ``remesh`` as its code (``REMESH_CODES``: 0 none, 1 quality, 2 boundary, 3 size); then
+        the strain areas as area_0, area_1, ... (only with S >= 2 strains).
         """
         row = {name: getattr(self, name) for name in HISTORY_COLUMNS}
         row["remesh"] = REMESH_CODES[self.remesh]
+        row |= {f"area_{i}": a for i, a in enumerate(self.strain_areas)}
         return row

@@ -244,3 +244,12 @@ def test_sighup_stops_like_sigterm(tmp_path):
     record = json.loads((partial / "run.json").read_text())
     assert record["status"] == "stopped" and record["error"] == "stopped by SIGHUP"
     assert (partial / "checkpoint.npz").exists()
+
+
+def test_a_field_added_later_with_an_empty_default_changes_nothing():
+    """A run recorded before a Config field existed resumes when the field is empty now."""
+    saved = {"lam": 0.01, "radius": 40.0}
+    assert rundir.config_differences(saved, {**saved, "strains": []}) == []
+    assert rundir.config_differences(saved, {**saved, "strains": [[0.0, 1.0]]}) == ["strains"]
+    assert rundir.config_differences({**saved, "strains": [[0.0, 1.0]]}, {**saved, "strains": []}
+                                     ) == ["strains"]

@@ -1,0 +1,279 @@
+"""Strains: inherited growth traits carried by the material (issue 32).
+
+A colony of S strains i = 0..S-1. Strain i grows at ::
+
+    g_i(p) = a_i exp(-lam_i p)          (:class:`Strain`: a_i ``growth``, lam_i ``lam``),
+
+and a daughter inherits its mother's strain. In the continuum each material point carries the
+strain fractions phi_i(x, t) >= 0, sum_i phi_i = 1: the material does not mix, so phi is constant
+along the characteristics dx/dt = u (like the growth phase G), and the Darcy source is the mixture's
+growth rate ::
+
+    g(p, phi) = sum_i phi_i a_i exp(-lam_i p),     -dg/dp = sum_i phi_i lam_i a_i exp(-lam_i p) >= 0
+
+(:func:`mixed_growth`; -Laplace p = g stays monotone in p, continuum.pressure). Each strain has
+its own growth phase G_i = int g_i dt along the material path (meaningful where phi_i > 0), whence
+its mean length 2^frac(G_i / ln 2) and its rings G_i = k ln 2, as G gives them for one strain.
+
+The strains are data: ``Config.strains`` holds them (a tuple of :class:`Strain`; empty = one
+strain, ``lam`` and growth 1, today's code path), the initial layout phi0 is given to the engine
+(``continuum.Simulation(config, fractions=phi0)``) as a callable phi0(x, y) -> (n, S) or as an
+(n_nodes, S) array. The layouts here return such callables: :func:`core` (concentric strains,
+the layered colony of continuum.radial_strains), :func:`sector` (a wedge) and :func:`mixture`
+(the same fractions everywhere). A third strain, or a trait other than (lam, growth), is a new
+entry or a new field of :class:`Strain` and of :func:`strain_rates`; the engine carries phi and
+G_i for any S.
+
+Accuracy. The fractions live on the material nodes and the source is the P1 interpolant of
+the nodal g, so an element cut by an interface grows at a mean of the two rates with a fixed
+share of each strain. With strain 0 a core of nodal fractions 1, its discrete area
+A_h = sum_{j in core} m_j (m_j = sum_k M_jk) grows as ::
+
+    dA_h/dt = g_core A_h - (g_core - g_shell) sum_{j in core, k in shell} M_jk,
+
+and the cross mass is the interface length times O(h): an O(h) defect per unit time. The
+interface radius, R(t) and p are therefore first order in h (measured in
+tests/continuum/test_strains.py against continuum.radial_strains: orders 0.8-1.0, errors
+systematic, about 0.5-0.75 h for the interface), against the one-strain colony's second order.
+Second order would need the interface inside the elements (a cut-cell source from a transported
+smooth label), not nodal fractions. Identical strains are exact: they give the one-strain run
+bit for bit (:func:`mixed_growth`).
+
+The interfaces between strains are the contours phi_i = 1/2 (:func:`interface_table`, written
+to interfaces.csv by continuum.output.write_interfaces).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = ["Strain", "as_strains", "strain_rates", "mixed_growth", "slope_scale", "check_fractions",
+           "fractions_at", "phase_areas", "core", "sector", "mixture", "interface_table",
+           "INTERFACE_COLUMNS", "FRACTION_ATOL"]
+
+FRACTION_ATOL = 1e-9
+"""Tolerance of the fractions' checks: 0 - atol <= phi_i <= 1 + atol, |sum_i phi_i - 1| <= atol."""
+
+
+@dataclass(frozen=True)
+class Strain:
+    """An inherited trait: growth rate g(p) = a exp(-lam p) (a: ``growth``, lam: ``lam``).
+
+    Validated when made: lam finite and >= 0, growth finite and > 0 (one-line ValueError).
+    """
+
+    lam: float
+    growth: float = 1.0
+
+    def __post_init__(self):
+        for name in ("lam", "growth"):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, numbers.Real):
+                raise ValueError(f"a strain's {name} must be a number, got {v!r}")
+            object.__setattr__(self, name, float(v))
+        if not (math.isfinite(self.lam) and self.lam >= 0):
+            raise ValueError(f"a strain's lam must be finite and >= 0, got {self.lam!r}")
+        if not (math.isfinite(self.growth) and self.growth > 0):
+            raise ValueError(f"a strain's growth must be finite and > 0, got {self.growth!r}")
+
+    def rate(self, p):
+        """g(p) = a exp(-lam p)."""
+        return self.growth * np.exp(-self.lam * p)
+
+
+def as_strains(value) -> tuple[Strain, ...]:
+    """A tuple of :class:`Strain` from strains, (lam, growth) pairs or {"lam", "growth"} dicts.
+
+    The forms a Config, a TOML file or a checkpoint's JSON give; ValueError (one line) otherwise.
+    """
+    if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
+        raise ValueError(f"strains must be a sequence of (lam, growth) pairs, got {value!r}")
+    out = []
+    for entry in value:
+        if isinstance(entry, Strain):
+            out.append(entry)
+        elif isinstance(entry, dict) and set(entry) <= {"lam", "growth"} and "lam" in entry:
+            out.append(Strain(**entry))
+        elif isinstance(entry, (tuple, list)) and len(entry) in (1, 2):
+            out.append(Strain(*entry))
+        else:
+            raise ValueError(f"a strain must be (lam, growth), got {entry!r}")
+    return tuple(out)
+
+
+def strain_rates(p: ArrayLike, strains) -> NDArray:
+    """Every strain's growth rate at the pressure p: g_i = a_i exp(-lam_i p), shape (n, S)."""
+    p = np.asarray(p, dtype=float)
+    return np.stack([s.growth * np.exp(-s.lam * p) for s in strains], axis=-1)
+
+
+def slope_scale(strains) -> float:
+    """lam* = max_i lam_i, the scale of the source's slope (:func:`mixed_growth`)."""
+    return max(s.lam for s in strains)
+
+
+def mixed_growth(p: ArrayLike, phi: NDArray, strains) -> tuple[NDArray, NDArray]:
+    """The source of the mixture and its scaled slope: (g, v), each (n,).
+
+    g = sum_i phi_i g_i and v = sum_i phi_i (lam_i / lam*) g_i, g_i = a_i exp(-lam_i p),
+    lam* = max_i lam_i (:func:`slope_scale`; v = 0 when every lam_i = 0), so that
+    -dg/dp = lam* v (the Newton Jacobian's weight, continuum.pressure). ``phi`` (n, S) the
+    fractions, rows summing to 1, so g is evaluated relative to strain 0 as ::
+
+        g = g_0 + sum_{i >= 1} phi_i (g_i - g_0)      (v likewise):
+
+    strains equal to strain 0 add exact zeros, so identical strains in any layout give
+    g = v = exp(-lam p), the one-strain solver's values, bit for bit.
+    """
+    rates = strain_rates(p, strains)
+    top = slope_scale(strains)
+    scaled = rates * np.array([s.lam / top if top > 0 else 0.0 for s in strains])
+
+    def mix(f):
+        return f[:, 0] + np.einsum("ni,ni->n", phi[:, 1:], f[:, 1:] - f[:, :1])
+
+    return mix(rates), mix(scaled)
+
+
+def check_fractions(phi: ArrayLike, n: int, n_strains: int) -> NDArray:
+    """The fractions as a float array (n, S), checked: finite, in [0, 1], rows summing to 1.
+
+    Within ``FRACTION_ATOL``; ValueError (one line) otherwise.
+    """
+    phi = np.array(phi, dtype=float)
+    if phi.shape != (n, n_strains):
+        raise ValueError(f"the strain fractions must have shape ({n}, {n_strains}) (nodes, "
+                         f"strains), got {phi.shape}")
+    if not np.all(np.isfinite(phi)):
+        raise ValueError("the strain fractions must be finite")
+    if np.any(phi < -FRACTION_ATOL) or np.any(phi > 1 + FRACTION_ATOL):
+        raise ValueError(f"the strain fractions must lie in [0, 1], got values in "
+                         f"[{phi.min():.6g}, {phi.max():.6g}]")
+    worst = float(np.max(np.abs(phi.sum(axis=1) - 1.0))) if n else 0.0
+    if worst > FRACTION_ATOL:
+        raise ValueError(f"the strain fractions must sum to 1 at every node (off by up to "
+                         f"{worst:.3g})")
+    return phi
+
+
+def fractions_at(phi0: Callable | ArrayLike, points: NDArray, n_strains: int) -> NDArray:
+    """The fractions phi0 at the nodes ``points`` (n, 2), checked (:func:`check_fractions`).
+
+    ``phi0``: a callable phi0(x, y) -> (n, S) (x, y the node coordinates, arrays (n,)), or an
+    (n, S) array of nodal values.
+    """
+    points = np.asarray(points, dtype=float)
+    values = phi0(points[:, 0], points[:, 1]) if callable(phi0) else phi0
+    return check_fractions(values, len(points), n_strains)
+
+
+def phase_areas(points: NDArray, triangles: NDArray, phi: NDArray) -> NDArray:
+    """The area of each strain, A_i = int phi_i dA of the P1 fractions, shape (S,).
+
+    Element by element |T| (phi_a + phi_b + phi_c) / 3; they sum to the mesh's area.
+    """
+    a, b, c = (points[triangles[:, k]] for k in range(3))
+    area = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
+                  - (b[:, 1] - a[:, 1]) * (c[:, 0] - a[:, 0]))
+    mean = (phi[triangles[:, 0]] + phi[triangles[:, 1]] + phi[triangles[:, 2]]) / 3.0
+    return area @ mean
+
+
+# ------------------------------------------------------------------ initial layouts
+
+
+def _one_hot(index: NDArray, n_strains: int) -> NDArray:
+    out = np.zeros((len(index), n_strains))
+    out[np.arange(len(index)), index] = 1.0
+    return out
+
+
+def core(*radii: float, center: ArrayLike = (0.0, 0.0)) -> Callable[[NDArray, NDArray], NDArray]:
+    """Concentric strains: strain i in r_{i-1} <= |x - center| < r_i, the last one outside.
+
+    ``core(r1)``: strain 0 in the disc of radius r1, strain 1 around it (S = len(radii) + 1;
+    the layered colony of continuum.radial_strains, radii inner to outer). Returns phi0(x, y).
+    """
+    r = np.array(radii, dtype=float)
+    if r.ndim != 1 or len(r) == 0 or not (np.all(np.isfinite(r)) and r[0] > 0
+                                          and np.all(np.diff(r) > 0)):
+        raise ValueError(f"core radii must be positive, finite and increasing, got {radii!r}")
+    cx, cy = (float(v) for v in center)
+
+    def phi0(x, y):
+        dist = np.hypot(np.asarray(x, dtype=float) - cx, np.asarray(y, dtype=float) - cy)
+        return _one_hot(np.searchsorted(r, dist, side="right"), len(r) + 1)
+
+    return phi0
+
+
+def sector(theta: float, direction: float = 0.0, center: ArrayLike = (0.0, 0.0)
+           ) -> Callable[[NDArray, NDArray], NDArray]:
+    """A wedge of strain 1 in strain 0: the angle about ``center`` within theta/2 of ``direction``.
+
+    theta in (0, 2 pi) radians, the opening of the wedge (a sector reaching the colony's edge).
+    Returns phi0(x, y) with S = 2.
+    """
+    if not (math.isfinite(theta) and 0 < theta < 2 * math.pi):
+        raise ValueError(f"sector angle theta must lie in (0, 2 pi), got {theta!r}")
+    cx, cy = (float(v) for v in center)
+
+    def phi0(x, y):
+        angle = np.arctan2(np.asarray(y, dtype=float) - cy, np.asarray(x, dtype=float) - cx)
+        off = np.abs((angle - direction + math.pi) % (2 * math.pi) - math.pi)
+        return _one_hot((off < theta / 2).astype(int), 2)
+
+    return phi0
+
+
+def mixture(*fractions: float) -> Callable[[NDArray, NDArray], NDArray]:
+    """The same fractions (phi_0, phi_1, ...) at every point (summing to 1). Returns phi0(x, y)."""
+    f = check_fractions(np.array(fractions, dtype=float)[None, :], 1, len(fractions))[0]
+
+    def phi0(x, y):
+        return np.tile(f, (np.shape(x)[0], 1))
+
+    return phi0
+
+
+# ------------------------------------------------------------------ interfaces
+
+INTERFACE_COLUMNS = ("strain", "level", "area", "mean_radius", "min_radius", "max_radius",
+                     "length", "cx", "cy", "n_pieces")
+"""Columns of an interface table (and interfaces.csv): the strain i, the level 1/2 of its
+contour, its area int phi_i dA, then the contour's radii, length, centre and pieces as in a ring
+table (continuum.rings.COLUMNS)."""
+
+
+def interface_table(points: NDArray, triangles: NDArray, phi: NDArray,
+                    center: ArrayLike | None = None) -> dict[str, NDArray]:
+    """The interfaces of the strains: the contours phi_i = 1/2 of the P1 fractions.
+
+    One row per strain whose fraction crosses 1/2 (``INTERFACE_COLUMNS``); radii about the
+    colony's area centroid (or ``center``), measured as continuum.rings measures a ring. For a
+    core of strain 0 the contour's mean radius is the interface radius; sqrt(area / pi) is
+    another measure of it (the equal-area radius).
+    """
+    from continuum.rings import area_centroid, level_curve
+
+    phi = np.asarray(phi, dtype=float)
+    c = area_centroid(points, triangles) if center is None else np.asarray(center, dtype=float)
+    areas = phase_areas(np.asarray(points, dtype=float), np.asarray(triangles), phi)
+    rows: dict[str, list] = {name: [] for name in INTERFACE_COLUMNS}
+    for i in range(phi.shape[1]):
+        curve = level_curve(points, triangles, phi[:, i], 0.5, c)
+        if curve is None:
+            continue
+        values = (i, 0.5, areas[i], *curve[:4], c[0], c[1], curve[4])
+        for name, v in zip(INTERFACE_COLUMNS, values, strict=True):
+            rows[name].append(v)
+    out = {name: np.asarray(v, dtype=float) for name, v in rows.items()}
+    out["strain"] = out["strain"].astype(int)
+    out["n_pieces"] = out["n_pieces"].astype(int)
+    return out
