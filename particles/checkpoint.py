@@ -57,7 +57,7 @@ import numpy as np
 
 from .config import EXECUTION_FIELDS, STEP_POLICY_FIELDS, Config, upgrade
 from .geometry import canonical_keys
-from .state import PARTICLE_ARRAYS, ParticleState
+from .state import OPTIONAL_ARRAYS, PARTICLE_ARRAYS, ParticleState
 
 __all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "Checkpoint", "CheckpointError",
            "save_checkpoint", "load_checkpoint", "resume_checkpoint", "checkpoint_config",
@@ -392,11 +392,12 @@ def _check_config(path: Path, saved: dict, config: Config, change_step_policy: b
 
 
 def _particle_arrays(path: Path, arrays: dict) -> dict[str, np.ndarray]:
-    """The particle arrays of a checkpoint (``parent``/``generation`` when saved), checked.
+    """The particle arrays of a checkpoint (parent, generation, strain when saved), checked.
 
     One-dimensional, of one length, real numbers; the warm start's two arrays of one length.
     """
-    names = [k for k in PARTICLE_ARRAYS if k in arrays or k not in ("parent", "generation")]
+    optional = ("parent", "generation", *OPTIONAL_ARRAYS)
+    names = [k for k in PARTICLE_ARRAYS if k in arrays or k not in optional]
     found = checked(path, lambda: {k: arrays[k] for k in [*names, "warm_keys", "warm_gamma"]})
     n, warm = found["x"].shape, found["warm_keys"].shape
     for k, a in found.items():

@@ -16,6 +16,7 @@ from pathlib import Path
 import numba
 
 from .geometry import B
+from .strains import as_strains
 
 __all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "SOLVERS",
            "STEP_CONTROLS", "STEP_POLICY_FIELDS"]
@@ -129,6 +130,14 @@ class Config:
         cores.  The iterates do not depend on it (sums by fixed blocks,
         solvers.bbpgd.BLOCK), so a run may resume with another value and give the same
         result.
+    strains : tuple of (lam, growth) pairs
+        The strains i = 0..S-1 of the colony (particles.strains): cell n of strain s_n grows
+        at a_s l exp(-lam_s sigma); given as (lam, growth) pairs or {"lam", "growth"} tables,
+        stored as a tuple of float pairs. Empty (the default): one strain (``lam``, 1), the
+        model and the bits as before; with strains ``lam`` is not used by the model. The
+        cells' strains come with the initial state (``ParticleState.strain``, or
+        ``Simulation(config, state, strains=...)``); one cell from the configuration is of
+        strain 0.
     """
 
     lam: float
@@ -153,8 +162,11 @@ class Config:
     max_iterations: int = 200_000
     step_control: str = "overlap"
     threads: int | str = "auto"
+    strains: tuple = ()
 
     def __post_init__(self) -> None:
+        if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
+            object.__setattr__(self, "strains", as_strains(self.strains))
         self.validate()
 
     def validate(self) -> None:
@@ -248,6 +260,7 @@ _TYPES = {
     "str": (lambda v: isinstance(v, str), "a string"),
     "bool": (lambda v: isinstance(v, bool), "true or false"),
     "None": (lambda v: v is None, "None"),
+    "tuple": (lambda v: isinstance(v, tuple), "a list of strains (lam, growth)"),
 }
 
 
@@ -344,7 +357,7 @@ def _physical_memory() -> float:
 
 
 LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",
-                 "fill_lengths": "stable", "solver_tol_factor": 0.5}
+                 "fill_lengths": "stable", "solver_tol_factor": 0.5, "strains": []}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
 
 RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}

@@ -37,8 +37,8 @@ def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
     Daughter 1 takes the mother's index, daughter 2 is appended; both get new ids (for m
     divisions of mothers i_1 < ... < i_m, daughter 1 of i_k gets next_id + k - 1 and daughter 2
     next_id + m + k - 1), parent = the mother's id and generation = the mother's generation
-    + 1.  Random numbers are drawn in index order (two per dividing particle), so runs are
-    reproducible.
+    + 1; both inherit the mother's strain (particles.strains).  Random numbers are drawn in
+    index order (two per dividing particle), so runs are reproducible.
 
     Parameters
     ----------
@@ -77,7 +77,8 @@ def divide(state: ParticleState, rng: np.random.Generator, noise: float) -> int:
     state.parent[idx] = mother
     state.generation[idx] = gen
     state.stress[idx] = 0.0
-    state.append(x - ox, y - oy, th + eps[:, 1], half, new_ids[m:], mother, gen)
+    strain = None if state.strain is None else state.strain[idx]
+    state.append(x - ox, y - oy, th + eps[:, 1], half, new_ids[m:], mother, gen, strain)
     return m
 
 

@@ -52,8 +52,8 @@ def length_increment(length, lam, sigma, dt):
     return length * np.expm1(dt * growth_rate(lam, sigma))
 
 
-def grow(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.ndarray:
-    """Lengths after a step: l(t + dt) = l exp(dt exp(-lam sigma)), sigma held over the step.
+def grow(length: np.ndarray, stress: np.ndarray, lam, dt: float, rate=1.0) -> np.ndarray:
+    """Lengths after a step: l(t + dt) = l exp(a dt exp(-lam sigma)), sigma held over the step.
 
     Parameters
     ----------
@@ -61,14 +61,16 @@ def grow(length: np.ndarray, stress: np.ndarray, lam: float, dt: float) -> np.nd
         l_n at the start of the step.
     stress : array (N,)
         Axial stress sigma_n of the step.
-    lam : float
-        Stress sensitivity lambda >= 0.
+    lam : float or array (N,)
+        Stress sensitivity lambda >= 0 (of every cell, or of each: strains, particles.strains).
     dt : float
         Step length.
+    rate : float or array (N,)
+        Growth factor a > 0 (1: the model of one strain; a dt = dt exactly).
 
     Returns
     -------
     array (N,)
         The lengths l_n(t + dt).
     """
-    return length * np.exp(dt * growth_rate.py_func(lam, stress))
+    return length * np.exp((rate * dt) * growth_rate.py_func(lam, stress))

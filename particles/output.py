@@ -60,13 +60,15 @@ HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "m
 
 def write_config(out: Path, config, step: int | None = None,
                  policy: tuple[str, ...] = ()) -> None:
-    """config.json: the run's ``Config`` fields.
+    """config.json: the run's ``Config`` fields (``strains`` only when given).
 
     ``step`` given (a run resumed there with a changed step policy): the ``policy`` fields that
     differ from the config.json in ``out`` are appended to its ``step_policy_changes``, a list of
     {"step": step, field: [old, new], ...}, kept with the new fields.
     """
     fields = asdict(config)
+    if not fields.get("strains", True):
+        del fields["strains"]  # one strain: the file as before strains existed
     path = out / "config.json"
     if step is not None and path.is_file():
         old = json.loads(path.read_text())
@@ -80,13 +82,19 @@ def write_config(out: Path, config, step: int | None = None,
 
 
 def write_history(out: Path, history: list[dict]) -> None:
-    """history.csv, one row per step (HISTORY_COLUMNS), written atomically."""
+    """history.csv, one row per step (HISTORY_COLUMNS, then a run's strain columns), atomically.
+
+    With strains (particles.strains) each row also holds n_strain_i and total_length_i, the
+    particles and their summed length l of every strain i (:func:`strain_columns`).
+    """
+    columns = HISTORY_COLUMNS + tuple(k for k in (history[-1] if history else {})
+                                      if k.startswith(STRAIN_COLUMN_PREFIXES))
     tmp = out / "history.csv.tmp"
     with open(tmp, "w", newline="") as f:
         w = csv.writer(f)
-        w.writerow(HISTORY_COLUMNS)
+        w.writerow(columns)
         for row in history:
-            values = [row.get(c, "") for c in HISTORY_COLUMNS]  # "": not recorded then
+            values = [row.get(c, "") for c in columns]  # "": not recorded then
             w.writerow([repr(v) if isinstance(v, float) else v for v in values])
     os.replace(tmp, out / "history.csv")
 
@@ -94,6 +102,23 @@ def write_history(out: Path, history: list[dict]) -> None:
 #: Free space a run keeps on its output's file system: it stops with ENOSPC before a write
 #: could fill it (a trajectory write into a full tmpfs can end the process with SIGBUS).
 RESERVE_BYTES = 4 * 2**20
+
+
+STRAIN_COLUMN_PREFIXES = ("n_strain_", "total_length_")
+"""Prefixes of history.csv's columns per strain (:func:`strain_columns`)."""
+
+
+def strain_columns(state: ParticleState, n_strains: int) -> dict[str, float]:
+    """History values of each strain i: n_strain_i (particles) and total_length_i (sum of l).
+
+    Empty for a one-strain colony (``state.strain`` None).
+    """
+    if state.strain is None:
+        return {}
+    counts = np.bincount(state.strain, minlength=n_strains)
+    lengths = np.bincount(state.strain, weights=state.length, minlength=n_strains)
+    return ({f"n_strain_{i}": int(counts[i]) for i in range(n_strains)}
+            | {f"total_length_{i}": float(lengths[i]) for i in range(n_strains)})
 
 
 def ensure_space(out: Path, n_particles: int, checkpoint: Path | None = None) -> None:
@@ -112,10 +137,17 @@ def ensure_space(out: Path, n_particles: int, checkpoint: Path | None = None) ->
 
 
 def write_particles(out: Path, state: ParticleState) -> None:
-    """particles.csv: x,y,theta,length,stress of the current particles (full precision)."""
-    data = np.column_stack([state.x, state.y, state.theta, state.length, state.stress])
+    """particles.csv: x,y,theta,length,stress (and strain, with strains) of the particles.
+
+    Full precision (the strain an integer).
+    """
+    columns = [state.x, state.y, state.theta, state.length, state.stress]
+    header = "x,y,theta,length,stress"
+    if state.strain is not None:
+        columns.append(state.strain)
+        header += ",strain"
     tmp = out / "particles.csv.tmp"
-    np.savetxt(tmp, data, delimiter=",", header="x,y,theta,length,stress", comments="",
+    np.savetxt(tmp, np.column_stack(columns), delimiter=",", header=header, comments="",
                fmt="%.17g")
     os.replace(tmp, out / "particles.csv")
 
@@ -153,6 +185,11 @@ BOX_MARGIN = 2.0
 """Gap (model length units) between the colony and the box edge; images are 2 BOX_MARGIN apart."""
 
 ROD_TYPE = "rod"
+
+
+def strain_type(i: int) -> str:
+    """The particle type of strain i in trajectory.gsd: ``strain_i`` (a rod like ROD_TYPE)."""
+    return f"strain_{i}"
 _NOMINAL_CYLINDER = 1.0  # the type's default cylinder length; every particle overrides it
 
 
@@ -197,11 +234,15 @@ def make_frame(state: ParticleState, step: int, t: float | None = None) -> gsd.h
     ext = box_edge(state)
     f.configuration.box = [ext, ext, 0.0, 0.0, 0.0, 0.0]
     f.particles.N = n
-    f.particles.types = [ROD_TYPE]
-    f.particles.type_shapes = [{"type": "ConvexPolyhedron", "rounding_radius": B / 2,
-                                "vertices": [[0.0, 0.0, -_NOMINAL_CYLINDER / 2],
-                                             [0.0, 0.0, _NOMINAL_CYLINDER / 2]]}]
-    f.particles.typeid = np.zeros(n, dtype=np.uint32)
+    shape = {"type": "ConvexPolyhedron", "rounding_radius": B / 2,
+             "vertices": [[0.0, 0.0, -_NOMINAL_CYLINDER / 2], [0.0, 0.0, _NOMINAL_CYLINDER / 2]]}
+    if state.strain is None:
+        f.particles.types = [ROD_TYPE]
+        f.particles.typeid = np.zeros(n, dtype=np.uint32)
+    else:  # one type per strain, all rods: OVITO colours the particles by strain
+        f.particles.types = [strain_type(i) for i in range(int(state.strain.max()) + 1)]
+        f.particles.typeid = np.asarray(state.strain, dtype=np.uint32)
+    f.particles.type_shapes = [shape] * len(f.particles.types)
     f.particles.position = np.column_stack([state.x, state.y, np.zeros(n)]).astype(np.float32)
     f.particles.orientation = rod_quaternion(state.theta).astype(np.float32)
     f.particles.diameter = np.full(n, B, dtype=np.float32)

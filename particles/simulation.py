@@ -45,10 +45,11 @@ from .checkpoint import (
 )
 from .config import STEP_POLICY_FIELDS, Config
 from .division import divide_in_order
-from .output import RunOutput, write_config, write_history
+from .output import RunOutput, strain_columns, write_config, write_history
 from .packings import from_csv, single_cell
 from .state import ParticleState, StepRecord
 from .stepping import Detections, detect, next_dt, robust_step
+from .strains import STRAIN_SEED, draw_strains
 
 log = logging.getLogger(__name__)
 
@@ -160,6 +161,34 @@ def check_initial(config: Config, require_stop: bool = True,
     return state
 
 
+def initial_strains(config: Config, state: ParticleState, strains=None) -> None:
+    """Set the cells' strains of a starting state (in place; particles.strains).
+
+    ``strains``: the fractions phi0(x, y) -> (N, S) that each cell draws its strain from
+    (particles.strains.draw_strains, generator seeded (Config.seed, STRAIN_SEED)), or the
+    strains as integers; None keeps the state's, or puts every cell in strain 0.
+
+    Raises
+    ------
+    ValueError
+        Strains without ``Config.strains``, or a cell's strain not one of them (one line).
+    """
+    n_strains = len(config.strains)
+    if n_strains == 0:
+        if strains is not None or state.strain is not None:
+            raise ValueError("cell strains need strains in the Config (Config.strains)")
+        return
+    if strains is not None:
+        rng = np.random.default_rng((config.seed, STRAIN_SEED))
+        state.strain = draw_strains(strains, state.x, state.y, n_strains, rng)
+    elif state.strain is None:
+        state.strain = np.zeros(state.n, dtype=np.int64)
+    s = np.asarray(state.strain)
+    if s.shape != (state.n,) or s.dtype.kind not in "iu" or np.any(s < 0) or np.any(s >= n_strains):
+        raise ValueError(f"every cell's strain must be an integer in [0, {n_strains}) "
+                         f"(Config.strains has {n_strains})")
+
+
 class Simulation:
     """A growing, dividing colony stepped in time.
 
@@ -187,6 +216,11 @@ class Simulation:
     change_step_policy : bool
         See ``out``; config.json then records the change (output.write_config).  (Particles
         only: the continuum has no step policy.)
+    strains : callable or int array, optional
+        The cells' strains of ``config.strains`` (:func:`initial_strains`): fractions
+        phi0(x, y) -> (N, S) to draw them from (the continuum's layouts, e.g.
+        continuum.strains.core(r1)), or integers (N,). None: the state's, else strain 0. Not
+        allowed without strains; a checkpoint in ``out`` takes precedence.
 
     Attributes
     ----------
@@ -202,7 +236,8 @@ class Simulation:
     """
 
     def __init__(self, config: Config, state: ParticleState | None = None,
-                 out: str | Path | None = None, *, change_step_policy: bool = False):
+                 out: str | Path | None = None, *, change_step_policy: bool = False,
+                 strains=None):
         self.config = config
         self.history: list[dict] = []
         self.finished = True
@@ -228,6 +263,7 @@ class Simulation:
         else:
             config.check_budget(state.enclosing_radius())  # before any work, as check_initial
             self.state = state.copy()
+        initial_strains(config, self.state, strains)
         if self.state.rng is None:
             self.state.rng = np.random.default_rng(config.seed)
         if self.state.dt_next is None:
@@ -346,7 +382,7 @@ class Simulation:
             total_length=float(st.length.sum()), divisions=int(divisions),
             substeps=int(info["substeps"]), max_rotation=info["max_rotation"],
             max_displacement=info["max_displacement"], main_overlap=info["main_overlap"])
-        self.history.append(record.row())
+        self.history.append(record.row() | strain_columns(st, len(config.strains)))
         if record.substeps > 1:
             log.debug("step %d at t = %.6g taken as %d sub-steps", st.step, st.t, record.substeps)
         if st.n > config.max_particles:
@@ -452,7 +488,7 @@ class _Checkpointer:
 
 def run(config: Config, out: str | Path | None = None, progress: bool = False,
         state: ParticleState | None = None, max_steps: int | None = None, *,
-        change_step_policy: bool = False) -> Simulation:
+        change_step_policy: bool = False, strains=None) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
     The loop over the steps of a :class:`Simulation` that hands each step to the writers, the
@@ -483,6 +519,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         holds the new values and, under ``step_policy_changes``, the step and the old and new
         values of each change; the result differs from an uninterrupted run's within the
         time-stepping error).  Particles only.
+    strains : callable or int array, optional
+        The cells' strains of ``config.strains`` (:class:`Simulation`).
 
     Returns
     -------
@@ -501,7 +539,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     goal = {"radius": config.radius, "time": config.time}
     steps = 0
     with StopRequest() as stop:
-        sim = Simulation(config, state, out, change_step_policy=change_step_policy)
+        sim = Simulation(config, state, out, change_step_policy=change_step_policy,
+                         strains=strains)
         checkpointer = None if sim.output is None else _Checkpointer(sim)
         with _ProgressBar(config.lam, progress=progress, **goal) as bar:
             while not sim._reached(**goal):

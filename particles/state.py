@@ -8,7 +8,9 @@ axial stress sigma_n = (G gamma)_n (``stress``, stress.axial_stress; the load of
 law), a unique integer id (ids are never reused: they identify contacts between steps for the
 solver's warm start) and its lineage: ``parent`` = the id of the particle whose division made
 it (-1 for an initial particle) and ``generation`` = the number of divisions between it and its
-initial ancestor (0 for an initial particle; division.divide).
+initial ancestor (0 for an initial particle; division.divide), and with strains
+(particles.strains, ``Config.strains``) its strain s_n (``strain``; inherited at division;
+None for a one-strain colony, whose state is as before strains existed).
 
 Beyond the particles the state holds what the next step depends on: the time t, the step
 count, the random generator of the division noise, the previous step's contact forces by
@@ -27,7 +29,10 @@ from .measures import enclosing_radius, hull_radius
 __all__ = ["B", "ParticleState", "StepRecord"]
 
 #: Per-particle arrays of a state, by attribute name (what checkpoints and copies hold).
-PARTICLE_ARRAYS = ("x", "y", "theta", "length", "stress", "ids", "parent", "generation")
+PARTICLE_ARRAYS = ("x", "y", "theta", "length", "stress", "ids", "parent", "generation",
+                   "strain")
+OPTIONAL_ARRAYS = ("strain",)
+"""Per-particle arrays a state may lack (None): the strain of a one-strain colony."""
 
 
 def _no_contacts() -> np.ndarray:
@@ -49,6 +54,9 @@ class ParticleState:
         Id of the mother (the particle whose division made this one), -1 for an initial particle.
     generation : int64 array (N,)
         Divisions since the initial ancestor: 0 for an initial particle, the mother's + 1.
+    strain : int64 array (N,) or None
+        Each particle's strain s_n, an index into ``Config.strains`` (particles.strains);
+        None: one strain.
     t : float
         Time.
     step : int
@@ -75,6 +83,7 @@ class ParticleState:
     next_id: int
     parent: np.ndarray | None = None
     generation: np.ndarray | None = None
+    strain: np.ndarray | None = None
     t: float = 0.0
     step: int = 0
     rng: np.random.Generator | None = None
@@ -132,8 +141,12 @@ class ParticleState:
         """Hull radius sqrt(convex hull area / pi) (measures.hull_radius)."""
         return hull_radius(self.x, self.y, self.theta, self.length)
 
-    def append(self, x, y, theta, length, ids, parent=None, generation=None) -> None:
-        """Append particles (zero stress; parent -1 and generation 0 unless given)."""
+    def append(self, x, y, theta, length, ids, parent=None, generation=None,
+               strain=None) -> None:
+        """Append particles: zero stress, parent -1 and generation 0 unless given.
+
+        ``strain``: the new cells' strains, needed when the state has strains.
+        """
         m = len(x)
         parent = np.full(m, -1) if parent is None else parent
         generation = np.zeros(m) if generation is None else generation
@@ -146,6 +159,8 @@ class ParticleState:
         self.parent = np.concatenate([self.parent, np.asarray(parent, dtype=np.int64)])
         self.generation = np.concatenate([self.generation,
                                           np.asarray(generation, dtype=np.int64)])
+        if self.strain is not None:
+            self.strain = np.concatenate([self.strain, np.asarray(strain, dtype=np.int64)])
 
     def permute(self, order: np.ndarray) -> None:
         """Reorder the particles: particle k becomes the former particle ``order[k]``.
@@ -153,8 +168,8 @@ class ParticleState:
         Every per-particle array moves; ids, lineage and the warm start (keyed by ids) are
         unchanged.
         """
-        for k in PARTICLE_ARRAYS:
-            setattr(self, k, getattr(self, k)[order])
+        for k, a in self.arrays().items():
+            setattr(self, k, a[order])
 
     def copy(self) -> ParticleState:
         """An independent copy (arrays copied; the generator copied with its state)."""
@@ -162,14 +177,14 @@ class ParticleState:
         if self.rng is not None:
             rng = np.random.default_rng()
             rng.bit_generator.state = self.rng.bit_generator.state
-        return ParticleState(**{k: getattr(self, k).copy() for k in PARTICLE_ARRAYS},
+        return ParticleState(**{k: a.copy() for k, a in self.arrays().items()},
                              next_id=self.next_id, t=self.t, step=self.step, rng=rng,
                              warm_keys=self.warm_keys.copy(), warm_gamma=self.warm_gamma.copy(),
                              dt_next=self.dt_next)
 
     def arrays(self) -> dict[str, np.ndarray]:
-        """The per-particle arrays by attribute name (what a checkpoint saves)."""
-        return {k: getattr(self, k) for k in PARTICLE_ARRAYS}
+        """The per-particle arrays by attribute name (what a checkpoint saves; no None ones)."""
+        return {k: getattr(self, k) for k in PARTICLE_ARRAYS if getattr(self, k) is not None}
 
 
 @dataclass(frozen=True)

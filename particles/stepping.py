@@ -43,6 +43,7 @@ from .growth import grow
 from .neighbours import candidate_pairs
 from .solvers import BY_NAME, ContactSolveError
 from .state import ParticleState
+from .strains import growth_law
 from .stress import axial_stress
 
 if TYPE_CHECKING:
@@ -180,10 +181,10 @@ def motion(state: ParticleState, x0: np.ndarray, y0: np.ndarray, theta0: np.ndar
             "max_displacement": float(np.hypot(state.x - x0, state.y - y0).max())}
 
 
-def _solve(solver, spent: list, *args):
-    """solver(*args), adding its iterations to spent[0] whether or not it converges."""
+def _solve(solver, spent: list, *args, **kwargs):
+    """solver(*args, **kwargs), adding its iterations to spent[0] whether or not it converges."""
     try:
-        gamma, hist = solver(*args)
+        gamma, hist = solver(*args, **kwargs)
     except ContactSolveError as e:
         spent[0] += len(e.residuals) - 1
         raise
@@ -219,15 +220,16 @@ def step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
     keys = c.keys(state.ids)
     gamma0 = warm_start(keys, *warm)
     t0 = _tick(timers, "update", t0)
-    gamma, hist = _solve(solver, spent, c, state.length, dt, config.lam, gamma0, stol,
-                         config.max_iterations, True)
+    lam, rate = growth_law(config.strains, config.lam, state.strain)
+    gamma, hist = _solve(solver, spent, c, state.length, dt, lam, gamma0, stol,
+                         config.max_iterations, True, rate=rate)
     t0 = _tick(timers, "solver", t0)
     main_iterations = len(hist) - 1
     pass_cap = min(config.max_iterations, max(PASS_ITERATION_FLOOR, main_iterations))
     stress = axial_stress(c, gamma, n)
     l0 = state.length
     _move(state, c, gamma, dt, l0)
-    state.length = grow(l0, stress, config.lam, dt)
+    state.length = grow(l0, stress, lam, dt, rate)
     _tick(timers, "update", t0)
     passes = 0
     pass_iterations = 0
@@ -243,7 +245,7 @@ def step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
                 f"overlap {overlap:.3g} > tol {config.tol:g} after {passes} re-solve passes "
                 f"(N={n}, dt={dt:g}); decrease dt")
         t0 = _time.perf_counter()
-        g2, h2 = _solve(solver, spent, c2, state.length, dt, config.lam, None, stol, pass_cap,
+        g2, h2 = _solve(solver, spent, c2, state.length, dt, lam, None, stol, pass_cap,
                         False)
         t0 = _tick(timers, "solver", t0)
         pass_iterations += len(h2) - 1

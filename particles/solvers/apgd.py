@@ -119,7 +119,7 @@ def lipschitz_kernel(start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, c
 
 
 @njit(cache=True)
-def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, law,
                 growth, akk, step, tol, maxiter, hist):
     """APGD iterations in place on gam (module docstring); one gradient per iteration.
 
@@ -151,7 +151,7 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
     t = step
     for it in range(0, maxiter + 1):
         gap_kernel(y, start, idx, coef,
-                   ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+                   ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, law,
                    growth, pw, qy)
         # one pass: residual, feasibility, curvature (q(y) - q(yp)).(y - yp) / |y - yp|_P^-1
         res = 0.0
@@ -175,7 +175,7 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
             for k in range(m):
                 x1[k] = y[k] if y[k] > 0.0 else 0.0
             gap_kernel(x1, start, idx, coef,
-                       ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+                       ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, law,
                        growth, pw, qp)
             rp = residual(x1, qp, akk)
             if rp <= tol:
@@ -229,18 +229,20 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
     return -1
 
 
-def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, lam: float, growth: bool = True,
-                    iters: int = 30, seed: int = 12345, min_iters: int = 8,
+def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, law: np.ndarray,
+                    growth: bool = True, iters: int = 30, seed: int = 12345, min_iters: int = 8,
                     rtol: float = 1e-3) -> float:
     """Power-iteration estimate of lambda_max(P^(1/2) (dt D^T M D + G^T C G) P^(1/2)).
 
-    P = diag(1/a_kk), C = diag(l_n lam dt exp(dt)) (0 without growth): the largest curvature
+    P = diag(1/a_kk), C = diag(l_n lam_n a_n dt exp(a_n dt)) (0 without growth; ``law``:
+    problem.growth_law, rows (lam_n, a_n dt, .)): the largest curvature
     of the Jacobi-scaled E over gamma >= 0.  At most ``iters`` Hessian products, fewer once
     the estimate grows by less than ``rtol`` (relative) after ``min_iters``.
     """
     length = np.ascontiguousarray(length, dtype=np.float64)
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
-    cmax = length * lam * dt * np.exp(dt) if growth else np.zeros_like(length)
+    cmax = (length * law[:, 0] * law[:, 1] * np.exp(law[:, 1]) if growth
+            else np.zeros_like(length))
     start, idx, coef = incidence(c, ti, tj, length.shape[0])
     return float(lipschitz_kernel(start, idx, coef, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj,
                                   mt, mr, cmax, float(dt), akk, int(iters), int(seed),
@@ -257,6 +259,7 @@ def solve_contacts_apgd(
     maxiter: int = 100_000,
     growth: bool = True,
     *,
+    rate=1.0,
     lipschitz_margin: float = 1.1,
     power_iterations: int = 30,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -271,8 +274,10 @@ def solve_contacts_apgd(
         Geometry of the current configuration (gaps Phi, normals, arms, G).
     length : array (N,)
         Lengths l_n at the start of the step.
-    dt, lam : float
-        Time step and stress sensitivity lambda >= 0.
+    dt : float
+        Time step.
+    lam, rate : float or array (N,)
+        Stress sensitivity lambda >= 0 and growth factor a > 0, of every cell or of each.
     gamma0 : array (K,), optional
         Warm start (projected onto gamma >= 0).
     tol : float
@@ -301,15 +306,15 @@ def solve_contacts_apgd(
     """
     if not lipschitz_margin >= 1.0 or power_iterations < 1:
         raise ValueError("lipschitz_margin must be >= 1 and power_iterations >= 1")
-    length, gam, (mt, mr, ti, tj, akk) = prepare(contacts, length, dt, lam, gamma0)
+    length, gam, (mt, mr, ti, tj, akk), law = prepare(contacts, length, dt, lam, gamma0, rate)
     n, m, c = length.shape[0], len(contacts), contacts
     if m == 0:
         return gam, np.zeros(1)
-    lip = lipschitz_bound(c, length, dt, lam, growth, power_iterations)
+    lip = lipschitz_bound(c, length, dt, law, growth, power_iterations)
     step = 1.0 / (lipschitz_margin * lip)
     hist = np.full(maxiter + 1, np.nan)
     start, idx, coef = incidence(c, ti, tj, n)
     it = apgd_kernel(gam, start, idx, coef, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr,
-                     length, float(dt), float(lam), bool(growth), akk, step, float(tol),
+                     length, float(dt), law, bool(growth), akk, step, float(tol),
                      int(maxiter), hist)
     return finish("APGD", gam, hist, it, tol, n)

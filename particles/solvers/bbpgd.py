@@ -27,14 +27,14 @@ so the sums, hence the iterates, are the same for any number of threads."""
 
 @njit(cache=True, parallel=True)
 def _bb_gradient(x1, gam, g0, g1, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr,
-                 length, dt, lam, growth, pw, akk, part):
+                 length, dt, law, growth, pw, akk, part):
     """One BBPGD gradient: g1 = q(x1), with the residual of x1 and the Barzilai-Borwein sums.
 
     Returns (res, s.s, s.y, y.y): res = ``max_k |min(a_kk x1_k, g1_k)|``, s = x1 - gam,
     y = g1 - g0; the sums taken by blocks of BLOCK (part: work array of shape (nblocks, 4)),
     in the same pass over the contacts as the gradient.
     """
-    particle_moves(x1, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, lam,
+    particle_moves(x1, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, law,
                    growth, pw)
     m = x1.shape[0]
     nb = part.shape[0]
@@ -85,7 +85,7 @@ def _projected_step(gam, g, alpha, out):
 
 
 @njit(cache=True)
-def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, law,
               growth, akk, tol, nu, alpha, parity, hist, qout):
     """At most nu BBPGD iterations in place on gam (this module's iteration).
 
@@ -103,7 +103,7 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
     g1 = np.empty(m)
     x1 = np.empty(m)
     part = np.empty(((m + BLOCK - 1) // BLOCK, 4))
-    args = (start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam, growth,
+    args = (start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, law, growth,
             pw, akk, part)
     res = _bb_gradient(gam, gam, g1, g0, *args)[0]
     hist[0] = res
@@ -139,7 +139,7 @@ def bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
 
 
 @njit(cache=True)
-def _bbpgd(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def _bbpgd(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, law,
            growth, akk, tol, maxiter, hist):
     """BBPGD from max(0, gam) to the residual tol.
 
@@ -150,7 +150,7 @@ def _bbpgd(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, l
         if gam[k] < 0.0:
             gam[k] = 0.0
     it, _, _ = bb_smooth(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length,
-                         dt, lam, growth, akk, tol, maxiter, 0.0, 0, hist,
+                         dt, law, growth, akk, tol, maxiter, 0.0, 0, hist,
                          np.empty(gam.shape[0]))
     return it
 
@@ -164,6 +164,8 @@ def solve_contacts(
     tol: float = 1e-4,
     maxiter: int = 100_000,
     growth: bool = True,
+    *,
+    rate=1.0,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Minimise E(gamma) over gamma >= 0 by BBPGD (module docstring).
 
@@ -173,8 +175,10 @@ def solve_contacts(
         Geometry of the current configuration (gaps Phi, normals, arms, G).
     length : array (N,)
         Lengths l_n at the start of the step (mobility and growth rate).
-    dt, lam : float
-        Time step and stress sensitivity lambda >= 0.
+    dt : float
+        Time step.
+    lam : float or array (N,)
+        Stress sensitivity lambda >= 0, of every cell or of each (strains, particles.strains).
     gamma0 : array (K,), optional
         Warm start (projected onto gamma >= 0).
     tol : float
@@ -183,6 +187,8 @@ def solve_contacts(
         Iteration cap (each iteration: one gradient evaluation).
     growth : bool
         False drops the growth term (pure overlap-removal problem for re-solve passes).
+    rate : float or array (N,)
+        Growth factor a > 0 of every cell or of each: growth rate a exp(-lam sigma).
 
     Returns
     -------
@@ -195,7 +201,7 @@ def solve_contacts(
     ContactSolveError
         When maxiter iterations do not reach tol.
     """
-    length, gam, (mt, mr, ti, tj, akk) = prepare(contacts, length, dt, lam, gamma0)
+    length, gam, (mt, mr, ti, tj, akk), law = prepare(contacts, length, dt, lam, gamma0, rate)
     n, m, c = length.shape[0], len(contacts), contacts
     if m == 0:
         return gam, np.zeros(1)
@@ -203,5 +209,5 @@ def solve_contacts(
     start, idx, coef = incidence(c, ti, tj, n)
     it = _bbpgd(gam, start, idx, coef,
                 c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr, length,
-                float(dt), float(lam), bool(growth), akk, float(tol), int(maxiter), hist)
+                float(dt), law, bool(growth), akk, float(tol), int(maxiter), hist)
     return finish("BBPGD", gam, hist, it, tol, n)

@@ -175,27 +175,64 @@ def particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, pw):
         scatter(gam, ci, cj, nx, ny, ti, tj, gi, gj, pw)
 
 
-@njit(cache=True, parallel=True)
-def particle_moves(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, lam,
-                   growth, pw):
-    """The particles' velocities M D gam and length increments l (exp(dt exp(-lam G gam)) - 1).
+@njit(cache=True)
+def _law(lam, rate, dt):
+    law = np.empty((lam.shape[0], 3))
+    for q in range(lam.shape[0]):
+        law[q, 0] = lam[q]
+        law[q, 1] = rate[q] * dt
+        law[q, 2] = np.expm1(law[q, 1])
+    return law
 
-    Written into pw (N, 4): (vx, vy, omega, dl) per particle; dl = 0 without growth.  At
-    lam = 0 the increment l (exp(dt) - 1) does not depend on gam (the same bits as the general
-    formula, without two exponentials per particle and iteration).
+
+def growth_law(lam, rate, dt: float, n: int) -> np.ndarray:
+    """The growth law of a step as the kernels read it: rows (lam_n, a_n dt, exp(a_n dt) - 1).
+
+    ``lam``, ``rate``: the cells' stress sensitivity lam_n and growth factor a_n
+    (particles.strains), numbers (one row for every cell) or arrays (N,) (one row per cell).
+    Made in Numba (its expm1), so one strain with a = 1 gives the rows' bits of dt and
+    exp(dt) - 1 that the kernels computed before strains existed.
+    """
+    if np.ndim(lam) == 0 and np.ndim(rate) == 0:
+        lam, rate = np.array([lam], dtype=np.float64), np.array([rate], dtype=np.float64)
+    else:
+        lam = np.broadcast_to(np.asarray(lam, dtype=np.float64), (n,)).copy()
+        rate = np.broadcast_to(np.asarray(rate, dtype=np.float64), (n,)).copy()
+    return _law(lam, rate, float(dt))
+
+
+@njit(cache=True, parallel=True)
+def particle_moves(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, law,
+                   growth, pw):
+    """The particles' velocities M D gam and length increments l (exp(a dt exp(-lam G gam)) - 1).
+
+    Written into pw (N, 4): (vx, vy, omega, dl) per particle; dl = 0 without growth.  ``law``:
+    :func:`growth_law`, one row for all or one per particle.  Where lam = 0 the increment
+    l (exp(a dt) - 1) does not depend on gam (the same bits as the general formula, without two
+    exponentials per particle and iteration).
     """
     particle_sums(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, pw)
-    e0 = np.expm1(dt)
-    for p in prange(pw.shape[0]):
-        pw[p, 0] *= mt[p]
-        pw[p, 1] *= mt[p]
-        pw[p, 2] *= mr[p]
-        if not growth:
-            pw[p, 3] = 0.0
-        elif lam == 0.0:
-            pw[p, 3] = length[p] * e0
-        else:
-            pw[p, 3] = length_increment(length[p], lam, pw[p, 3], dt)
+    if law.shape[0] == 1:
+        lam, dtg, e0 = law[0, 0], law[0, 1], law[0, 2]
+        for p in prange(pw.shape[0]):
+            _move(p, mt, mr, length, growth, lam, dtg, e0, pw)
+    else:
+        for p in prange(pw.shape[0]):
+            _move(p, mt, mr, length, growth, law[p, 0], law[p, 1], law[p, 2], pw)
+
+
+@njit(inline="always")
+def _move(p, mt, mr, length, growth, lam, dtg, e0, pw):
+    """Particle p's row of :func:`particle_moves`: M times its sums, and its length increment."""
+    pw[p, 0] *= mt[p]
+    pw[p, 1] *= mt[p]
+    pw[p, 2] *= mr[p]
+    if not growth:
+        pw[p, 3] = 0.0
+    elif lam == 0.0:
+        pw[p, 3] = length[p] * e0
+    else:
+        pw[p, 3] = length_increment(length[p], lam, pw[p, 3], dtg)
 
 
 @njit(inline="always")
@@ -209,10 +246,10 @@ def _gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw):
 
 
 @njit(cache=True, parallel=True)
-def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, lam,
+def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr, length, dt, law,
               growth, pw, out):
-    """Gradient q(gam): out = Phi + dt D^T M D gam - G^T (l (exp(dt exp(-lam G gam)) - 1))."""
-    particle_moves(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, lam,
+    """Gradient q(gam): out = Phi + dt D^T M D gam - G^T (l (exp(a dt exp(-lam G gam)) - 1))."""
+    particle_moves(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, length, dt, law,
                    growth, pw)
     for k in prange(gam.shape[0]):
         out[k] = _gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw)
@@ -239,18 +276,24 @@ def problem_arrays(c: Contacts, length: np.ndarray, dt: float):
     return mt, mr, ti, tj, akk
 
 
-def prepare(contacts: Contacts, length, dt: float, lam: float, gamma0):
-    """Checked inputs of a solve: (length as float64, starting gamma, problem_arrays)."""
+def prepare(contacts: Contacts, length, dt: float, lam, gamma0, rate=1.0):
+    """Checked inputs of a solve: (length as float64, starting gamma, problem_arrays, law).
+
+    ``lam``, ``rate``: numbers, or per-particle arrays (strains); law: :func:`growth_law`.
+    """
     if dt <= 0 or not np.isfinite(dt):
         raise ValueError(f"dt must be positive and finite, got {dt}")
-    if lam < 0 or not np.isfinite(lam):
+    if np.any(np.asarray(lam) < 0) or not np.all(np.isfinite(lam)):
         raise ValueError(f"lam must be >= 0 and finite in the particle engine, got {lam}")
+    if np.any(np.asarray(rate) <= 0) or not np.all(np.isfinite(rate)):
+        raise ValueError(f"the growth factor must be > 0 and finite, got {rate}")
     length = np.ascontiguousarray(length, dtype=np.float64)
     m = len(contacts)
     gam = np.zeros(m) if gamma0 is None else np.array(gamma0, dtype=np.float64)
     if gam.shape != (m,):
         raise ValueError(f"gamma0 must have shape ({m},), got {gam.shape}")
-    return length, gam, problem_arrays(contacts, length, dt)
+    return length, gam, problem_arrays(contacts, length, dt), growth_law(lam, rate, dt,
+                                                                          length.shape[0])
 
 
 def finish(name: str, gam: np.ndarray, hist: np.ndarray, it: int, tol: float, n: int):
@@ -266,10 +309,13 @@ def finish(name: str, gam: np.ndarray, hist: np.ndarray, it: int, tol: float, n:
 
 
 def linearised_gap(
-    contacts: Contacts, length: np.ndarray, dt: float, lam: float, gamma: np.ndarray,
-    growth: bool = True,
+    contacts: Contacts, length: np.ndarray, dt: float, lam, gamma: np.ndarray,
+    growth: bool = True, rate=1.0,
 ) -> np.ndarray:
-    """The gradient of E at gamma: the linearised gap phi_k(t + dt) (module docstring)."""
+    """The gradient of E at gamma: the linearised gap phi_k(t + dt) (module docstring).
+
+    ``lam``, ``rate``: numbers or per-particle arrays (:func:`growth_law`).
+    """
     length = np.ascontiguousarray(length, dtype=np.float64)
     n = length.shape[0]
     c = contacts
@@ -280,5 +326,5 @@ def linearised_gap(
     start, idx, coef = incidence(c, ti, tj, n)
     _gradient(np.ascontiguousarray(gamma, dtype=np.float64), start, idx, coef, c.i, c.j, c.nx, c.ny,
               ti, tj, c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt),
-              float(lam), bool(growth), np.empty((n, 4)), out)
+              growth_law(lam, rate, dt, n), bool(growth), np.empty((n, 4)), out)
     return out

@@ -150,16 +150,16 @@ def contact_operators(c: Contacts, length: np.ndarray, dt: float):
     return s, g
 
 
-def coarse_correction(gam, q, p, s, g, length, dt, lam, growth):
+def coarse_correction(gam, q, p, s, g, length, law, growth):
     """Corrected forces max(0, gamma + A c), c = -H_c^{-1} P^T (gamma q) (module docstring)."""
     a = sp.diags(gam) @ p
     sa = (s @ a).tocsc()
     ga = (g @ a).tocsc()
     hc = sa.T @ sa
-    if growth and lam > 0:
+    if growth and law[:, 0].max() > 0:  # law: problem.growth_law, rows (lam_n, a_n dt, .)
         sig = g @ gam
-        r = dt * growth_rate.py_func(lam, sig)  # NumPy, on arrays (growth.growth_rate)
-        hc = hc + ga.T @ sp.diags(length * lam * r * np.exp(r)) @ ga
+        r = law[:, 1] * growth_rate.py_func(law[:, 0], sig)  # NumPy (growth.growth_rate)
+        hc = hc + ga.T @ sp.diags(length * law[:, 0] * r * np.exp(r)) @ ga
     gc = a.T @ q
     d = hc.diagonal()
     act = np.flatnonzero(d > 0)
@@ -182,6 +182,7 @@ def solve_contacts_twolevel(
     maxiter: int = 100_000,
     growth: bool = True,
     *,
+    rate=1.0,
     smoothing: int = 200,
     coarse_h: float = 4.0,
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -214,7 +215,7 @@ def solve_contacts_twolevel(
     """
     if smoothing < 1:
         raise ValueError(f"smoothing must be >= 1, got {smoothing}")
-    length, gam, (mt, mr, ti, tj, akk) = prepare(contacts, length, dt, lam, gamma0)
+    length, gam, (mt, mr, ti, tj, akk), law = prepare(contacts, length, dt, lam, gamma0, rate)
     n, m, c = length.shape[0], len(contacts), contacts
     if m == 0:
         return gam, np.zeros(1)
@@ -223,7 +224,7 @@ def solve_contacts_twolevel(
     p = hat_prolongation(zx, zy, main, coarse_h)
     s, g = contact_operators(c, length, dt)
     args = (*incidence(c, ti, tj, n), c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, mt, mr,
-            length, float(dt), float(lam), bool(growth), akk, float(tol))
+            length, float(dt), law, bool(growth), akk, float(tol))
     q = np.empty(m)
     buf = np.full(smoothing + 1, np.nan)
     hist = []
@@ -235,5 +236,5 @@ def solve_contacts_twolevel(
         if it >= 0:
             return gam, np.concatenate(hist)
         done += nu
-        gam = coarse_correction(gam, q, p, s, g, length, dt, lam, growth)
+        gam = coarse_correction(gam, q, p, s, g, length, law, growth)
     return finish("two-level", gam, np.concatenate(hist), -1, tol, n)

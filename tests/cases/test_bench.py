@@ -228,3 +228,28 @@ def test_history_stretches_of_size_with_wall_times(tmp_path, capsys):
     assert "| 100-299 | 100-299 | 1.00-2.99 |" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench_timestep.main(["--history", str(run), "--logs", str(log), str(log)])
+
+
+def test_bench_warm_start_small(tmp_path, capsys):
+    """cases.bench.warm_start (issue 33): paired starts on a run's own steps, the run unchanged.
+
+    The engine's own start ("matched") takes the main-solve iterations that the uninterrupted
+    run recorded at the same steps, so the experiment measures the run's real problems; every
+    other start converges; a bad --steps is a usage error.
+    """
+    from cases.bench import warm_start as bench_warm
+
+    cfg = Config(lam=1e-2, time=3.0, dt=0.02, seed=3, step_control="fixed")
+    full, part = tmp_path / "full", tmp_path / "part"
+    full.mkdir()
+    part.mkdir()
+    a = run(cfg, full)
+    run(cfg, part, max_steps=120)
+    means = bench_warm.main(["--checkpoint", str(part / "checkpoint.npz"), "--steps", "4"])
+    nxt = a.history[120:124]
+    assert means["matched"] == pytest.approx(
+        np.mean([r["iterations"] - r["pass_iterations"] for r in nxt]))
+    assert set(means) >= {"matched", "new exact", "extrapolated", "extrapolated + new exact"}
+    assert "ratio to matched" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        bench_warm.main(["--checkpoint", str(part / "checkpoint.npz"), "--steps", "0"])

@@ -19,6 +19,7 @@ from particles.solvers.apgd import apgd_kernel, lipschitz_bound, solve_contacts_
 from particles.solvers.bbpgd import BLOCK, solve_contacts
 from particles.solvers.problem import (
     ContactSolveError,
+    growth_law,
     incidence,
     linearised_gap,
     problem_arrays,
@@ -112,7 +113,8 @@ def test_lipschitz_estimate_matches_dense_eigenvalue(grown):
     np.testing.assert_allclose(np.diag(h) - np.diag(gmat.T @ (cmax[:, None] * gmat)), akk)
     s = 1 / np.sqrt(akk)
     exact = np.linalg.eigvalsh(s[:, None] * h * s[None, :]).max()
-    est = lipschitz_bound(c, length, dt, lam, iters=200, rtol=0.0)
+    est = lipschitz_bound(c, length, dt, growth_law(lam, 1.0, dt, len(length)), iters=200,
+                          rtol=0.0)
     assert 0.99 * exact <= est <= exact * (1 + 1e-9)
 
 
@@ -121,11 +123,12 @@ def test_too_long_step_is_recovered_by_halving(grown):
     c = detect_contacts(x, y, th, length, 0.1)
     dt, lam, tol = 0.005, 1e-2, 1e-7
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
-    lip = lipschitz_bound(c, length, dt, lam)
+    law = growth_law(lam, 1.0, dt, len(length))
+    lip = lipschitz_bound(c, length, dt, law)
     gam = np.zeros(len(c))
     hist = np.full(200_001, np.nan)
     it = apgd_kernel(gam, *incidence(c, ti, tj, len(length)), c.i, c.j, c.nx, c.ny, ti, tj,
-                     c.gi, c.gj, c.gap, mt, mr, length, dt, lam, True, akk, 8.0 / lip, tol,
+                     c.gi, c.gj, c.gap, mt, mr, length, dt, law, True, akk, 8.0 / lip, tol,
                      200_000, hist)
     assert it > 0
     assert np.nanmax(hist) > 1e3 * np.nanmin(hist[: it + 1])  # it did blow up first
@@ -257,8 +260,9 @@ def test_bbpgd_iterates_are_textbook_bbpgd(grown, lam, nu):
     _, _, ti, tj, _ = problem_arrays(c, length, dt)
     gam, hist, qout = gam0.copy(), np.full(nu + 1, np.nan), np.empty(len(c))
     it, _, _ = bb_smooth(gam, *incidence(c, ti, tj, length.size), c.i, c.j, c.nx, c.ny, ti, tj,
-                         c.gi, c.gj, c.gap, 1 / length, 12 / length**3, length, dt, lam, True, akk,
-                         0.0, nu, 0.0, 0, hist, qout)
+                         c.gi, c.gj, c.gap, 1 / length, 12 / length**3, length, dt,
+                         growth_law(lam, 1.0, dt, length.size), True, akk, 0.0, nu, 0.0, 0, hist,
+                         qout)
     assert it == -1  # tol 0: every iteration taken
     np.testing.assert_allclose(gam, want[-1], rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(qout, q(gam), rtol=1e-9, atol=1e-12)

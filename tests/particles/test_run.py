@@ -367,7 +367,7 @@ def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
     cfg = Config(lam=1e-2, time=3.0, dt=0.05)
     warm = (np.zeros(0, dtype=np.int64), np.zeros(0))
 
-    def no_main_solve(c, length, dt, lam, gamma0, tol, maxiter, growth):
+    def no_main_solve(c, length, dt, lam, gamma0, tol, maxiter, growth, rate=1.0):
         if growth:
             return np.zeros(len(c)), np.zeros(1)
         return solve_contacts(c, length, dt, lam, gamma0, tol, maxiter, growth)

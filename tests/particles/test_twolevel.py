@@ -14,6 +14,7 @@ from particles.packings import ring_packing
 from particles.solvers.bbpgd import solve_contacts
 from particles.solvers.problem import (
     ContactSolveError,
+    growth_law,
     linearised_gap,
     problem_arrays,
 )
@@ -96,7 +97,8 @@ def test_coarse_step_is_galerkin_exact_for_lam0(packing):
     p = hat_prolongation(zx, zy, main, 3.0)
     s, g = contact_operators(c, length, DT)
     q = linearised_gap(c, length, DT, 0.0, gam)
-    new = coarse_correction(gam, q, p, s, g, length, DT, 0.0, True)
+    new = coarse_correction(gam, q, p, s, g, length, growth_law(0.0, 1.0, DT, len(length)),
+                            True)
     assert np.all(new >= 0) and np.all(new[gam == 0] == 0)
     assert np.all(new[gam > 0] > 0)  # no clipping: the step is the exact coarse minimiser
     qn = linearised_gap(c, length, DT, 0.0, new)

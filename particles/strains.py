@@ -1,0 +1,100 @@
+"""Strains: an inherited growth trait carried by every cell (issue 32).
+
+A colony of S strains i = 0..S-1 (``Config.strains``: pairs (lam_i, a_i)). Cell n of strain
+s_n (``ParticleState.strain``) grows as ::
+
+    dl_n/dt = a_{s_n} l_n exp(-lam_{s_n} sigma_n),
+
+its stress sensitivity lam_i and growth factor a_i those of its strain, and a daughter inherits
+its mother's strain (division.divide). No strains (the default) is one strain (``lam``, 1): the
+model and the bits of a run as before. Identical strains give that run bit for bit: the per-cell
+parameters are the same numbers, a_i dt = dt exactly for a_i = 1.
+
+The engine carries the strain as data: the growth law reads (lam_n, a_n) per cell
+(:func:`growth_law`), the contact solve predicts each cell's growth with them
+(solvers/problem.py), the outputs carry s_n (particles.csv column ``strain``, trajectory.gsd's
+particle types ``strain_i``). A layout is given as the fractions phi0(x, y) -> (n, S) of the
+continuum's layouts (one specification for both engines): a cell draws its strain from the
+fractions at its centre (:func:`draw_strains`; a pure layout decides it, a mixture draws it with
+a generator of its own, so the division noise is that of a run without strains).
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from collections.abc import Callable
+
+import numpy as np
+
+__all__ = ["as_strains", "growth_law", "draw_strains", "STRAIN_SEED"]
+
+STRAIN_SEED = 32
+"""Second entry of the seed of the generator that draws a mixture's strains,
+numpy.random.default_rng((Config.seed, STRAIN_SEED)): its own stream, not the division noise's."""
+
+
+def as_strains(value) -> tuple[tuple[float, float], ...]:
+    """The strains as a tuple of (lam_i, a_i) floats, checked (one-line ValueError).
+
+    Each entry (lam,), (lam, growth) or {"lam": .., "growth": ..}; lam finite >= 0, growth
+    finite > 0 (default 1).
+    """
+    if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
+        raise ValueError(f"strains must be a list of (lam, growth) pairs, got {value!r}")
+    out = []
+    for entry in value:
+        if isinstance(entry, dict) and "lam" in entry and set(entry) <= {"lam", "growth"}:
+            entry = (entry["lam"], entry.get("growth", 1.0))
+        if not isinstance(entry, (tuple, list)) or len(entry) not in (1, 2):
+            raise ValueError(f"a strain must be (lam, growth), got {entry!r}")
+        lam, growth = (*entry, 1.0)[:2]
+        for name, v in (("lam", lam), ("growth", growth)):
+            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+                raise ValueError(f"a strain's {name} must be a finite number, got {v!r}")
+        if lam < 0:
+            raise ValueError(f"a strain's lam must be >= 0, got {lam!r}")
+        if growth <= 0:
+            raise ValueError(f"a strain's growth must be > 0, got {growth!r}")
+        out.append((float(lam), float(growth)))
+    return tuple(out)
+
+
+def growth_law(strains, lam: float, strain: np.ndarray):
+    """(lam_n, a_n): each cell's stress sensitivity and growth factor.
+
+    No strains: (lam, 1.0), two numbers (the one strain of every cell); else two arrays (N,)
+    indexed by the cells' strains.
+    """
+    if not strains:
+        return lam, 1.0
+    table = np.array(strains, dtype=np.float64)
+    return table[strain, 0], table[strain, 1]
+
+
+def draw_strains(fractions: Callable | np.ndarray, x: np.ndarray, y: np.ndarray,
+                 n_strains: int, rng: np.random.Generator) -> np.ndarray:
+    """Each cell's strain drawn from the fractions at its centre (int64 array (N,)).
+
+    ``fractions``: phi0(x, y) -> (N, S) (rows in [0, 1] summing to 1, e.g. the continuum's
+    layouts continuum.strains.core, sector, mixture), or the strains themselves, integers in
+    [0, S). Cell n takes strain i with probability phi_i(x_n, y_n): one uniform draw per cell
+    from ``rng`` in index order, compared with the cumulative fractions, so a pure layout
+    (every phi 0 or 1) decides without chance.
+    """
+    n = len(x)
+    if not callable(fractions):
+        s = np.asarray(fractions)
+        if s.shape != (n,) or s.dtype.kind not in "iu" or np.any(s < 0) or np.any(s >= n_strains):
+            raise ValueError(f"strains must be {n} integers in [0, {n_strains}), got an array "
+                             f"of shape {s.shape} and dtype {s.dtype}")
+        return s.astype(np.int64)
+    phi = np.asarray(fractions(np.asarray(x, float), np.asarray(y, float)), dtype=float)
+    if phi.shape != (n, n_strains) or not np.all(np.isfinite(phi)):
+        raise ValueError(f"the strain fractions must be finite, of shape ({n}, {n_strains}), "
+                         f"got shape {phi.shape}")
+    if np.any(phi < -1e-9) or np.any(phi > 1 + 1e-9) or np.any(np.abs(phi.sum(1) - 1) > 1e-9):
+        raise ValueError("the strain fractions must lie in [0, 1] and sum to 1 at every cell")
+    u = rng.uniform(size=n)
+    cumulative = np.cumsum(phi, axis=1)
+    return np.minimum((u[:, None] >= cumulative).sum(axis=1), n_strains - 1).astype(np.int64)
