@@ -58,6 +58,7 @@ CASES = {
     "ensemble": "cases.studies.ensemble",
     "shapes": "cases.studies.shapes",
     "orientation": "cases.studies.orientation",
+    "strains": "cases.studies.strains",
 }
 #: The figure cases: their runs are one per (engine, lam), so ``--lams`` may select some.
 FIGURE_CASES = ("fig2", "fig3", "fig4", "crosscheck")

@@ -10,8 +10,9 @@ with the growth phase advanced by the trapezoidal rule along the same paths::
     G^{n+1} = G^n + dt/2 (g(x^n) + g(x*)),
 
 with every strain's growth phase likewise, G_i^{n+1} = G_i^n + dt/2 (g_i(p(x^n)) + g_i(p(x*))),
-g_i = a_i exp(-lam_i p) (continuum.strains; the strain fractions phi are constant on the
-material nodes), and Psi transported in l at the same mean growth rate (continuum.sizes: exactly
+g_i = a_i exp(-lam_i p), and the strain fractions phi by the same increments
+(continuum.strains.grown_fractions; the predictor's solve with the fractions grown by the Euler
+increment dt g_i(p^n)), and Psi transported in l at the same mean growth rate (continuum.sizes: exactly
 along the characteristics, a shift by dt g_avg / ln 2 in log2 l, or by finite volumes). u and g
 at x* come from a pressure solve on the moved mesh (continuum.darcy.darcy_flow), warm-started
 from the linear extrapolation in time p^n + (p^n - p^{n-1}) dt / dt_prev; the solve at x^{n+1}
@@ -40,13 +41,14 @@ import numpy as np
 from continuum.mesh import boundary_spacing, colony_radius, triangle_areas
 from continuum.pressure import PressureDivergence
 from continuum.state import State
-from continuum.strains import strain_rates
+from continuum.strains import grown_fractions, strain_rates
 from continuum.velocity import boundary_normals
 
 __all__ = ["Flow", "heun_step", "stable_dt", "radius_rate"]
 
-Flow = Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]]
-"""(points, p0) -> (p, u, g): the Darcy flow at these node positions (warm start p0)."""
+Flow = Callable[..., tuple[np.ndarray, np.ndarray, np.ndarray]]
+"""(points, p0[, fractions]) -> (p, u, g): the Darcy flow at these node positions (warm start
+p0; with strains the fractions phi to solve with)."""
 
 
 def stable_dt(boundary: np.ndarray, u_boundary: np.ndarray, courant: float) -> float:
@@ -90,8 +92,10 @@ def heun_step(state: State, flow: Flow, dt: float, lam: float, strains: tuple | 
         if state.p_prev is not None:
             guess = state.p + (state.p - state.p_prev) * (dt / state.dt_prev)
         if np.all(triangle_areas(x1, tris) > 0):
+            mixed = () if state.phi is None else (
+                grown_fractions(state.phi, dt * strain_rates(state.p, strains)),)
             try:
-                p1, u1, g1 = flow(x1, guess)
+                p1, u1, g1 = flow(x1, guess, *mixed)
             except PressureDivergence:
                 if lam < 0:
                     raise
@@ -110,11 +114,13 @@ def heun_step(state: State, flow: Flow, dt: float, lam: float, strains: tuple | 
     if state.phi is not None:
         rates = 0.5 * (strain_rates(state.p, strains) + strain_rates(p1, strains))
         state.G_strains = state.G_strains + dt * rates
+        state.phi = grown_fractions(state.phi, dt * rates)
     state.sizes.advance(g_avg, dt)
     state.timings["transport"] += time.perf_counter() - t0
     state.t += dt
     state.step += 1
     state.p_prev, state.dt_prev = state.p, dt
     # warm start at x2: p1 moved by its own gradient, p(x2) ~ p1 + grad p1 . (x2 - x1)
-    state.p, state.u, state.g = flow(state.points, p1 - np.sum(u1 * (x2 - x1), axis=1))
+    mixed = () if state.phi is None else (state.phi,)
+    state.p, state.u, state.g = flow(state.points, p1 - np.sum(u1 * (x2 - x1), axis=1), *mixed)
     return dt

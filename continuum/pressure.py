@@ -468,8 +468,8 @@ class PressureSolver:
                  fractions: np.ndarray | None = None) -> None:
         """Change topology: new pattern and scatter map, and forget the AMG hierarchy.
 
-        ``fractions``: the strain fractions phi (n_nodes, S) at the vertices, constant while
-        the topology is (the nodes are material points); required with ``strains``.
+        ``fractions``: the strain fractions phi (n_nodes, S) at the vertices, required with
+        ``strains`` (:meth:`set_fractions`).
         """
         self.assembler = P1Assembler(tris, n_nodes, n_boundary)
         if self.element == "P1":
@@ -483,9 +483,18 @@ class PressureSolver:
             if fractions is not None:
                 raise ValueError("strain fractions given to a solver without strains")
             return
+        self.set_fractions(fractions)
+
+    def set_fractions(self, fractions: np.ndarray | None) -> None:
+        """The strain fractions phi (n_nodes, S) at the vertices of the current mesh.
+
+        They change with the material's composition (continuum.strains.grown_fractions), so the
+        motion sets them before each solve; phi at a P2 edge node is the mean of its vertices'.
+        """
+        n = self.assembler.n
         phi = np.asarray(fractions if fractions is not None else np.empty((0, 0)), dtype=float)
-        if phi.shape != (int(n_nodes), len(self.strains)):
-            raise ValueError(f"the strain fractions must have shape ({n_nodes}, "
+        if phi.shape != (n, len(self.strains)):
+            raise ValueError(f"the strain fractions must have shape ({n}, "
                              f"{len(self.strains)}), got {phi.shape}")
         if self.space.n > len(phi):  # P2: an edge node's fractions the mean of its vertices'
             a, b = self.space.edge_vertices

@@ -286,8 +286,13 @@ class Simulation:
         s = self.state
         self.solver.set_mesh(s.triangles, len(s.points), s.n_boundary, s.phi)
 
-    def _flow(self, points: np.ndarray, p0: np.ndarray):
-        """Darcy flow (p, u, g) at these node positions; counts iterations and times stages."""
+    def _flow(self, points: np.ndarray, p0: np.ndarray, fractions: np.ndarray | None = None):
+        """Darcy flow (p, u, g) at these node positions; counts iterations and times stages.
+
+        ``fractions``: the strain fractions to solve with (strains; the solver keeps them).
+        """
+        if fractions is not None:
+            self.solver.set_fractions(fractions)
         t0 = _time.perf_counter()
         p, u, g = darcy_flow(self.solver, points, p0, where=self.state.where())
         st, timings = self.solver.stats, self.state.timings

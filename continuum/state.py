@@ -96,8 +96,9 @@ class State:
         Accumulated wall-clock seconds per stage (``TIMING_STAGES``).
     phi : ndarray (N, S) or None
         Strain fractions of each material element (continuum.strains): in [0, 1], rows summing
-        to 1, constant along the characteristics (on the nodes between remeshes). None: one
-        strain (``Config.strains`` empty).
+        to 1, changed along the characteristics only by the strains' different growth
+        (continuum.strains.grown_fractions; pure regions keep theirs). None: one strain
+        (``Config.strains`` empty).
     G_strains : ndarray (N, S) or None
         Growth phase G_i = int g_i dt of each strain, g_i = a_i exp(-lam_i p) (None with phi).
     """

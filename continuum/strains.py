@@ -5,9 +5,14 @@ A colony of S strains i = 0..S-1. Strain i grows at ::
     g_i(p) = a_i exp(-lam_i p)          (:class:`Strain`: a_i ``growth``, lam_i ``lam``),
 
 and a daughter inherits its mother's strain. In the continuum each material point carries the
-strain fractions phi_i(x, t) >= 0, sum_i phi_i = 1: the material does not mix, so phi is constant
-along the characteristics dx/dt = u (like the growth phase G), and the Darcy source is the mixture's
-growth rate ::
+strain fractions phi_i(x, t) >= 0, sum_i phi_i = 1 (the share of the material's volume). The material
+does not mix between points, but within a point each strain's volume grows at its own rate, so
+along the characteristics dx/dt = u ::
+
+    d phi_i / dt = phi_i (g_i - g),   whence   phi_i = phi_i(0) exp(G_i) / sum_j phi_j(0) exp(G_j)
+
+(:func:`grown_fractions`; a pure region, phi 0 or 1, keeps its fractions exactly: an
+interface is a material line), and the Darcy source is the mixture's growth rate ::
 
     g(p, phi) = sum_i phi_i a_i exp(-lam_i p),     -dg/dp = sum_i phi_i lam_i a_i exp(-lam_i p) >= 0
 
@@ -53,12 +58,12 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Strain", "as_strains", "strain_rates", "mixed_growth", "slope_scale", "check_fractions",
+__all__ = ["Strain", "as_strains", "strain_rates", "grown_fractions", "mixed_growth", "slope_scale", "check_fractions",
            "fractions_at", "phase_areas", "core", "sector", "mixture", "interface_table",
            "INTERFACE_COLUMNS", "FRACTION_ATOL"]
 
 FRACTION_ATOL = 1e-9
-"""Tolerance of the fractions' checks: 0 - atol <= phi_i <= 1 + atol, |sum_i phi_i - 1| <= atol."""
+"""Tolerance of the fractions' checks: 0 - atol <= phi_i <= 1 + atol, abs(sum_i phi_i - 1) <= atol."""
 
 
 @dataclass(frozen=True)
@@ -141,6 +146,17 @@ def mixed_growth(p: ArrayLike, phi: NDArray, strains) -> tuple[NDArray, NDArray]
     return mix(rates), mix(scaled)
 
 
+def grown_fractions(phi: NDArray, dG: NDArray) -> NDArray:
+    """The fractions after each strain's volume in a material element grew by exp(dG_i).
+
+    phi_i' = phi_i exp(dG_i) / sum_j phi_j exp(dG_j) (each row shifted by its largest dG): the
+    exact solution of d phi_i/dt = phi_i (g_i - g) over a step in which strain i's phase grew
+    by dG_i = int g_i dt. Rows of one strain (phi 0 or 1) are returned exactly.
+    """
+    w = phi * np.exp(dG - dG.max(axis=1, keepdims=True))
+    return w / w.sum(axis=1, keepdims=True)
+
+
 def check_fractions(phi: ArrayLike, n: int, n_strains: int) -> NDArray:
     """The fractions as a float array (n, S), checked: finite, in [0, 1], rows summing to 1.
 
@@ -176,7 +192,7 @@ def fractions_at(phi0: Callable | ArrayLike, points: NDArray, n_strains: int) ->
 def phase_areas(points: NDArray, triangles: NDArray, phi: NDArray) -> NDArray:
     """The area of each strain, A_i = int phi_i dA of the P1 fractions, shape (S,).
 
-    Element by element |T| (phi_a + phi_b + phi_c) / 3; they sum to the mesh's area.
+    Element by element area(T) (phi_a + phi_b + phi_c) / 3; they sum to the mesh's area.
     """
     a, b, c = (points[triangles[:, k]] for k in range(3))
     area = 0.5 * ((b[:, 0] - a[:, 0]) * (c[:, 1] - a[:, 1])
@@ -195,7 +211,7 @@ def _one_hot(index: NDArray, n_strains: int) -> NDArray:
 
 
 def core(*radii: float, center: ArrayLike = (0.0, 0.0)) -> Callable[[NDArray, NDArray], NDArray]:
-    """Concentric strains: strain i in r_{i-1} <= |x - center| < r_i, the last one outside.
+    """Concentric strains: strain i in r_{i-1} <= dist(x, center) < r_i, the last one outside.
 
     ``core(r1)``: strain 0 in the disc of radius r1, strain 1 around it (S = len(radii) + 1;
     the layered colony of continuum.radial_strains, radii inner to outer). Returns phi0(x, y).
