@@ -12,8 +12,9 @@ with the growth phase advanced by the trapezoidal rule along the same paths::
 with every strain's growth phase likewise, G_i^{n+1} = G_i^n + dt/2 (g_i(p(x^n)) + g_i(p(x*))),
 g_i = a_i exp(-lam_i p), and the strain fractions phi by the same increments
 (continuum.strains.grown_fractions; the predictor's solve with the fractions grown by the Euler
-increment dt g_i(p^n)), and Psi transported in l at the same mean growth rate (continuum.sizes: exactly
-along the characteristics, a shift by dt g_avg / ln 2 in log2 l, or by finite volumes). u and g
+increment dt g_i(p^n)), and Psi transported in l at the same mean growth rate
+(continuum.sizes: exactly along the characteristics, a shift by dt g_avg / ln 2 in log2 l, or
+by finite volumes). u and g
 at x* come from a pressure solve on the moved mesh (continuum.darcy.darcy_flow), warm-started
 from the linear extrapolation in time p^n + (p^n - p^{n-1}) dt / dt_prev; the solve at x^{n+1}
 from the predictor's p* moved by its own gradient, p* - u(x*) . (x^{n+1} - x*) (measured: one

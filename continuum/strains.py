@@ -5,9 +5,9 @@ A colony of S strains i = 0..S-1. Strain i grows at ::
     g_i(p) = a_i exp(-lam_i p)          (:class:`Strain`: a_i ``growth``, lam_i ``lam``),
 
 and a daughter inherits its mother's strain. In the continuum each material point carries the
-strain fractions phi_i(x, t) >= 0, sum_i phi_i = 1 (the share of the material's volume). The material
-does not mix between points, but within a point each strain's volume grows at its own rate, so
-along the characteristics dx/dt = u ::
+strain fractions phi_i(x, t) >= 0, sum_i phi_i = 1 (the share of the material's volume). The
+material does not mix between points, but within a point each strain's volume grows at its own
+rate, so along the characteristics dx/dt = u ::
 
     d phi_i / dt = phi_i (g_i - g),   whence   phi_i = phi_i(0) exp(G_i) / sum_j phi_j(0) exp(G_j)
 
@@ -58,12 +58,14 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Strain", "as_strains", "strain_rates", "grown_fractions", "mixed_growth", "slope_scale", "check_fractions",
+__all__ = ["Strain", "as_strains", "strain_rates", "grown_fractions", "mixed_growth", "slope_scale",
+           "check_fractions",
            "fractions_at", "phase_areas", "core", "sector", "mixture", "interface_table",
            "INTERFACE_COLUMNS", "FRACTION_ATOL"]
 
 FRACTION_ATOL = 1e-9
-"""Tolerance of the fractions' checks: 0 - atol <= phi_i <= 1 + atol, abs(sum_i phi_i - 1) <= atol."""
+"""Tolerance of the fractions' checks: 0 - atol <= phi_i <= 1 + atol and
+abs(sum_i phi_i - 1) <= atol."""
 
 
 @dataclass(frozen=True)

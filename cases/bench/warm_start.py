@@ -57,6 +57,7 @@ def starts(problem, solver, matched, new, gamma_exact, before) -> dict[str, int]
 
 
 def main(argv: list[str] | None = None) -> dict[str, float]:
+    """Run the experiment of the module docstring; the mean iterations of each start."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--checkpoint", required=True, help="a particle run's checkpoint.npz")
     ap.add_argument("--steps", type=int, default=14)
@@ -68,7 +69,7 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     cfg = sim.config
     solver = BY_NAME[cfg.solver]
     previous, dts, rows = None, [], []
-    for k in range(args.steps):
+    for _ in range(args.steps):
         st = sim.state
         c = detect(st, cfg.contact_margin, None, sim._detections)
         keys = c.keys(st.ids)

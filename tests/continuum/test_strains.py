@@ -234,7 +234,7 @@ def test_bad_layouts(make, match):
 
 
 def test_a_mixture_changes_composition_by_each_strains_growth():
-    """lam = 0, a = (1, 0.5), uniform 30/70 mixture: phi_1 = 0.7 e^{t/2} / (0.3 e^t + 0.7 e^{t/2}).
+    """A 30/70 mixture at lam = 0, a = (1, 0.5): phi_1 = 0.7 e^{t/2} / (0.3 e^t + 0.7 e^{t/2}).
 
     Along a material path d phi_i/dt = phi_i (g_i - g) (continuum.strains.grown_fractions);
     at lam = 0 the rates are constant, so every node holds the closed form to round-off, and
@@ -244,7 +244,7 @@ def test_a_mixture_changes_composition_by_each_strains_growth():
     t = sim.state.t
     exact = 0.7 * np.exp(t / 2) / (0.3 * np.exp(t) + 0.7 * np.exp(t / 2))
     assert t > 2 and sim.state.phi[:, 1] == pytest.approx(exact, abs=1e-12)
-    np.testing.assert_allclose(sim.state.G_strains, np.tile([t, t / 2], (len(sim.state.G_strains), 1)),
-                               atol=1e-12)
+    phases = np.tile([t, t / 2], (len(sim.state.G_strains), 1))
+    np.testing.assert_allclose(sim.state.G_strains, phases, atol=1e-12)
     areas = sim.state.strain_areas
     assert areas[1] / areas.sum() == pytest.approx(exact, abs=1e-12)
