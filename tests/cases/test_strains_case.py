@@ -52,3 +52,10 @@ def test_the_continuum_mutant_gains_and_the_reverse_loses(case):
 def test_bad_scale_is_refused():
     with pytest.raises(ValueError, match="scale must be one of"):
         strains.compute("paper", "/nonexistent")
+
+
+def test_the_committed_data_redraw_and_hold_the_table(tmp_path):
+    """``--from-data``: the curves and the table from cases/data/strains (no colony snapshots)."""
+    assert cli.main(["case", "strains", "--from-data", "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "results.md").read_text()
+    assert "| mutant | continuum | 1 | 3.89 |" in text and (tmp_path / "strains.png").is_file()
