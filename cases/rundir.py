@@ -233,6 +233,7 @@ def config_differences(saved: dict, config: dict, ignore=()) -> list[str]:
     added to a Config later with an empty default (e.g. the continuum's ``strains``) changes
     nothing in the runs recorded before it.
     """
+    saved, config = (json.loads(json.dumps(c)) for c in (saved, config))  # tuples as lists
     keys = (set(saved) | set(config)) - set(EXECUTION_FIELDS) - set(ignore)
     return sorted(k for k in keys
                   if saved.get(k) != config.get(k) and (k in saved or config.get(k) not in EMPTY))

@@ -24,10 +24,10 @@ The strains are data: ``Config.strains`` holds them (a tuple of :class:`Strain`;
 strain, ``lam`` and growth 1, today's code path), the initial layout phi0 is given to the engine
 (``continuum.Simulation(config, fractions=phi0)``) as a callable phi0(x, y) -> (n, S) or as an
 (n_nodes, S) array. The layouts here return such callables: :func:`core` (concentric strains,
-the layered colony of continuum.radial_strains), :func:`sector` (a wedge) and :func:`mixture`
-(the same fractions everywhere). A third strain, or a trait other than (lam, growth), is a new
-entry or a new field of :class:`Strain` and of :func:`strain_rates`; the engine carries phi and
-G_i for any S.
+the layered colony of continuum.radial_strains), :func:`sector` (a wedge), :func:`mixture`
+(the same fractions everywhere) and :func:`polygon` (a strain per polygon). A third strain,
+or a trait other than (lam, growth), is a new entry or a new field of :class:`Strain` and of
+:func:`strain_rates`; the engine carries phi and G_i for any S.
 
 Accuracy. The fractions live on the material nodes and the source is the P1 interpolant of
 the nodal g, so an element cut by an interface grows at a mean of the two rates with a fixed
@@ -59,8 +59,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["Strain", "as_strains", "strain_rates", "grown_fractions", "mixed_growth", "slope_scale",
-           "check_fractions",
-           "fractions_at", "phase_areas", "core", "sector", "mixture", "interface_table",
+           "check_fractions", "fractions_at", "phase_areas", "core", "sector", "mixture",
+           "polygon", "inside_polygon", "interface_table",
            "INTERFACE_COLUMNS", "FRACTION_ATOL"]
 
 FRACTION_ATOL = 1e-9
@@ -256,6 +256,41 @@ def mixture(*fractions: float) -> Callable[[NDArray, NDArray], NDArray]:
 
     def phi0(x, y):
         return np.tile(f, (np.shape(x)[0], 1))
+
+    return phi0
+
+
+def inside_polygon(x: NDArray, y: NDArray, vertices: ArrayLike) -> NDArray:
+    """Whether each point (x, y) lies inside the closed polygon ``vertices`` (m, 2): even-odd rule.
+
+    A ray from the point towards +x crosses the polygon's edges an odd number of times exactly
+    when the point is inside (points on an edge count either way).
+    """
+    v = np.asarray(vertices, dtype=float)
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    inside = np.zeros(np.shape(x), dtype=bool)
+    for (ax, ay), (bx, by) in zip(v, np.roll(v, -1, axis=0), strict=True):
+        straddles = (ay > y) != (by > y)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            cross = ax + (y - ay) * (bx - ax) / (by - ay)
+        inside ^= straddles & (x < cross)
+    return inside
+
+
+def polygon(*outlines: ArrayLike) -> Callable[[NDArray, NDArray], NDArray]:
+    """A strain per polygon: strain i + 1 inside ``outlines[i]`` (closed, (m, 2) vertices each),
+    strain 0 elsewhere; a point inside several takes the last. Returns phi0(x, y), S = len + 1.
+    """
+    shapes = [np.asarray(o, dtype=float) for o in outlines]
+    if not shapes or any(v.ndim != 2 or v.shape[1] != 2 or len(v) < 3
+                         or not np.all(np.isfinite(v)) for v in shapes):
+        raise ValueError("each polygon must be at least 3 finite vertices (x, y)")
+
+    def phi0(x, y):
+        index = np.zeros(np.shape(x), dtype=int)
+        for i, v in enumerate(shapes):
+            index[inside_polygon(x, y, v)] = i + 1
+        return _one_hot(index, len(shapes) + 1)
 
     return phi0
 

@@ -27,7 +27,8 @@ radius), whose 2 pi multiple is the sector's opening angle.
 
 Outputs in ``out/data``: ``strains.csv`` (scenario, engine 0 continuum / 1 particles, seed, tau,
 radius, fraction, edge_fraction), ``profiles.csv`` (scenario, engine, seed, r, fraction of
-strain 1 in annuli of width ``ANNULUS`` at the last time), ``snapshots/*.npz`` (seed 0's colony
+strain 1 in annuli of width ``ANNULUS`` at the last time; the continuum's nodes weighted by
+their lumped areas), ``snapshots/*.npz`` (seed 0's colony
 at the first, middle and last time; not committed) and from :func:`plot` ``strains.png`` and
 ``results.md``.
 """
@@ -100,6 +101,14 @@ def continuum_measures(state) -> dict[str, float]:
             "fraction": float(state.strain_areas[1] / state.area), "edge_fraction": along}
 
 
+def nodal_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
+    """Lumped area of each node: a third of the area of every triangle it belongs to."""
+    from continuum.mesh import triangle_areas
+
+    return np.bincount(triangles.ravel(), np.repeat(triangle_areas(points, triangles) / 3, 3),
+                       minlength=len(points))
+
+
 def _profile(r: np.ndarray, weight: np.ndarray, one: np.ndarray, radius: float):
     edges = np.arange(0.0, radius + ANNULUS, ANNULUS)
     total, _ = np.histogram(r, edges, weights=weight)
@@ -159,7 +168,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-strains-smoke",
                 shots[0].append({"points": s.points, "triangles": s.triangles,
                                  "phi": s.phi[:, 1]})
         s = sim.state
-        r, f = _profile(np.hypot(*s.points.T), np.ones(len(s.points)), s.phi[:, 1],
+        r, f = _profile(np.hypot(*s.points.T), nodal_areas(s.points, s.triangles), s.phi[:, 1],
                         math.sqrt(s.area / math.pi))
         _append_many(prof, name, 0, 0, r, f)
         if "particles" in engines:
@@ -247,8 +256,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     """strains.png / .pdf and results.md.
 
     Rows: the scenarios; columns: seed 0's particle colony and the continuum (phi_1) at the
-    first, middle and last time (strain 1 dark), then the area fraction and the edge angle of
-    strain 1 against tau (particles: seed mean and std band; continuum: line).
+    first, middle and last time (strain 1 red), then the area fraction and the edge angle of
+    strain 1 against tau and its fraction against r at the last time (particles: seed mean and
+    std band; continuum: line).
     """
     import matplotlib.pyplot as plt
 
@@ -257,7 +267,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     data, out = Path(data), Path(out)
     out.mkdir(parents=True, exist_ok=True)
     t = A.read_csv(data / "strains.csv")
-    fig, axes = plt.subplots(len(SCENARIOS), 8, figsize=(24, 3.2 * len(SCENARIOS)),
+    prof = A.read_csv(data / "profiles.csv")
+    fig, axes = plt.subplots(len(SCENARIOS), 9, figsize=(27, 3.2 * len(SCENARIOS)),
                              squeeze=False)
     for i, name in enumerate(SCENARIOS):
         row = axes[i]
@@ -296,6 +307,19 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
             ax.set_xlabel(r"$\tau$ (time since the strains were set)", fontsize=8)
             ax.set_ylabel(label)
             ax.legend(fontsize=8)
+        ax = row[8]
+        for engine, color in ((0, "k"), (1, "C3")):
+            sel = (prof["scenario"] == i) & (prof["engine"] == engine)
+            rs = np.unique(prof["r"][sel])
+            vals = [prof["fraction"][sel & (prof["r"] == r)] for r in rs]
+            mean = np.array([np.nanmean(v) if np.isfinite(v).any() else np.nan for v in vals])
+            std = np.array([np.nanstd(v, ddof=1) if np.isfinite(v).sum() > 1 else 0.0
+                            for v in vals])
+            ax.plot(rs, mean, color=color, label=("continuum", "particles")[engine])
+            ax.fill_between(rs, mean - std, mean + std, color=color, alpha=0.2, lw=0)
+        ax.set_xlabel("r at the last time", fontsize=8)
+        ax.set_ylabel("fraction of strain 1")
+        ax.legend(fontsize=8)
     fig.subplots_adjust(wspace=0.35)
     paths = save_figure(fig, out / "strains")
     table = markdown_table(summary(data))

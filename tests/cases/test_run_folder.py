@@ -253,3 +253,6 @@ def test_a_field_added_later_with_an_empty_default_changes_nothing():
     assert rundir.config_differences(saved, {**saved, "strains": [[0.0, 1.0]]}) == ["strains"]
     assert rundir.config_differences({**saved, "strains": [[0.0, 1.0]]}, {**saved, "strains": []}
                                      ) == ["strains"]
+    # a tuple (a Config's value) equals the list its JSON record holds
+    assert rundir.config_differences({**saved, "strains": [[0.0, 1.0]]},
+                                     {**saved, "strains": ((0.0, 1.0),)}) == []

@@ -248,3 +248,19 @@ def test_a_mixture_changes_composition_by_each_strains_growth():
     np.testing.assert_allclose(sim.state.G_strains, phases, atol=1e-12)
     areas = sim.state.strain_areas
     assert areas[1] / areas.sum() == pytest.approx(exact, abs=1e-12)
+
+
+def test_polygon_layout_against_shapes_by_hand():
+    """polygon(): even-odd inside test, a strain per polygon, the last one winning."""
+    from continuum.strains import inside_polygon, polygon
+
+    square = [(0, 0), (2, 0), (2, 2), (0, 2)]
+    notch = [(0, 0), (4, 0), (4, 4), (2, 1), (0, 4)]  # non-convex: its notch holds (2, 3)
+    x = np.array([1.0, 3.0, 1.0, 2.0, 3.5, 1.0])
+    y = np.array([1.0, 1.0, 1.9, 3.0, 3.0, 3.0])  # the notch's edges: y = 1 + 1.5 |x - 2|
+    assert inside_polygon(x, y, square).tolist() == [True, False, True, False, False, False]
+    assert inside_polygon(x, y, notch).tolist() == [True, True, True, False, True, False]
+    phi = polygon(notch, square)(x, y)
+    assert phi.argmax(axis=1).tolist() == [2, 1, 2, 0, 1, 0]
+    with pytest.raises(ValueError, match="at least 3 finite vertices"):
+        polygon([(0, 0), (1, 1)])
