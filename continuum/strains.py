@@ -278,8 +278,10 @@ def inside_polygon(x: NDArray, y: NDArray, vertices: ArrayLike) -> NDArray:
 
 
 def polygon(*outlines: ArrayLike) -> Callable[[NDArray, NDArray], NDArray]:
-    """A strain per polygon: strain i + 1 inside ``outlines[i]`` (closed, (m, 2) vertices each),
-    strain 0 elsewhere; a point inside several takes the last. Returns phi0(x, y), S = len + 1.
+    """A strain per polygon: strain i + 1 inside ``outlines[i]``, strain 0 elsewhere.
+
+    Each outline closed, (m, 2) vertices; a point inside several takes the last. Returns
+    phi0(x, y) with S = len(outlines) + 1.
     """
     shapes = [np.asarray(o, dtype=float) for o in outlines]
     if not shapes or any(v.ndim != 2 or v.shape[1] != 2 or len(v) < 3
