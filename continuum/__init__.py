@@ -39,7 +39,7 @@ Modules, one concept each:
 - ``output``: the run folder's files (history, boundary, rings, VTU frames);
 - ``strains``: strains of a colony (stress sensitivity, growth factor), their fractions phi
   carried by the material, the mixture's source, initial layouts and interfaces
-  (``Config.strains``, ``Simulation(config, fractions=...)``);
+  (``Config.strains``, ``Simulation(config, layout=...)``);
 - ``radial``: the exact 1D reference of a disc colony (R(t), p, u, characteristics, rings);
 - ``radial_strains``: the exact 1D reference of concentric strains (core and shells);
 - ``ellipse``: the exact lam = 0 ellipse (semi-axes in time; a polygon's moment axes);

@@ -142,7 +142,7 @@ class Config:
         {"lam", "growth"} tables, stored as a tuple of Strain). Empty (default): one strain of
         stress sensitivity ``lam`` and growth 1, the model as before, bit for bit. With strains
         ``lam`` is not used by the model (each strain's lam_i is), and a simulation of S >= 2
-        strains needs its initial fractions (``Simulation(config, fractions=phi0)``,
+        strains needs its initial fractions (``Simulation(config, layout=phi0)``,
         continuum.strains).
     """
 

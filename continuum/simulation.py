@@ -157,10 +157,10 @@ def _solver(config: Config) -> PressureSolver:
     return PressureSolver(slope_scale(config.strains), config.element, strains=config.strains)
 
 
-def initial_fractions(config: Config, state: State, fractions=None) -> None:
+def initial_fractions(config: Config, state: State, layout=None) -> None:
     """Set the strain fractions phi and phases G_i = 0 of a state at t = 0 (in place).
 
-    ``fractions`` (``Simulation``): a callable phi0(x, y) or nodal values, checked
+    ``layout`` (``Simulation``): the fractions as a callable phi0(x, y) or nodal values, checked
     (continuum.strains.fractions_at); None keeps the state's phi, or sets all 1 for a single
     strain. Without ``config.strains`` the state stays as it is (no fractions allowed).
 
@@ -171,19 +171,19 @@ def initial_fractions(config: Config, state: State, fractions=None) -> None:
     """
     n_strains = len(config.strains)
     if n_strains == 0:
-        if fractions is not None or state.phi is not None:
+        if layout is not None or state.phi is not None:
             raise ValueError("strain fractions need strains in the Config (Config.strains)")
         return
     n = len(state.points)
-    if fractions is not None:
-        state.phi = fractions_at(fractions, state.points, n_strains)
+    if layout is not None:
+        state.phi = fractions_at(layout, state.points, n_strains)
     elif state.phi is not None:
         state.phi = check_fractions(state.phi, n, n_strains)
     elif n_strains == 1:
         state.phi = np.ones((n, 1))
     else:
         raise ValueError(f"give the initial fractions of the {n_strains} strains "
-                         "(fractions=phi0, e.g. continuum.strains.core(r1))")
+                         "(layout=phi0, e.g. continuum.strains.core(r1))")
     if state.G_strains is None or state.G_strains.shape != (n, n_strains):
         state.G_strains = np.zeros((n, n_strains))
 
@@ -215,7 +215,7 @@ class Simulation:
         ``config.output_every`` of time (not at a goal of :meth:`advance`), and :meth:`save`
         defaults to ``out/checkpoint.npz``. The final files (history.csv, boundary.csv, the
         last frame) are :func:`run`'s.
-    fractions : callable or ndarray, optional
+    layout : callable or ndarray, optional
         The initial strain fractions phi0 of ``config.strains`` (continuum.strains): a callable
         phi0(x, y) -> (n, S) evaluated at the nodes (e.g. continuum.strains.core(r1)), or the
         (n_nodes, S) values at the nodes of ``state``; rows in [0, 1] summing to 1. Needed for
@@ -251,7 +251,7 @@ class Simulation:
     """
 
     def __init__(self, config: Config, state: State | None = None,
-                 out: Path | str | None = None, *, fractions=None):
+                 out: Path | str | None = None, *, layout=None):
         limit_blas_threads(1)
         self.config = config
         self.finished = True
@@ -266,7 +266,7 @@ class Simulation:
         check_memory(config)
         self.solver = _solver(config)
         self.state = initial_state(config) if state is None else state.copy()
-        initial_fractions(config, self.state, fractions)
+        initial_fractions(config, self.state, layout)
         self._set_mesh()
         self._solve_flow()
         self.history = [StepRecord.of(self.state, 0.0, None).row()]
@@ -634,7 +634,7 @@ class _Outputs:
 
 def run(config: Config, out: Path | str | None = None, progress: bool = False,
         state: State | None = None, max_steps: int | None = None, *,
-        fractions=None) -> Simulation:
+        layout=None) -> Simulation:
     """Grow the colony until ``config.radius`` or ``config.time``; optionally write ``out``.
 
     The loop over the steps of a :class:`Simulation` that hands each step to the run folder's
@@ -660,7 +660,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
         Stop after this many steps of this call, writing a checkpoint (as if interrupted);
         the returned simulation has ``finished = False``. (``Config.step_limit`` is the most
         steps a run may take in all, an error beyond.)
-    fractions : callable or ndarray, optional
+    layout : callable or ndarray, optional
         The initial strain fractions of ``config.strains`` (:class:`Simulation`).
 
     Returns
@@ -685,7 +685,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
     """
     require_goal(config)
     with checkpoint.StopRequest() as stop:
-        sim = Simulation(config, state, out, fractions=fractions)
+        sim = Simulation(config, state, out, layout=layout)
         _steps(sim, progress, max_steps, stop)
     stop.reraise()
     return sim

@@ -22,7 +22,7 @@ its mean length 2^frac(G_i / ln 2) and its rings G_i = k ln 2, as G gives them f
 
 The strains are data: ``Config.strains`` holds them (a tuple of :class:`Strain`; empty = one
 strain, ``lam`` and growth 1, today's code path), the initial layout phi0 is given to the engine
-(``continuum.Simulation(config, fractions=phi0)``) as a callable phi0(x, y) -> (n, S) or as an
+(``continuum.Simulation(config, layout=phi0)``) as a callable phi0(x, y) -> (n, S) or as an
 (n_nodes, S) array. The layouts here return such callables: :func:`core` (concentric strains,
 the layered colony of continuum.radial_strains), :func:`sector` (a wedge), :func:`mixture`
 (the same fractions everywhere) and :func:`polygon` (a strain per polygon). A third strain,

@@ -136,7 +136,7 @@ class Config:
         stored as a tuple of float pairs. Empty (the default): one strain (``lam``, 1), the
         model and the bits as before; with strains ``lam`` is not used by the model. The
         cells' strains come with the initial state (``ParticleState.strain``, or
-        ``Simulation(config, state, strains=...)``); one cell from the configuration is of
+        ``Simulation(config, state, layout=...)``); one cell from the configuration is of
         strain 0.
     """
 

@@ -161,10 +161,10 @@ def check_initial(config: Config, require_stop: bool = True,
     return state
 
 
-def initial_strains(config: Config, state: ParticleState, strains=None) -> None:
+def initial_strains(config: Config, state: ParticleState, layout=None) -> None:
     """Set the cells' strains of a starting state (in place; particles.strains).
 
-    ``strains``: the fractions phi0(x, y) -> (N, S) that each cell draws its strain from
+    ``layout``: the fractions phi0(x, y) -> (N, S) that each cell draws its strain from
     (particles.strains.draw_strains, generator seeded (Config.seed, STRAIN_SEED)), or the
     strains as integers; None keeps the state's, or puts every cell in strain 0.
 
@@ -175,12 +175,12 @@ def initial_strains(config: Config, state: ParticleState, strains=None) -> None:
     """
     n_strains = len(config.strains)
     if n_strains == 0:
-        if strains is not None or state.strain is not None:
+        if layout is not None or state.strain is not None:
             raise ValueError("cell strains need strains in the Config (Config.strains)")
         return
-    if strains is not None:
+    if layout is not None:
         rng = np.random.default_rng((config.seed, STRAIN_SEED))
-        state.strain = draw_strains(strains, state.x, state.y, n_strains, rng)
+        state.strain = draw_strains(layout, state.x, state.y, n_strains, rng)
     elif state.strain is None:
         state.strain = np.zeros(state.n, dtype=np.int64)
     s = np.asarray(state.strain)
@@ -216,7 +216,7 @@ class Simulation:
     change_step_policy : bool
         See ``out``; config.json then records the change (output.write_config).  (Particles
         only: the continuum has no step policy.)
-    strains : callable or int array, optional
+    layout : callable or int array, optional
         The cells' strains of ``config.strains`` (:func:`initial_strains`): fractions
         phi0(x, y) -> (N, S) to draw them from (the continuum's layouts, e.g.
         continuum.strains.core(r1)), or integers (N,). None: the state's, else strain 0. Not
@@ -237,7 +237,7 @@ class Simulation:
 
     def __init__(self, config: Config, state: ParticleState | None = None,
                  out: str | Path | None = None, *, change_step_policy: bool = False,
-                 strains=None):
+                 layout=None):
         self.config = config
         self.history: list[dict] = []
         self.finished = True
@@ -263,7 +263,7 @@ class Simulation:
         else:
             config.check_budget(state.enclosing_radius())  # before any work, as check_initial
             self.state = state.copy()
-        initial_strains(config, self.state, strains)
+        initial_strains(config, self.state, layout)
         if self.state.rng is None:
             self.state.rng = np.random.default_rng(config.seed)
         if self.state.dt_next is None:
@@ -488,7 +488,7 @@ class _Checkpointer:
 
 def run(config: Config, out: str | Path | None = None, progress: bool = False,
         state: ParticleState | None = None, max_steps: int | None = None, *,
-        change_step_policy: bool = False, strains=None) -> Simulation:
+        change_step_policy: bool = False, layout=None) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
     The loop over the steps of a :class:`Simulation` that hands each step to the writers, the
@@ -519,7 +519,7 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         holds the new values and, under ``step_policy_changes``, the step and the old and new
         values of each change; the result differs from an uninterrupted run's within the
         time-stepping error).  Particles only.
-    strains : callable or int array, optional
+    layout : callable or int array, optional
         The cells' strains of ``config.strains`` (:class:`Simulation`).
 
     Returns
@@ -540,7 +540,7 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     steps = 0
     with StopRequest() as stop:
         sim = Simulation(config, state, out, change_step_policy=change_step_policy,
-                         strains=strains)
+                         layout=layout)
         checkpointer = None if sim.output is None else _Checkpointer(sim)
         with _ProgressBar(config.lam, progress=progress, **goal) as bar:
             while not sim._reached(**goal):

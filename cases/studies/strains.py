@@ -153,12 +153,12 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-strains-smoke",
         start = grown[wild, 0]
         cc = continuum.Config(lam=wild, shape=f"circle:{start.hull_radius():.6g}",
                               strains=strains, output_every=0.0)
-        sim = continuum.Simulation(cc, fractions=phi0)
+        sim = continuum.Simulation(cc, layout=phi0)
         sim.advance(radius=cfg["R"])
         tau_end = sim.state.t
         taus = np.linspace(0.0, tau_end, cfg["frames"])
         shots = {0: [], 1: []}
-        sim = continuum.Simulation(cc, fractions=phi0)
+        sim = continuum.Simulation(cc, layout=phi0)
         for k, tau in enumerate(taus):
             sim.advance(time=tau) if tau > 0 else None
             _append(rows, {"scenario": name, "engine": 0, "seed": 0, "tau": tau,
@@ -175,7 +175,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-strains-smoke",
             for seed in range(cfg["seeds"]):
                 g = grown[wild, seed]
                 pc = particles.Config(lam=wild, strains=strains, seed=seed, threads=1)
-                ps = particles.Simulation(pc, state=g, strains=phi0)
+                ps = particles.Simulation(pc, state=g, layout=phi0)
                 for k, tau in enumerate(taus):
                     if tau > 0:
                         ps.advance(time=g.t + tau)

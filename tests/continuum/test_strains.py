@@ -44,7 +44,7 @@ SMALL = dict(lam=1e-2, n_nodes=300, h_max=0.3, stretch=1.2, initial_radius=1.0,
 
 
 def _grow(fractions=None, **changes):
-    sim = continuum.Simulation(continuum.Config(**{**SMALL, **changes}), fractions=fractions)
+    sim = continuum.Simulation(continuum.Config(**{**SMALL, **changes}), layout=fractions)
     sim.advance(radius=4.0)
     return sim
 
@@ -97,7 +97,7 @@ def _core_shell_errors(h: float) -> tuple[float, float, float]:
     """
     cfg = continuum.Config(lam=0.0, initial_radius=R0, n_nodes=50, h_max=h,
                            interior_coarsening=1.0, strains=STRAINS, output_every=0.0)
-    sim = continuum.Simulation(cfg, fractions=core(R1))
+    sim = continuum.Simulation(cfg, layout=core(R1))
     s = sim.advance(time=T)
     r1_ref, R_ref, ref = _core_shell_reference()
     r = np.hypot(*(s.points - area_centroid(s.points, s.triangles)).T)
@@ -122,7 +122,7 @@ def test_core_shell_colony_converges_to_the_layered_reference_at_order_one():
 def test_run_folder_carries_the_strains(tmp_path):
     """history.csv areas, phi_i and G_i in the frames, interfaces.csv, config.json, checkpoint."""
     cfg = continuum.Config(**{**SMALL, "radius": 3.0, "strains": ((0.0, 1.0), (1e-2, 0.8))})
-    sim = continuum.run(cfg, tmp_path, fractions=core(0.6))
+    sim = continuum.run(cfg, tmp_path, layout=core(0.6))
     rows = list(csv.DictReader((tmp_path / "history.csv").open()))
     for row in rows:
         total = float(row["area_0"]) + float(row["area_1"])
@@ -144,7 +144,7 @@ def test_run_folder_carries_the_strains(tmp_path):
 
 def test_checkpoint_continues_a_strains_run_bit_for_bit(tmp_path):
     cfg = continuum.Config(**{**SMALL, "strains": ((0.0, 1.0), (1e-2, 0.8))})
-    sim = continuum.Simulation(cfg, fractions=sector(2.0))
+    sim = continuum.Simulation(cfg, layout=sector(2.0))
     sim.advance(radius=2.5)
     sim.save(tmp_path / "c.npz")
     again = continuum.Simulation.load(tmp_path / "c.npz")
@@ -216,7 +216,7 @@ def test_bad_strains(strains, match):
 def test_bad_fractions(strains, fractions, match):
     cfg = continuum.Config(**{**SMALL, "strains": strains})
     with pytest.raises(ValueError, match=match) as err:
-        continuum.Simulation(cfg, fractions=fractions)
+        continuum.Simulation(cfg, layout=fractions)
     assert "\n" not in str(err.value)
 
 

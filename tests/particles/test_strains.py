@@ -42,7 +42,7 @@ def test_identical_strains_are_the_one_strain_run_bit_for_bit(grown, layout):
     cfg = replace(BASE, time=grown.t + 1.0)
     one = particles.run(cfg, state=grown)
     two = particles.run(replace(cfg, strains=[(1e-2, 1.0), (1e-2, 1.0)]), state=grown,
-                        strains=layout)
+                        layout=layout)
     assert len(one.history) > 40 and one.state.n > 2 * grown.n
     assert _history(two) == _history(one)
     for k, a in one.state.arrays().items():
@@ -54,7 +54,7 @@ def test_identical_strains_are_the_one_strain_run_bit_for_bit(grown, layout):
 def test_each_strain_grows_as_exp_of_its_rate_at_lam_0(grown):
     """Lam = 0: sum of l over strain i is L_i(0) exp(a_i t) to round-off (a = 1 and 0.4)."""
     cfg = replace(BASE, lam=0.0, time=grown.t + 1.5, strains=[(0.0, 1.0), (0.0, 0.4)])
-    sim = particles.Simulation(cfg, state=grown, strains=halves)
+    sim = particles.Simulation(cfg, state=grown, layout=halves)
     l0 = np.bincount(sim.state.strain, weights=sim.state.length, minlength=2)
     sim.advance()
     l1 = np.bincount(sim.state.strain, weights=sim.state.length, minlength=2)
@@ -93,8 +93,8 @@ def test_outputs_carry_the_strain_and_resume_bit_for_bit(grown, tmp_path):
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
     part.mkdir()
-    a = particles.run(cfg, full, state=grown, strains=halves)
-    particles.run(cfg, part, state=grown, strains=halves, max_steps=20)
+    a = particles.run(cfg, full, state=grown, layout=halves)
+    particles.run(cfg, part, state=grown, layout=halves, max_steps=20)
     b = particles.run(cfg, part)  # resumes from the checkpoint, strains included
     assert len(a.history) > 20
     for k, v in a.state.arrays().items():
@@ -115,13 +115,13 @@ def test_outputs_carry_the_strain_and_resume_bit_for_bit(grown, tmp_path):
 
 
 @pytest.mark.parametrize(("kwargs", "match"), [
-    ({"strains": halves}, "need strains in the Config"),
-    ({"config": replace(BASE, strains=[(0.0,)]), "strains": np.array([0, 1])},
+    ({"layout": halves}, "need strains in the Config"),
+    ({"config": replace(BASE, strains=[(0.0,)]), "layout": np.array([0, 1])},
      "integers in"),
-    ({"config": replace(BASE, strains=[(0.0,), (0.1,)]), "strains": lambda x, y: x},
+    ({"config": replace(BASE, strains=[(0.0,), (0.1,)]), "layout": lambda x, y: x},
      "must be finite, of shape"),
     ({"config": replace(BASE, strains=[(0.0,), (0.1,)]),
-      "strains": lambda x, y: np.tile([0.7, 0.7], (len(x), 1))}, "sum to 1"),
+      "layout": lambda x, y: np.tile([0.7, 0.7], (len(x), 1))}, "sum to 1"),
 ])
 def test_bad_strains_are_refused_in_one_line(grown, kwargs, match):
     config = kwargs.pop("config", BASE)
