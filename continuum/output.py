@@ -169,13 +169,20 @@ def write_rings(out: Path, points: np.ndarray, triangles: np.ndarray, G: np.ndar
 
     _check_finite("G", G)
     table = ring_table(points, triangles, G, center=center)
-    path = Path(out) / "rings.csv"
+    return _write_table(Path(out) / "rings.csv", COLUMNS, table, ("k", "n_pieces"))
+
+
+def _write_table(path: Path, columns, table: dict, integers: tuple[str, ...]) -> Path:
+    """A contour table as CSV: a header, then one row per entry.
+
+    The ``integers`` columns as integers, the others by repr, so they read back exactly.
+    """
     with path.open("w", newline="") as fh:
         w = csv.writer(fh)
-        w.writerow(COLUMNS)
-        for i in range(len(table["k"])):
-            w.writerow([int(table[c][i]) if c in ("k", "n_pieces") else repr(float(table[c][i]))
-                        for c in COLUMNS])
+        w.writerow(columns)
+        for i in range(len(table[columns[0]])):
+            w.writerow([int(table[c][i]) if c in integers else repr(float(table[c][i]))
+                        for c in columns])
     return path
 
 
@@ -191,14 +198,8 @@ def write_interfaces(out: Path, points: np.ndarray, triangles: np.ndarray, phi: 
 
     _check_finite("phi", phi)
     table = interface_table(points, triangles, phi, center=center)
-    path = Path(out) / "interfaces.csv"
-    with path.open("w", newline="") as fh:
-        w = csv.writer(fh)
-        w.writerow(INTERFACE_COLUMNS)
-        for i in range(len(table["strain"])):
-            w.writerow([int(table[c][i]) if c in ("strain", "n_pieces")
-                        else repr(float(table[c][i])) for c in INTERFACE_COLUMNS])
-    return path
+    return _write_table(Path(out) / "interfaces.csv", INTERFACE_COLUMNS, table,
+                        ("strain", "n_pieces"))
 
 
 def _add_time_value(path: Path, t: float) -> None:

@@ -81,6 +81,16 @@ def test_bench_timestep_small(tmp_path, capsys):
         bench_timestep.main(["--policies", "fixed:abc"])
 
 
+def _whole_and_stopped(cfg, tmp_path, steps: int):
+    """(the uninterrupted run of cfg, the folder of the same run stopped after ``steps``)."""
+    full, part = tmp_path / "full", tmp_path / "part"
+    full.mkdir(parents=True)
+    part.mkdir()
+    whole = run(cfg, full)
+    run(cfg, part, max_steps=steps)
+    return whole, part
+
+
 def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     """The step-policy benchmark from a checkpoint (cases.bench.timestep --checkpoint).
 
@@ -91,11 +101,7 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     from cases.bench import timestep as bench_timestep
 
     cfg = Config(lam=1e-2, time=3.6, dt=0.02, seed=3, step_control="fixed")
-    full, part = tmp_path / "full", tmp_path / "part"
-    full.mkdir()
-    part.mkdir()
-    a = run(cfg, full)
-    run(cfg, part, max_steps=150)
+    a, part = _whole_and_stopped(cfg, tmp_path, 150)
     rows = bench_timestep.main(["--checkpoint", str(part / "checkpoint.npz"), "--duration",
                                 "0.2", "--policies", "fixed:0.02", "fixed:0.01", "--out",
                                 str(tmp_path / "c.csv")])
@@ -112,11 +118,7 @@ def test_bench_timestep_from_checkpoint(tmp_path, capsys):
     # the overlap control continues from the run's own last step: the run's next steps exactly;
     # a lower target (third field) takes shorter steps
     ocfg = replace(cfg, step_control="overlap", seed=4)
-    ofull, opart = tmp_path / "ofull", tmp_path / "opart"
-    ofull.mkdir()
-    opart.mkdir()
-    b = run(ocfg, ofull)
-    run(ocfg, opart, max_steps=100)
+    b, opart = _whole_and_stopped(ocfg, tmp_path / "overlap", 100)
     nxt = b.history[100:110]
     span = nxt[-1]["t"] - b.history[99]["t"]
     same, low = bench_timestep.main(["--checkpoint", str(opart / "checkpoint.npz"), "--duration",
@@ -240,11 +242,7 @@ def test_bench_warm_start_small(tmp_path, capsys):
     from cases.bench import warm_start as bench_warm
 
     cfg = Config(lam=1e-2, time=3.0, dt=0.02, seed=3, step_control="fixed")
-    full, part = tmp_path / "full", tmp_path / "part"
-    full.mkdir()
-    part.mkdir()
-    a = run(cfg, full)
-    run(cfg, part, max_steps=120)
+    a, part = _whole_and_stopped(cfg, tmp_path, 120)
     means = bench_warm.main(["--checkpoint", str(part / "checkpoint.npz"), "--steps", "4"])
     nxt = a.history[120:124]
     assert means["matched"] == pytest.approx(
