@@ -103,14 +103,17 @@ def as_strains(value) -> tuple[Strain, ...]:
         raise ValueError(f"strains must be a sequence of (lam, growth) pairs, got {value!r}")
     out = []
     for entry in value:
-        if isinstance(entry, Strain):
-            out.append(entry)
-        elif isinstance(entry, dict) and set(entry) <= {"lam", "growth"} and "lam" in entry:
-            out.append(Strain(**entry))
-        elif isinstance(entry, (tuple, list)) and len(entry) in (1, 2):
-            out.append(Strain(*entry))
-        else:
-            raise ValueError(f"a strain must be (lam, growth), got {entry!r}")
+        try:
+            if isinstance(entry, Strain):
+                out.append(entry)
+            elif isinstance(entry, dict) and set(entry) <= {"lam", "growth"} and "lam" in entry:
+                out.append(Strain(**entry))
+            elif isinstance(entry, (tuple, list)) and len(entry) in (1, 2):
+                out.append(Strain(*entry))
+            else:
+                raise ValueError(f"a strain must be (lam, growth), got {entry!r}")
+        except ValueError as err:  # named by the field, as Config's other errors are
+            raise ValueError(f"strains must be valid strains: {err}") from None
     return tuple(out)
 
 

@@ -42,22 +42,25 @@ def as_strains(value) -> tuple[tuple[float, float], ...]:
     """
     if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
         raise ValueError(f"strains must be a list of (lam, growth) pairs, got {value!r}")
-    out = []
-    for entry in value:
-        if isinstance(entry, dict) and "lam" in entry and set(entry) <= {"lam", "growth"}:
-            entry = (entry["lam"], entry.get("growth", 1.0))
-        if not isinstance(entry, (tuple, list)) or len(entry) not in (1, 2):
-            raise ValueError(f"a strain must be (lam, growth), got {entry!r}")
-        lam, growth = (*entry, 1.0)[:2]
-        for name, v in (("lam", lam), ("growth", growth)):
-            if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
-                raise ValueError(f"a strain's {name} must be a finite number, got {v!r}")
-        if lam < 0:
-            raise ValueError(f"a strain's lam must be >= 0, got {lam!r}")
-        if growth <= 0:
-            raise ValueError(f"a strain's growth must be > 0, got {growth!r}")
-        out.append((float(lam), float(growth)))
-    return tuple(out)
+    return tuple(_strain(entry) for entry in value)
+
+
+def _strain(entry) -> tuple[float, float]:
+    """One strain (lam, growth), checked; the error names the field, as Config's others do."""
+    if isinstance(entry, dict) and "lam" in entry and set(entry) <= {"lam", "growth"}:
+        entry = (entry["lam"], entry.get("growth", 1.0))
+    if not isinstance(entry, (tuple, list)) or len(entry) not in (1, 2):
+        raise ValueError(f"strains must be (lam, growth) pairs, got {entry!r}")
+    lam, growth = (*entry, 1.0)[:2]
+    for name, v in (("lam", lam), ("growth", growth)):
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+            raise ValueError(f"strains must be valid: a strain's {name} must be a finite number, "
+                             f"got {v!r}")
+    if lam < 0:
+        raise ValueError(f"strains must be valid: a strain's lam must be >= 0, got {lam!r}")
+    if growth <= 0:
+        raise ValueError(f"strains must be valid: a strain's growth must be > 0, got {growth!r}")
+    return float(lam), float(growth)
 
 
 def growth_law(strains, lam: float, strain: np.ndarray):

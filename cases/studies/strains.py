@@ -27,8 +27,10 @@ radius), whose 2 pi multiple is the sector's opening angle.
 
 Outputs in ``out/data``: ``strains.csv`` (scenario, engine 0 continuum / 1 particles, seed, tau,
 radius, fraction, edge_fraction), ``profiles.csv`` (scenario, engine, seed, r, fraction of
-strain 1 in annuli of width ``ANNULUS`` at the last time; the continuum's nodes weighted by
-their lumped areas), ``snapshots/*.npz`` (seed 0's colony
+strain 1, the stress (particles: the mean axial stress sigma; continuum: the pressure p) and
+each strain's mean length length_0, length_1 in annuli of width ``ANNULUS`` at the last time;
+the continuum's nodes weighted by their lumped areas and fractions, the particles by their
+areas), ``snapshots/*.npz`` (seed 0's colony
 at the first, middle and last time; not committed) and from :func:`plot` ``strains.png`` and
 ``results.md``.
 """
@@ -109,12 +111,21 @@ def nodal_areas(points: np.ndarray, triangles: np.ndarray) -> np.ndarray:
                        minlength=len(points))
 
 
-def _profile(r: np.ndarray, weight: np.ndarray, one: np.ndarray, radius: float):
+def annulus_means(r: np.ndarray, weight: np.ndarray, values: dict, radius: float) -> dict:
+    """Weighted means in annuli of width ``ANNULUS`` over [0, radius], and their centres "r".
+
+    ``values``: name -> (value v, extra weight e) per point; the mean is sum w e v / sum w e
+    per annulus (nan where empty).
+    """
     edges = np.arange(0.0, radius + ANNULUS, ANNULUS)
-    total, _ = np.histogram(r, edges, weights=weight)
-    ones, _ = np.histogram(r, edges, weights=weight * one)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return 0.5 * (edges[1:] + edges[:-1]), ones / total
+    out = {"r": 0.5 * (edges[1:] + edges[:-1])}
+    for name, (value, extra) in values.items():
+        w = weight * extra
+        total, _ = np.histogram(r, edges, weights=w)
+        sums, _ = np.histogram(r, edges, weights=w * value)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            out[name] = sums / total
+    return out
 
 
 def grown_colony(lam: float, r0: float, seed: int):
@@ -168,9 +179,12 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-strains-smoke",
                 shots[0].append({"points": s.points, "triangles": s.triangles,
                                  "phi": s.phi[:, 1]})
         s = sim.state
-        r, f = _profile(np.hypot(*s.points.T), nodal_areas(s.points, s.triangles), s.phi[:, 1],
-                        math.sqrt(s.area / math.pi))
-        _append_many(prof, name, 0, 0, r, f)
+        fields, one = s.fields, np.ones(len(s.points))
+        means = annulus_means(np.hypot(*s.points.T), nodal_areas(s.points, s.triangles), {
+            "fraction": (s.phi[:, 1], one), "stress": (s.p, one),
+            "length_0": (fields["mean_length_0"], s.phi[:, 0]),
+            "length_1": (fields["mean_length_1"], s.phi[:, 1])}, math.sqrt(s.area / math.pi))
+        _append_many(prof, name, 0, 0, means)
         if "particles" in engines:
             for seed in range(cfg["seeds"]):
                 g = grown[wild, seed]
@@ -186,9 +200,13 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-strains-smoke",
                         shots[1].append({a: getattr(st, a).copy()
                                          for a in ("x", "y", "theta", "length", "strain")})
                 st = ps.state
-                r, f = _profile(np.hypot(st.x - st.x.mean(), st.y - st.y.mean()),
-                                cell_areas(st.length), st.strain == 1, st.hull_radius())
-                _append_many(prof, name, 1, seed, r, f)
+                one = np.ones(st.n)
+                means = annulus_means(
+                    np.hypot(st.x - st.x.mean(), st.y - st.y.mean()), cell_areas(st.length), {
+                        "fraction": (st.strain == 1, one), "stress": (st.stress, one),
+                        "length_0": (st.length, st.strain == 0),
+                        "length_1": (st.length, st.strain == 1)}, st.hull_radius())
+                _append_many(prof, name, 1, seed, means)
         for engine, frames in shots.items():
             arrays = {f"{k}_{i}": v for i, fr in enumerate(frames) for k, v in fr.items()}
             if arrays:
@@ -204,10 +222,10 @@ def _append(table: dict, row: dict) -> None:
         table.setdefault(k, []).append(v)
 
 
-def _append_many(table: dict, name: str, engine: int, seed: int, r, f) -> None:
-    for ri, fi in zip(r, f, strict=True):
-        _append(table, {"scenario": name, "engine": engine, "seed": seed, "r": ri,
-                        "fraction": fi})
+def _append_many(table: dict, name: str, engine: int, seed: int, means: dict) -> None:
+    for k in range(len(means["r"])):
+        _append(table, {"scenario": name, "engine": engine, "seed": seed,
+                        **{key: v[k] for key, v in means.items()}})
 
 
 def _columns(table: dict) -> dict[str, np.ndarray]:
@@ -252,13 +270,45 @@ def markdown_table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def plot_profiles(prof: dict, out: Path) -> list[Path]:
+    """strains_profiles.png / .pdf: stress and each strain's mean length against r.
+
+    Per scenario, at the last time: the stress (particles sigma, continuum p), the mean lengths
+    of strain 0 and strain 1 (particles: seed mean and std band).
+    """
+    import matplotlib.pyplot as plt
+
+    from cases.figures.draw import save_figure
+
+    fig, axes = plt.subplots(len(SCENARIOS), 3, figsize=(13, 3.2 * len(SCENARIOS)), squeeze=False)
+    for i, name in enumerate(SCENARIOS):
+        for ax, key, label in zip(axes[i], ("stress", "length_0", "length_1"), (
+                "stress (particles) / p (continuum)", "mean length, strain 0",
+                "mean length, strain 1"), strict=True):
+            for engine, color in ((0, "k"), (1, "C3")):
+                sel = (prof["scenario"] == i) & (prof["engine"] == engine)
+                rs = np.unique(prof["r"][sel])
+                vals = [prof[key][sel & (prof["r"] == r)] for r in rs]
+                mean = np.array([np.nanmean(v) if np.isfinite(v).any() else np.nan
+                                 for v in vals])
+                std = np.array([np.nanstd(v, ddof=1) if np.isfinite(v).sum() > 1 else 0.0
+                                for v in vals])
+                ax.plot(rs, mean, color=color, label=("continuum", "particles")[engine])
+                ax.fill_between(rs, mean - std, mean + std, color=color, alpha=0.2, lw=0)
+            ax.set_title(f"{name}: {label}", fontsize=9)
+            ax.set_xlabel("r at the last time", fontsize=8)
+            ax.legend(fontsize=8)
+    return save_figure(fig, out / "strains_profiles")
+
+
 def plot(data: str | Path, out: str | Path) -> list[Path]:
     """strains.png / .pdf and results.md.
 
     Rows: the scenarios; columns: seed 0's particle colony and the continuum (phi_1) at the
     first, middle and last time (strain 1 red), then the area fraction and the edge angle of
     strain 1 against tau and its fraction against r at the last time (particles: seed mean and
-    std band; continuum: line).
+    std band; continuum: line). With the per-strain profiles, strains_profiles.png too
+    (:func:`plot_profiles`).
     """
     import matplotlib.pyplot as plt
 
@@ -322,6 +372,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         ax.legend(fontsize=8)
     fig.subplots_adjust(wspace=0.35)
     paths = save_figure(fig, out / "strains")
+    if "length_1" in prof:
+        paths += plot_profiles(prof, out)
     table = markdown_table(summary(data))
     (out / "results.md").write_text("# Two strains (colony case strains)\n\n" + table)
     return [*paths, out / "results.md"]
