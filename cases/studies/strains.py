@@ -298,6 +298,7 @@ def plot_profiles(prof: dict, out: Path) -> list[Path]:
             ax.set_title(f"{name}: {label}", fontsize=9)
             ax.set_xlabel("r at the last time", fontsize=8)
             ax.legend(fontsize=8)
+    fig.subplots_adjust(hspace=0.45)
     return save_figure(fig, out / "strains_profiles")
 
 
