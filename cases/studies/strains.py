@@ -1,7 +1,7 @@
 """Colonies of two strains in both models: a mutant sector, its reverse, a mixture (issue 32).
 
-``colony case strains [--scale smoke|medium]``. Strain i grows at a_i exp(-lam_i sigma) and
-daughters inherit it (continuum.strains, particles.strains). One specification of the initial
+``colony case strains [--scale smoke|medium|paper]`` (paper: radius 80). Strain i grows at
+a_i exp(-lam_i sigma) and daughters inherit it (continuum.strains, particles.strains). One specification of the initial
 layout serves both engines: the fractions phi0(x, y) of continuum.strains (``core``, ``sector``,
 ``mixture``), which the continuum carries as nodal fractions and from which each particle draws
 its strain (particles.strains.draw_strains). Scenarios (``SCENARIOS``):
@@ -57,9 +57,11 @@ SCENARIOS = {
 """name: (strains (lam_i, a_i), strain 0 the wild type; layout)."""
 
 SCALES = {"smoke": {"r0": 4.0, "R": 8.0, "seeds": 2, "frames": 5},
-          "medium": {"r0": 10.0, "R": 40.0, "seeds": 3, "frames": 9}}
+          "medium": {"r0": 10.0, "R": 40.0, "seeds": 3, "frames": 9},
+          "paper": {"r0": 20.0, "R": 80.0, "seeds": 2, "frames": 9}}
 """r0: the particle colony's enclosing radius when the strains are set; R: the continuum's
-radius at the end; seeds: particle colonies per scenario; frames: times compared."""
+radius at the end; seeds: particle colonies per scenario; frames: times compared. "paper" is
+radius 80, not the paper's 150 (a particle colony there takes about an hour)."""
 
 EDGE_BAND = 2.0
 """Width of the particles' edge band (length units; two cell lengths)."""

@@ -51,7 +51,7 @@ def test_the_continuum_mutant_gains_and_the_reverse_loses(case):
 
 def test_bad_scale_is_refused():
     with pytest.raises(ValueError, match="scale must be one of"):
-        strains.compute("paper", "/nonexistent")
+        strains.compute("huge", "/nonexistent")
 
 
 def test_the_committed_data_redraw_and_hold_the_table(tmp_path):
