@@ -3,8 +3,9 @@
 ``colony case strains [--scale smoke|medium|paper]`` (paper: radius 80). Strain i grows at
 a_i exp(-lam_i sigma) and daughters inherit it (continuum.strains, particles.strains). One
 specification of the initial layout serves both engines: the fractions phi0(x, y) of
-continuum.strains (``core``, ``sector``, ``mixture``, ``polygon``), which the continuum carries as nodal fractions and from which each particle draws
-its strain (particles.strains.draw_strains). Scenarios (``SCENARIOS``):
+continuum.strains (``core``, ``sector``, ``mixture``, ``polygon``), which the continuum
+carries as nodal fractions and from which each particle draws its strain
+(particles.strains.draw_strains). Scenarios (``SCENARIOS``):
 
 - ``mutant``: a stress-insensitive mutant (lam = 0) in a sector of opening ``THETA0`` at the
   edge of a lam = 1e-2 colony;
