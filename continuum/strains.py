@@ -39,7 +39,7 @@ A_h = sum_{j in core} m_j (m_j = sum_k M_jk) grows as ::
 and the cross mass is the interface length times O(h): an O(h) defect per unit time. The
 interface radius, R(t) and p are therefore first order in h (measured in
 tests/continuum/test_strains.py against continuum.radial_strains: orders 0.8-1.0, errors
-systematic, about 0.5-0.75 h for the interface), against the one-strain colony's second order.
+systematic, about 0.4-0.6 h for the interface), against the one-strain colony's second order.
 Second order would need the interface inside the elements (a cut-cell source from a transported
 smooth label), not nodal fractions. Identical strains are exact: they give the one-strain run
 bit for bit (:func:`mixed_growth`).

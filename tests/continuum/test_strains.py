@@ -6,12 +6,14 @@ R 3 -> 8.41, interface 1.8 -> 6.28; P1, uniform mesh of spacing h = h_max, 0.1-1
 the errors are systematic (core and colony too small) and of order 1,
 
     h          0.8      0.56     0.4      0.28     0.2
-    R          -0.22    -0.13    -0.10    -0.052   -0.050
-    interface  -0.59    -0.37    -0.31    -0.17    -0.16
-    p / p(0)   0.084    0.048    0.040    0.021    0.019
+    R          -0.207   -0.112   -0.092   -0.043   -0.044
+    interface  -0.463   -0.267   -0.234   -0.114   -0.115
+    p / p(0)   0.076    0.041    0.034    0.016    0.016
 
-fitted orders 0.92 (R), 0.82 (interface), 1.00 (p) over the test's h = 0.66 ... 0.2 (8 meshes;
-1.05, 0.93, 1.09 over 0.8 ... 0.17), the pairwise ones scattered between -0.8 and 3.7.
+fitted orders 0.95 (R), 0.83 (interface), 1.04 (p) over the test's h = 0.66 ... 0.2 (8 meshes),
+the pairwise ones scattered (the mesh's node placement varies with h). (Measured with the
+fractions' growth of continuum.strains.grown_fractions; with constant fractions the errors were
+about 1.2x these, e.g. -0.59 ... -0.16 for the interface.)
 Why order 1, where the one-strain colony has 2: the fractions live on the material nodes
 (continuum.strains, "Accuracy").
 """
@@ -116,7 +118,7 @@ def test_core_shell_colony_converges_to_the_layered_reference_at_order_one():
     for k in range(3):
         order = np.polyfit(np.log(hs), np.log(np.abs(errs[:, k])), 1)[0]
         assert abs(order - 1.0) < 0.3, (k, order, errs[:, k])
-    assert np.all(np.abs(errs[:, 1]) < 0.8 * hs)  # |interface error| ~ 0.5-0.75 h measured
+    assert np.all(np.abs(errs[:, 1]) < 0.8 * hs)  # |interface error| ~ 0.4-0.6 h measured
 
 
 def test_run_folder_carries_the_strains(tmp_path):
