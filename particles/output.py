@@ -340,8 +340,9 @@ class TrajectoryFrame:
     """One frame of trajectory.gsd as numpy arrays (float64, int64).
 
     ``ids`` None for files written before ids were stored; ``parent`` and ``generation`` None when
-    the run did not record them.  ``t`` is NaN when neither ``log/Time`` nor a history.csv row
-    of the frame's step gives it.
+    the run did not record them; ``strain`` each particle's strain (its particle type
+    ``strain_i``), None for a one-strain run.  ``t`` is NaN when neither ``log/Time`` nor a
+    history.csv row of the frame's step gives it.
     """
 
     step: int
@@ -354,6 +355,7 @@ class TrajectoryFrame:
     ids: np.ndarray | None = None
     parent: np.ndarray | None = None
     generation: np.ndarray | None = None
+    strain: np.ndarray | None = None
 
     @property
     def n(self) -> int:
@@ -380,6 +382,15 @@ def _history_times(folder: Path) -> dict[int, float]:
     if not rows or "step" not in rows[0] or "t" not in rows[0]:
         return {}
     return {int(r["step"]): float(r["t"]) for r in rows}
+
+
+def _strains_of(frame) -> np.ndarray | None:
+    """Each particle's strain i from its type ``strain_i``; None for a one-strain file."""
+    types = list(frame.particles.types)
+    if not types or not all(t.startswith("strain_") for t in types):
+        return None
+    index = np.array([int(t.removeprefix("strain_")) for t in types], dtype=np.int64)
+    return index[np.asarray(frame.particles.typeid, dtype=np.int64)]
 
 
 def read_trajectory(path: str | os.PathLike,
@@ -439,4 +450,4 @@ def read_trajectory(path: str | os.PathLike,
                 length=np.asarray(log["particles/length"], dtype=float),
                 stress=np.asarray(log["particles/stress"], dtype=float),
                 ids=opt("Particle Identifier"), parent=opt("parent"),
-                generation=opt("generation"))
+                generation=opt("generation"), strain=_strains_of(fr))

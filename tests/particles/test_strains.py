@@ -89,6 +89,8 @@ def test_growth_law_and_draws():
 
 
 def test_outputs_carry_the_strain_and_resume_bit_for_bit(grown, tmp_path):
+    (tmp_path / "one").mkdir()  # a one-strain run beside it: its frames carry no strain
+    particles.run(replace(BASE, time=grown.t + 0.1), tmp_path / "one", state=grown)
     cfg = replace(BASE, time=grown.t + 0.6, strains=[(0.0, 1.0), (1e-2, 1.0)], output_every=5)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
@@ -111,6 +113,9 @@ def test_outputs_carry_the_strain_and_resume_bit_for_bit(grown, tmp_path):
         last = traj[-1]
         assert last.particles.types == ["strain_0", "strain_1"]
         assert np.array_equal(last.particles.typeid, a.state.strain)
+    frames = list(particles.read_trajectory(full / "trajectory.gsd"))
+    assert np.array_equal(frames[-1].strain, a.state.strain)
+    assert next(particles.read_trajectory(tmp_path / "one" / "trajectory.gsd")).strain is None
     assert '"strains"' in (full / "config.json").read_text()
 
 
