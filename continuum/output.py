@@ -77,6 +77,8 @@ RESERVE_BYTES = 4 * 2**20
 
 #: Bytes of a VTU frame per mesh node, a bound (coordinates, connectivity, 21 fields; base64).
 FRAME_BYTES_PER_NODE = 520
+#: And per node and strain of a colony of strains (phi_i, G_i, mean_length_i: 3 more fields).
+STRAIN_FRAME_BYTES_PER_NODE = 75
 
 _FRAME = re.compile(r"frame_([0-9]{5,})\.vtu(\.tmp)?")
 
@@ -132,14 +134,17 @@ def write_history(out: Path, history: list[dict]) -> Path:
     return path
 
 
-def ensure_space(out: Path, n_nodes: int, checkpoint: Path | None = None) -> None:
+def ensure_space(out: Path, n_nodes: int, checkpoint: Path | None = None,
+                 n_strains: int = 0) -> None:
     """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes.
 
-    The next writes: a frame of ``n_nodes`` nodes, a checkpoint (at most the last one's size
-    twice) and a new copy of history.csv.
+    The next writes: a frame of ``n_nodes`` nodes (with the fields of ``n_strains`` strains,
+    0 for a one-strain colony), a checkpoint (at most the last one's size twice) and a new copy
+    of history.csv.
     """
     out = Path(out)
-    need = RESERVE_BYTES + FRAME_BYTES_PER_NODE * n_nodes
+    per_node = FRAME_BYTES_PER_NODE + STRAIN_FRAME_BYTES_PER_NODE * n_strains
+    need = RESERVE_BYTES + per_node * n_nodes
     for path, times in ((checkpoint, 2), (out / "history.csv", 1)):
         if path is not None and path.is_file():
             need += times * path.stat().st_size

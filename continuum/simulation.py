@@ -601,7 +601,9 @@ class _Outputs:
 
     def ensure_space(self, sim: Simulation) -> None:
         """continuum.output.ensure_space before the next frame or checkpoint of ``sim``."""
-        self.output.ensure_space(self.out, len(sim.state.points), self.checkpoint)
+        s = sim.state
+        self.output.ensure_space(self.out, len(s.points), self.checkpoint,
+                                 0 if s.phi is None else s.phi.shape[1])
 
     def frame(self, sim: Simulation) -> None:
         if self.fields is not None:
