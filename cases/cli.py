@@ -83,7 +83,24 @@ def _threads(text: str) -> int | str:
         raise argparse.ArgumentTypeError(f"expected auto or an integer, got {text!r}") from None
 
 
-FIELD_PARSERS = {"threads": _threads}
+def strain_list(text: str) -> list[list[float]]:
+    """``LAM[:GROWTH],LAM[:GROWTH],...`` (strain 0 first, growth default 1) as [[lam, growth], ...].
+
+    The form of ``--strains`` and ``--set strains=``; the engine's Config checks the values.
+    """
+    out = []
+    for item in text.split(","):
+        lam, _, growth = item.strip().partition(":")
+        try:
+            out.append([float(lam), float(growth) if growth.strip() else 1.0])
+        except ValueError:
+            raise argparse.ArgumentTypeError(
+                f"expected LAM[:GROWTH],LAM[:GROWTH],... (e.g. 1e-2,0 or 1e-2:1,0:0.5), "
+                f"got {text!r}") from None
+    return out
+
+
+FIELD_PARSERS = {"threads": _threads, "strains": strain_list}
 """``--set`` values of fields whose type is not that of their default (else ``_coerce``)."""
 
 
@@ -201,6 +218,12 @@ def _common(p: argparse.ArgumentParser, default_out: str) -> None:
     p.add_argument("--config", help="TOML file of configuration values (default: none)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override one configuration value (repeatable)")
+    p.add_argument("--strains", type=strain_list, metavar="LAM[:A],LAM[:A],...",
+                   help="strains of the colony, strain 0 first: stress sensitivity and growth "
+                   "factor (default 1), e.g. 1e-2,0 (default: one strain of --lam)")
+    p.add_argument("--layout", help="initial layout of the strains: core:R1[,R2...], "
+                   "sector:THETA[,DIRECTION] (radians; strain 1 in the wedge), "
+                   "mixture:F0,F1[,...] or polygon:FILE.csv[,...] (strain i + 1 inside file i)")
     _verbosity(p)
 
 
@@ -418,7 +441,7 @@ def _dispatch(args) -> int:
                  "time": _finite("time", args.time), "shape": args.shape,
                  "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
                  "output_every": _finite("output-every", args.output_every),
-                 "element": args.element}
+                 "element": args.element, "strains": args.strains, "layout": args.layout}
         handoff = _handoff_options(args, flags)
         config = build_config(continuum.Config, args.config, args.set, flags)
         start = None if handoff is None else _handoff_start(config, *handoff)
@@ -432,7 +455,8 @@ def _dispatch(args) -> int:
                  "shape": args.shape, "fill_orientation": args.fill_orientation,
                  "dt": _finite("dt", args.dt), "step_control": args.step_control,
                  "division_noise": _finite("division-noise", args.division_noise),
-                 "solver": args.solver, "threads": args.threads}
+                 "solver": args.solver, "threads": args.threads, "strains": args.strains,
+                 "layout": args.layout}
         config = build_config(particles.Config, args.config, args.set, flags)
         run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy)
         print(f"particle run written to {args.out}")

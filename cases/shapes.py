@@ -72,19 +72,29 @@ def initial_particles(spec: str, seed: int = 0, orientation: str = "tangent",
 
 
 def initial_state(config) -> ParticleState | None:
-    """The initial particles of a ``particles.Config`` with a ``shape`` (else None), checked.
+    """The initial particles of a ``particles.Config`` with a ``shape`` or ``layout``, checked.
 
     Whether this machine can do the run (``config.check_budget``: its steps and its colony),
     before any work; with a ``shape``, ``initial_particles(config.shape, config.seed,
     config.fill_orientation, config.fill_lengths, config.max_particles)`` and the steps from
-    the fill's radius.
+    the fill's radius. With a ``layout`` (strains) the cells' strains drawn from it
+    (continuum.strains.parse_layout; particles.simulation.initial_strains), on the shape's fill
+    or on the engine's own start (``init`` or one cell). Neither: None (the engine's start).
     """
+    from particles.simulation import initial_state as engine_start
+    from particles.simulation import initial_strains
+
     config.check_budget()  # a shape's steps to a radius goal: after its fill
-    if config.shape is None:
-        return None
-    state = initial_particles(config.shape, config.seed, config.fill_orientation,
-                              config.fill_lengths, config.max_particles)
-    config.check_budget(state.enclosing_radius())
+    state = None
+    if config.shape is not None:
+        state = initial_particles(config.shape, config.seed, config.fill_orientation,
+                                  config.fill_lengths, config.max_particles)
+        config.check_budget(state.enclosing_radius())
+    if config.layout is not None:
+        from continuum.strains import parse_layout
+
+        state = engine_start(config) if state is None else state
+        initial_strains(config, state, parse_layout(config.layout, len(config.strains)))
     return state
 
 

@@ -494,6 +494,7 @@ def _saved_config(path: Path, arrays: dict) -> dict:
     saved.setdefault("element", "P1")  # checkpoints from before Config.element solved with P1
     saved.setdefault("initial_sizes", "bump")  # and from before Config.initial_sizes the bump
     saved.setdefault("strains", [])  # and from before Config.strains one strain
+    saved.setdefault("layout", None)
     if "max_steps" in saved:  # Config.step_limit's former name
         saved["step_limit"] = saved.pop("max_steps")
     return saved

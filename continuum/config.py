@@ -20,7 +20,7 @@ from continuum import mesh, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
 from continuum.sizes import INITIAL_SIZES, TRANSPORTS
-from continuum.strains import as_strains
+from continuum.strains import as_strains, parse_layout
 
 __all__ = ["Config", "config_fields"]
 
@@ -144,6 +144,11 @@ class Config:
         ``lam`` is not used by the model (each strain's lam_i is), and a simulation of S >= 2
         strains needs its initial fractions (``Simulation(config, layout=phi0)``,
         continuum.strains).
+    layout : str or None
+        The initial layout of the strains as a specification (continuum.strains.LAYOUTS:
+        ``core:R1``, ``sector:THETA[,DIRECTION]``, ``mixture:F0,F1``, ``polygon:FILE.csv``),
+        parsed by continuum.strains.parse_layout; what ``Simulation`` uses when not given
+        ``layout=``. None: given to ``Simulation``, or one strain.
     """
 
     lam: float
@@ -168,6 +173,7 @@ class Config:
     step_limit: int = 200_000
     checkpoint_seconds: float = 300.0
     strains: tuple = ()
+    layout: str | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
@@ -194,6 +200,10 @@ class Config:
             v = getattr(self, name)
             if not ok(v):
                 raise ValueError(f"{name} must be {what}, got {v!r}")
+        if self.layout is not None:
+            if len(self.strains) < 2:
+                raise ValueError(f"layout {self.layout!r} needs two or more strains")
+            parse_layout(self.layout, len(self.strains))
         polygon = self.initial_boundary()  # parses and checks the shape
         if self.radius is not None:
             r_init = mesh.colony_radius(polygon)

@@ -91,13 +91,14 @@ def _check_finite(name: str, values) -> None:
 def write_config(out: Path, config) -> Path:
     """Write config.json with the dataclass fields of ``config``.
 
-    An empty ``strains`` (one strain) is left out, so a one-strain run writes the file it
-    wrote before strains existed (reading it back gives the same Config).
+    An empty ``strains`` and a None ``layout`` (one strain) are left out, so a one-strain run
+    writes the file it wrote before strains existed (reading it back gives the same Config).
     """
     path = Path(out) / "config.json"
     fields = dataclasses.asdict(config)
-    if "strains" in fields and not fields["strains"]:
-        del fields["strains"]
+    for name in ("strains", "layout"):  # a one-strain run's file as before strains existed
+        if name in fields and not fields[name]:
+            del fields[name]
     path.write_text(json.dumps(fields, indent=2) + "\n")
     return path
 

@@ -67,7 +67,7 @@ from continuum.sizes import (
     SizeDistribution,
 )
 from continuum.state import State, StepRecord
-from continuum.strains import check_fractions, fractions_at, slope_scale
+from continuum.strains import check_fractions, fractions_at, parse_layout, slope_scale
 
 # Config and config_fields live in continuum.config; imported here for older imports
 # (``from continuum.simulation import Config``), documented there.
@@ -160,7 +160,8 @@ def _solver(config: Config) -> PressureSolver:
 def initial_fractions(config: Config, state: State, layout=None) -> None:
     """Set the strain fractions phi and phases G_i = 0 of a state at t = 0 (in place).
 
-    ``layout`` (``Simulation``): the fractions as a callable phi0(x, y) or nodal values, checked
+    ``layout`` (``Simulation``; else ``config.layout`` parsed): the fractions as a callable
+    phi0(x, y) or nodal values, checked
     (continuum.strains.fractions_at); None keeps the state's phi, or sets all 1 for a single
     strain. Without ``config.strains`` the state stays as it is (no fractions allowed).
 
@@ -170,6 +171,8 @@ def initial_fractions(config: Config, state: State, layout=None) -> None:
         Fractions without strains, none for S >= 2 strains, or bad ones (one line).
     """
     n_strains = len(config.strains)
+    if layout is None and config.layout is not None:
+        layout = parse_layout(config.layout, n_strains)
     if n_strains == 0:
         if layout is not None or state.phi is not None:
             raise ValueError("strain fractions need strains in the Config (Config.strains)")

@@ -60,7 +60,7 @@ from numpy.typing import ArrayLike, NDArray
 
 __all__ = ["Strain", "as_strains", "strain_rates", "grown_fractions", "mixed_growth", "slope_scale",
            "check_fractions", "fractions_at", "phase_areas", "core", "sector", "mixture",
-           "polygon", "inside_polygon", "interface_table",
+           "polygon", "inside_polygon", "parse_layout", "LAYOUTS", "interface_table",
            "INTERFACE_COLUMNS", "FRACTION_ATOL"]
 
 FRACTION_ATOL = 1e-9
@@ -298,6 +298,53 @@ def polygon(*outlines: ArrayLike) -> Callable[[NDArray, NDArray], NDArray]:
         return _one_hot(index, len(shapes) + 1)
 
     return phi0
+
+
+LAYOUTS = {"core": "core:R1[,R2,...]", "sector": "sector:THETA[,DIRECTION]",
+           "mixture": "mixture:F0,F1[,...]", "polygon": "polygon:FILE.csv[,FILE2.csv,...]"}
+"""The layout specifications of :func:`parse_layout` (angles in radians, files with columns x,y)."""
+
+
+def parse_layout(spec: str, n_strains: int | None = None) -> Callable[[NDArray, NDArray], NDArray]:
+    """The fractions phi0(x, y) of a layout specification (``LAYOUTS``), checked.
+
+    ``core:R1,R2`` :func:`core`; ``sector:THETA[,DIRECTION]`` :func:`sector`;
+    ``mixture:F0,F1,...`` :func:`mixture`; ``polygon:A.csv,B.csv`` :func:`polygon` of the
+    polygons in those files (continuum.shapes.polygon_csv). With ``n_strains`` the layout must
+    have that many strains. ValueError (one line naming the spec) otherwise.
+    """
+    if not isinstance(spec, str):
+        raise ValueError(f"layout must be a string such as sector:0.785, got {spec!r}")
+    kind, sep, args = spec.strip().partition(":")
+    kind = kind.strip()
+    if kind not in LAYOUTS or not sep or not args.strip():
+        raise ValueError(f"layout {spec!r}: use one of {', '.join(LAYOUTS.values())}")
+    try:
+        phi0, count = _layout(kind, [a.strip() for a in args.split(",")])
+    except (OSError, ValueError) as err:
+        raise ValueError(f"layout {spec!r}: {err}") from None
+    if n_strains is not None and count != n_strains:
+        raise ValueError(f"layout {spec!r} has {count} strains, the colony {n_strains}")
+    return phi0
+
+
+def _layout(kind: str, items: list[str]):
+    """(phi0, number of strains) of a layout's kind and arguments (:func:`parse_layout`)."""
+    if kind == "polygon":
+        from continuum.shapes import polygon_csv
+
+        return polygon(*(polygon_csv(path) for path in items)), len(items) + 1
+    try:
+        numbers = [float(a) for a in items]
+    except ValueError:
+        raise ValueError(f"{LAYOUTS[kind]} takes numbers") from None
+    if kind == "core":
+        return core(*numbers), len(numbers) + 1
+    if kind == "sector":
+        if len(numbers) > 2:
+            raise ValueError(f"give {LAYOUTS[kind]}")
+        return sector(*numbers), 2
+    return mixture(*numbers), len(numbers)
 
 
 # ------------------------------------------------------------------ interfaces

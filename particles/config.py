@@ -138,6 +138,11 @@ class Config:
         cells' strains come with the initial state (``ParticleState.strain``, or
         ``Simulation(config, state, layout=...)``); one cell from the configuration is of
         strain 0.
+    layout : str or None
+        A record of the layout the cells' strains were drawn from at the start, like
+        ``shape`` a record of a state built outside the engine: cases.shapes.initial_state
+        draws them (continuum.strains.parse_layout, particles.strains.draw_strains). The
+        engine refuses it without the cells' strains (a state with strains or ``layout=``).
     """
 
     lam: float
@@ -163,6 +168,7 @@ class Config:
     step_control: str = "overlap"
     threads: int | str = "auto"
     strains: tuple = ()
+    layout: str | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
@@ -188,6 +194,8 @@ class Config:
             raise ValueError("give at most one of radius and time, not both")
         if self.init is not None and self.shape is not None:
             raise ValueError("give at most one initial state: init (a CSV file) or shape")
+        if self.layout is not None and len(self.strains) < 2:
+            raise ValueError(f"layout {self.layout!r} needs two or more strains")
         for name, ok, message in _RULES:
             v = getattr(self, name)
             if not ok(v):
@@ -260,7 +268,7 @@ _TYPES = {
     "str": (lambda v: isinstance(v, str), "a string"),
     "bool": (lambda v: isinstance(v, bool), "true or false"),
     "None": (lambda v: v is None, "None"),
-    "tuple": (lambda v: isinstance(v, tuple), "a list of strains (lam, growth)"),
+    "tuple": (lambda v: isinstance(v, (tuple, list)), "a list of strains (lam, growth)"),
 }
 
 
@@ -357,7 +365,8 @@ def _physical_memory() -> float:
 
 
 LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",
-                 "fill_lengths": "stable", "solver_tol_factor": 0.5, "strains": []}
+                 "fill_lengths": "stable", "solver_tol_factor": 0.5, "strains": [],
+                 "layout": None}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
 
 RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}

@@ -67,8 +67,9 @@ def write_config(out: Path, config, step: int | None = None,
     {"step": step, field: [old, new], ...}, kept with the new fields.
     """
     fields = asdict(config)
-    if not fields.get("strains", True):
-        del fields["strains"]  # one strain: the file as before strains existed
+    for name in ("strains", "layout"):  # one strain: the file as before strains existed
+        if name in fields and not fields[name]:
+            del fields[name]
     path = out / "config.json"
     if step is not None and path.is_file():
         old = json.loads(path.read_text())

@@ -178,6 +178,9 @@ def initial_strains(config: Config, state: ParticleState, layout=None) -> None:
         if layout is not None or state.strain is not None:
             raise ValueError("cell strains need strains in the Config (Config.strains)")
         return
+    if config.layout is not None and layout is None and state.strain is None:
+        raise ValueError(f"layout {config.layout!r} is drawn outside the engine "
+                         "(cases.shapes.initial_state): give the cells' strains, layout=")
     if layout is not None:
         rng = np.random.default_rng((config.seed, STRAIN_SEED))
         state.strain = draw_strains(layout, state.x, state.y, n_strains, rng)

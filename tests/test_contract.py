@@ -73,6 +73,8 @@ CONFIG_DIFFERENT = {
     "shape": "continuum: a spec it parses, default 'circle'; particles: the spec of a state "
              "built outside the engine (cases.shapes), default None",
     "output_every": "continuum: time between VTU frames; particles: steps between frames",
+    "layout": "continuum: a layout spec it parses; particles: the spec the cells' strains were "
+              "drawn from outside the engine (cases.shapes.initial_state)",
 }
 """Config fields of the same name whose meaning differs; renaming one would change the
 config.json of every run (and the checkpoints' configurations)."""

@@ -59,3 +59,39 @@ def test_the_committed_data_redraw_and_hold_the_table(tmp_path):
     assert cli.main(["case", "strains", "--from-data", "--out", str(tmp_path)]) == 0
     text = (tmp_path / "results.md").read_text()
     assert "| mutant | continuum | 1 | 3.89 |" in text and (tmp_path / "strains.png").is_file()
+
+
+def test_strain_runs_are_one_command_in_both_engines(colony, tmp_path):
+    """``--strains`` and ``--layout``: both engines' run folders carry the strains."""
+    import csv
+    import json
+
+    import meshio
+
+    for engine in ("continuum", "particles"):
+        out = tmp_path / engine
+        status, _ = colony(engine, "--lam", "1e-2", "--radius", "6", "--shape", "circle:3",
+                           "--strains", "1e-2,0:0.5", "--layout", "sector:1.57", "--out",
+                           str(out), "--quiet")
+        assert status == 0
+        config = json.loads((out / "config.json").read_text())
+        assert config["layout"] == "sector:1.57" and len(config["strains"]) == 2
+    frame = meshio.read(sorted((tmp_path / "continuum" / "fields").glob("*.vtu"))[-1])
+    assert 0 < frame.point_data["phi_1"].mean() < 0.5
+    with open(tmp_path / "particles" / "particles.csv") as fh:
+        strain = [int(float(r["strain"])) for r in csv.DictReader(fh)]
+    assert 0 < sum(strain) < len(strain)
+
+
+@pytest.mark.parametrize(("args", "needle"), [
+    (("--layout", "sector:1"), "needs two or more strains"),
+    (("--strains", "1e-2,0", "--layout", "sector:9"), "sector angle theta must lie in"),
+    (("--strains", "1e-2,0", "--layout", "mixture:0.5,0.6"), "sum to 1"),
+    (("--strains", "1e-2,0,0", "--layout", "sector:1"), "has 2 strains, the colony 3"),
+])
+def test_bad_strain_runs_fail_in_one_line_before_any_work(colony, tmp_path, args, needle):
+    for engine in ("continuum", "particles"):
+        out = tmp_path / engine
+        status, err = colony(engine, "--lam", "1e-2", "--radius", "6", *args, "--out", str(out))
+        assert status == 2 and needle in err and err.count("\n") == 1, err
+        assert not out.exists()
