@@ -273,6 +273,23 @@ def markdown_table(rows: list[dict]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _engine_bands(ax, table: dict, scenario: int, x: str, key: str, scale: float = 1.0) -> None:
+    """Each engine's ``key`` (times ``scale``) against ``x`` for one scenario.
+
+    The seed mean as a line, the seeds' standard deviation as a band (none for one seed; NaN
+    values ignored).
+    """
+    for engine, color in ((0, "k"), (1, "C3")):
+        sel = (table["scenario"] == scenario) & (table["engine"] == engine)
+        xs = np.unique(table[x][sel])
+        vals = [scale * table[key][sel & (table[x] == v)] for v in xs]
+        mean = np.array([np.nanmean(v) if np.isfinite(v).any() else np.nan for v in vals])
+        std = np.array([np.nanstd(v, ddof=1) if np.isfinite(v).sum() > 1 else 0.0
+                        for v in vals])
+        ax.plot(xs, mean, color=color, label=("continuum", "particles")[engine])
+        ax.fill_between(xs, mean - std, mean + std, color=color, alpha=0.2, lw=0)
+
+
 def plot_profiles(prof: dict, out: Path) -> list[Path]:
     """strains_profiles.png / .pdf: stress and each strain's mean length against r.
 
@@ -288,16 +305,7 @@ def plot_profiles(prof: dict, out: Path) -> list[Path]:
         for ax, key, label in zip(axes[i], ("stress", "length_0", "length_1"), (
                 "stress (particles) / p (continuum)", "mean length, strain 0",
                 "mean length, strain 1"), strict=True):
-            for engine, color in ((0, "k"), (1, "C3")):
-                sel = (prof["scenario"] == i) & (prof["engine"] == engine)
-                rs = np.unique(prof["r"][sel])
-                vals = [prof[key][sel & (prof["r"] == r)] for r in rs]
-                mean = np.array([np.nanmean(v) if np.isfinite(v).any() else np.nan
-                                 for v in vals])
-                std = np.array([np.nanstd(v, ddof=1) if np.isfinite(v).sum() > 1 else 0.0
-                                for v in vals])
-                ax.plot(rs, mean, color=color, label=("continuum", "particles")[engine])
-                ax.fill_between(rs, mean - std, mean + std, color=color, alpha=0.2, lw=0)
+            _engine_bands(ax, prof, i, "r", key)
             ax.set_title(f"{name}: {label}", fontsize=9)
             ax.set_xlabel("r at the last time", fontsize=8)
             ax.legend(fontsize=8)
@@ -347,30 +355,12 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                                      f"tau = {tau:.2f}", fontsize=8)
         for ax, key, scale, label in ((row[6], "fraction", 1, "area fraction of strain 1"),
                                       (row[7], "edge_fraction", 360, "edge angle (deg)")):
-            for engine, color in ((0, "k"), (1, "C3")):
-                sel = (t["scenario"] == i) & (t["engine"] == engine)
-                if not sel.any():
-                    continue
-                taus = np.unique(t["tau"][sel])
-                vals = np.array([scale * t[key][sel & (t["tau"] == u)] for u in taus],
-                                dtype=object)
-                mean = np.array([v.mean() for v in vals])
-                std = np.array([v.std(ddof=1) if v.size > 1 else 0.0 for v in vals])
-                ax.plot(taus, mean, color=color, label=("continuum", "particles")[engine])
-                ax.fill_between(taus, mean - std, mean + std, color=color, alpha=0.2, lw=0)
+            _engine_bands(ax, t, i, "tau", key, scale)
             ax.set_xlabel(r"$\tau$ (time since the strains were set)", fontsize=8)
             ax.set_ylabel(label)
             ax.legend(fontsize=8)
         ax = row[8]
-        for engine, color in ((0, "k"), (1, "C3")):
-            sel = (prof["scenario"] == i) & (prof["engine"] == engine)
-            rs = np.unique(prof["r"][sel])
-            vals = [prof["fraction"][sel & (prof["r"] == r)] for r in rs]
-            mean = np.array([np.nanmean(v) if np.isfinite(v).any() else np.nan for v in vals])
-            std = np.array([np.nanstd(v, ddof=1) if np.isfinite(v).sum() > 1 else 0.0
-                            for v in vals])
-            ax.plot(rs, mean, color=color, label=("continuum", "particles")[engine])
-            ax.fill_between(rs, mean - std, mean + std, color=color, alpha=0.2, lw=0)
+        _engine_bands(ax, prof, i, "r", "fraction")
         ax.set_xlabel("r at the last time", fontsize=8)
         ax.set_ylabel("fraction of strain 1")
         ax.legend(fontsize=8)

@@ -235,7 +235,7 @@ def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, law: np.ndarray,
     """Power-iteration estimate of lambda_max(P^(1/2) (dt D^T M D + G^T C G) P^(1/2)).
 
     P = diag(1/a_kk), C = diag(l_n lam_n a_n dt exp(a_n dt)) (0 without growth; ``law``:
-    problem.growth_law, rows (lam_n, a_n dt, .)): the largest curvature
+    problem.law_rows, rows (lam_n, a_n dt, .)): the largest curvature
     of the Jacobi-scaled E over gamma >= 0.  At most ``iters`` Hessian products, fewer once
     the estimate grows by less than ``rtol`` (relative) after ``min_iters``.
     """

@@ -185,7 +185,7 @@ def _law(lam, rate, dt):
     return law
 
 
-def growth_law(lam, rate, dt: float, n: int) -> np.ndarray:
+def law_rows(lam, rate, dt: float, n: int) -> np.ndarray:
     """The growth law of a step as the kernels read it: rows (lam_n, a_n dt, exp(a_n dt) - 1).
 
     ``lam``, ``rate``: the cells' stress sensitivity lam_n and growth factor a_n
@@ -207,7 +207,7 @@ def particle_moves(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr
     """The particles' velocities M D gam and length increments l (exp(a dt exp(-lam G gam)) - 1).
 
     Written into pw (N, 4): (vx, vy, omega, dl) per particle; dl = 0 without growth.  ``law``:
-    :func:`growth_law`, one row for all or one per particle.  Where lam = 0 the increment
+    :func:`law_rows`, one row for all or one per particle.  Where lam = 0 the increment
     l (exp(a dt) - 1) does not depend on gam (the same bits as the general formula, without two
     exponentials per particle and iteration).
     """
@@ -279,7 +279,7 @@ def problem_arrays(c: Contacts, length: np.ndarray, dt: float):
 def prepare(contacts: Contacts, length, dt: float, lam, gamma0, rate=1.0):
     """Checked inputs of a solve: (length as float64, starting gamma, problem_arrays, law).
 
-    ``lam``, ``rate``: numbers, or per-particle arrays (strains); law: :func:`growth_law`.
+    ``lam``, ``rate``: numbers, or per-particle arrays (strains); law: :func:`law_rows`.
     """
     if dt <= 0 or not np.isfinite(dt):
         raise ValueError(f"dt must be positive and finite, got {dt}")
@@ -292,7 +292,7 @@ def prepare(contacts: Contacts, length, dt: float, lam, gamma0, rate=1.0):
     gam = np.zeros(m) if gamma0 is None else np.array(gamma0, dtype=np.float64)
     if gam.shape != (m,):
         raise ValueError(f"gamma0 must have shape ({m},), got {gam.shape}")
-    return length, gam, problem_arrays(contacts, length, dt), growth_law(lam, rate, dt,
+    return length, gam, problem_arrays(contacts, length, dt), law_rows(lam, rate, dt,
                                                                           length.shape[0])
 
 
@@ -314,7 +314,7 @@ def linearised_gap(
 ) -> np.ndarray:
     """The gradient of E at gamma: the linearised gap phi_k(t + dt) (module docstring).
 
-    ``lam``, ``rate``: numbers or per-particle arrays (:func:`growth_law`).
+    ``lam``, ``rate``: numbers or per-particle arrays (:func:`law_rows`).
     """
     length = np.ascontiguousarray(length, dtype=np.float64)
     n = length.shape[0]
@@ -326,5 +326,5 @@ def linearised_gap(
     start, idx, coef = incidence(c, ti, tj, n)
     _gradient(np.ascontiguousarray(gamma, dtype=np.float64), start, idx, coef, c.i, c.j, c.nx, c.ny,
               ti, tj, c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt),
-              growth_law(lam, rate, dt, n), bool(growth), np.empty((n, 4)), out)
+              law_rows(lam, rate, dt, n), bool(growth), np.empty((n, 4)), out)
     return out

@@ -156,7 +156,7 @@ def coarse_correction(gam, q, p, s, g, length, law, growth):
     sa = (s @ a).tocsc()
     ga = (g @ a).tocsc()
     hc = sa.T @ sa
-    if growth and law[:, 0].max() > 0:  # law: problem.growth_law, rows (lam_n, a_n dt, .)
+    if growth and law[:, 0].max() > 0:  # law: problem.law_rows, rows (lam_n, a_n dt, .)
         sig = g @ gam
         r = law[:, 1] * growth_rate.py_func(law[:, 0], sig)  # NumPy (growth.growth_rate)
         hc = hc + ga.T @ sp.diags(length * law[:, 0] * r * np.exp(r)) @ ga

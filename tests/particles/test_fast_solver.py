@@ -19,8 +19,8 @@ from particles.solvers.apgd import apgd_kernel, lipschitz_bound, solve_contacts_
 from particles.solvers.bbpgd import BLOCK, solve_contacts
 from particles.solvers.problem import (
     ContactSolveError,
-    growth_law,
     incidence,
+    law_rows,
     linearised_gap,
     problem_arrays,
 )
@@ -113,7 +113,7 @@ def test_lipschitz_estimate_matches_dense_eigenvalue(grown):
     np.testing.assert_allclose(np.diag(h) - np.diag(gmat.T @ (cmax[:, None] * gmat)), akk)
     s = 1 / np.sqrt(akk)
     exact = np.linalg.eigvalsh(s[:, None] * h * s[None, :]).max()
-    est = lipschitz_bound(c, length, dt, growth_law(lam, 1.0, dt, len(length)), iters=200,
+    est = lipschitz_bound(c, length, dt, law_rows(lam, 1.0, dt, len(length)), iters=200,
                           rtol=0.0)
     assert 0.99 * exact <= est <= exact * (1 + 1e-9)
 
@@ -123,7 +123,7 @@ def test_too_long_step_is_recovered_by_halving(grown):
     c = detect_contacts(x, y, th, length, 0.1)
     dt, lam, tol = 0.005, 1e-2, 1e-7
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
-    law = growth_law(lam, 1.0, dt, len(length))
+    law = law_rows(lam, 1.0, dt, len(length))
     lip = lipschitz_bound(c, length, dt, law)
     gam = np.zeros(len(c))
     hist = np.full(200_001, np.nan)
@@ -261,7 +261,7 @@ def test_bbpgd_iterates_are_textbook_bbpgd(grown, lam, nu):
     gam, hist, qout = gam0.copy(), np.full(nu + 1, np.nan), np.empty(len(c))
     it, _, _ = bb_smooth(gam, *incidence(c, ti, tj, length.size), c.i, c.j, c.nx, c.ny, ti, tj,
                          c.gi, c.gj, c.gap, 1 / length, 12 / length**3, length, dt,
-                         growth_law(lam, 1.0, dt, length.size), True, akk, 0.0, nu, 0.0, 0, hist,
+                         law_rows(lam, 1.0, dt, length.size), True, akk, 0.0, nu, 0.0, 0, hist,
                          qout)
     assert it == -1  # tol 0: every iteration taken
     np.testing.assert_allclose(gam, want[-1], rtol=1e-9, atol=1e-12)

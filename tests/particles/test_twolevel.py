@@ -14,7 +14,7 @@ from particles.packings import ring_packing
 from particles.solvers.bbpgd import solve_contacts
 from particles.solvers.problem import (
     ContactSolveError,
-    growth_law,
+    law_rows,
     linearised_gap,
     problem_arrays,
 )
@@ -97,7 +97,7 @@ def test_coarse_step_is_galerkin_exact_for_lam0(packing):
     p = hat_prolongation(zx, zy, main, 3.0)
     s, g = contact_operators(c, length, DT)
     q = linearised_gap(c, length, DT, 0.0, gam)
-    new = coarse_correction(gam, q, p, s, g, length, growth_law(0.0, 1.0, DT, len(length)),
+    new = coarse_correction(gam, q, p, s, g, length, law_rows(0.0, 1.0, DT, len(length)),
                             True)
     assert np.all(new >= 0) and np.all(new[gam == 0] == 0)
     assert np.all(new[gam > 0] > 0)  # no clipping: the step is the exact coarse minimiser
