@@ -56,6 +56,19 @@ def starts(problem, solver, matched, new, gamma_exact, before) -> dict[str, int]
     return out
 
 
+def main_problem(sim: Simulation):
+    """The main contact problem of ``sim``'s next step and the engine's warm start for it.
+
+    Returns ((contacts, lengths, dt, lam, solver tolerance), matched start, contact keys), as
+    the engine's step would pose it (stepping.step).
+    """
+    st, cfg = sim.state, sim.config
+    c = detect(st, cfg.contact_margin, None, sim._detections)
+    keys = c.keys(st.ids)
+    problem = (c, st.length, st.dt_next, cfg.lam, cfg.effective_solver_tol)
+    return problem, warm_start(keys, *st.warm), keys
+
+
 def main(argv: list[str] | None = None) -> dict[str, float]:
     """Run the experiment of the module docstring; the mean iterations of each start."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -71,11 +84,9 @@ def main(argv: list[str] | None = None) -> dict[str, float]:
     previous, dts, rows = None, [], []
     for _ in range(args.steps):
         st = sim.state
-        c = detect(st, cfg.contact_margin, None, sim._detections)
-        keys = c.keys(st.ids)
+        problem, matched, keys = main_problem(sim)
+        c = problem[0]
         warm_keys, warm_gamma = st.warm
-        problem = (c, st.length, st.dt_next, cfg.lam, cfg.effective_solver_tol)
-        matched = warm_start(keys, warm_keys, warm_gamma)
         new = ~np.isin(keys, warm_keys)
         gamma_exact = solver(*problem[:4], matched, problem[4], 10**6, True)[0]
         before = None

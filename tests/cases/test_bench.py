@@ -251,3 +251,69 @@ def test_bench_warm_start_small(tmp_path, capsys):
     assert "ratio to matched" in capsys.readouterr().out
     with pytest.raises(SystemExit):
         bench_warm.main(["--checkpoint", str(part / "checkpoint.npz"), "--steps", "0"])
+
+
+@pytest.fixture(scope="module")
+def stopped_colony(tmp_path_factory):
+    """A lam = 1e-2 colony of ~100 cells stopped after 120 steps: its checkpoint.npz."""
+    part = tmp_path_factory.mktemp("stopped")
+    run(Config(lam=1e-2, time=3.0, dt=0.02, seed=3, step_control="fixed"), part, max_steps=120)
+    return part / "checkpoint.npz"
+
+
+def test_bench_newton_matrices_and_steps(stopped_colony, capsys):
+    """cases.bench.newton (issue 33): its sparse gradient and Hessian are the engine's.
+
+    A gamma equals the kernels' gradient difference q(gamma) - q(0) at lam = 0 to round-off,
+    and H(gamma) v their central difference at lam = 1e-2 to the difference's O(h^2); the
+    active-set iteration lowers the residual of the run's own problem; bad flags are usage
+    errors.
+    """
+    from cases.bench import newton
+    from cases.bench.warm_start import main_problem
+    from particles.simulation import Simulation
+    from particles.solvers.problem import linearised_gap
+
+    problem, matched, _ = main_problem(Simulation.load(stopped_colony))
+    c, length, dt, lam, tol = problem
+    rng = np.random.default_rng(0)
+    gamma, v = rng.random(len(c)), rng.standard_normal(len(c))
+    a, g, w = newton.contact_matrices((c, length, dt, 0.0, tol))
+    diff = linearised_gap(c, length, dt, 0.0, gamma) - linearised_gap(c, length, dt, 0.0, 0 * gamma)
+    assert np.max(np.abs(a @ gamma - diff)) <= 1e-12 * np.max(np.abs(diff))
+    a, g, w = newton.contact_matrices(problem)
+    hv = newton.hessian(a, g, w, gamma) @ v
+    for h, bound in ((1e-3, 1e-5), (1e-4, 1e-7)):
+        fd = (linearised_gap(c, length, dt, lam, gamma + h * v)
+              - linearised_gap(c, length, dt, lam, gamma - h * v)) / (2 * h)
+        assert np.max(np.abs(fd - hv)) <= bound * np.max(np.abs(hv))
+    out = newton.main(["--checkpoint", str(stopped_colony), "--newton", "3"])
+    res = [r["residual"] for r in out["newton"]]
+    assert res[-1] < res[0] and out["bbpgd iterations"] > 0
+    assert "| Newton step | residual |" in capsys.readouterr().out
+    for bad in (["--regularisation", "0"], ["--newton", "0"]):
+        with pytest.raises(SystemExit):
+            newton.main(["--checkpoint", str(stopped_colony), *bad])
+
+
+def test_bench_iteration_cost(stopped_colony, capsys):
+    """cases.bench.iteration_cost (issue 33): bytes counted from the kernels, float32 solves.
+
+    An iteration moves 208 bytes per contact in float64 and 136 with float32 geometry and int32
+    indices; the float32-geometry solve meets the tolerance in the float64 problem (up to the
+    rounding of its coefficients); the stream bandwidth is positive; bad flags are usage errors.
+    """
+    from cases.bench import iteration_cost as ic
+
+    m, n = 1000, 10
+    assert ic.bytes_per_iteration(m, n, False) - ic.bytes_per_iteration(0, n, False) == 208 * m
+    assert ic.bytes_per_iteration(m, n, True) - ic.bytes_per_iteration(0, n, True) == 136 * m
+    out = ic.main(["--checkpoint", str(stopped_colony), "--iterations", "5", "--repeats", "1",
+                   "--stream-mb", "8"])
+    assert out["float32 residual in float64"] <= 1e-3 * (1 + 1e-4)
+    assert out["float64 iterations"] > 0 and out["float32 iterations"] > 0
+    assert out["stream GB/s"] > 0
+    assert "share of stream" in capsys.readouterr().out
+    for bad in (["--repeats", "0"], ["--stream-mb", "0"]):
+        with pytest.raises(SystemExit):
+            ic.main(["--checkpoint", str(stopped_colony), *bad])
