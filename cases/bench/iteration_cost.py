@@ -12,13 +12,14 @@ engine would (``cases.bench.warm_start.main_problem``), and measures:
   the particle rows), hence the bandwidth an iteration reaches, against stream;
 - **precision**: the same solver kernels (``bbpgd._bbpgd``, compiled for the arrays' types)
   with the contact geometry (normals, arms, load factors, gaps, a_kk) in float32 and the
-  particle indices in int32, the forces, gradients and sums staying in float64.  Rounding the
+  particle indices in int32, the forces, gradients and sums staying in float64 (and each
+  change alone: VARIANTS).  Rounding the
   geometry to float32 moves each gap by about 6e-8 of its terms (dt a gamma <= 10 at paper
   scale: < 1e-6, against the tolerance 1e-3), so the solve is the same problem within the
   tolerance.  Reported: iterations to the run's tolerance from the engine's warm start, the
   float32 solution's residual in the float64 problem (it must be <= the tolerance, up to the
   rounding), and seconds per iteration over
-  ``--iterations`` iterations (tolerance 0), alternating the two precisions ``--repeats``
+  ``--iterations`` iterations (tolerance 0), alternating the variants ``--repeats``
   times in one process.
 
 Seconds are medians over the repeats; compare only within one run of the script, and run it on
@@ -65,8 +66,13 @@ def stream_bandwidth(megabytes: float) -> float:
     return 24 * n / best / 1e9
 
 
-def kernel_arrays(problem, gamma0, single: bool):
-    """The arguments of ``bbpgd._bbpgd`` for ``problem``; ``single``: geometry float32, int32 ids.
+VARIANTS = {"float64": (False, False), "float32": (True, True),
+            "float64, int32 ids": (True, False), "float32, int64 ids": (False, True)}
+"""Array types measured: (indices in int32, geometry in float32).  "float32" is both."""
+
+
+def kernel_arrays(problem, gamma0, small_ids: bool, single: bool):
+    """The arguments of ``bbpgd._bbpgd`` for ``problem``: int32 ids, float32 geometry if asked.
 
     Returns (gamma, args after gamma up to ``tol``), the arrays in the kernels' order.
     """
@@ -74,15 +80,16 @@ def kernel_arrays(problem, gamma0, single: bool):
     length, gam, (mt, mr, ti, tj, akk), law = prepare(c, length, dt, lam, gamma0)
     start, idx, coef = incidence(c, ti, tj, length.shape[0])
     ids = [c.i, c.j]
-    geometry = [c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap]
-    if single:
+    geometry = [c.nx, c.ny, ti, tj, c.gi, c.gj, c.gap, akk]
+    if small_ids:
         ids = [np.ascontiguousarray(a, dtype=np.int32) for a in ids]
+    if single:
         geometry = [np.ascontiguousarray(a, dtype=np.float32) for a in geometry]
-        akk = akk.astype(np.float32)
-    return gam, (start, idx, coef, *ids, *geometry, mt, mr, length, float(dt), law, True, akk)
+    return gam, (start, idx, coef, *ids, *geometry[:7], mt, mr, length, float(dt), law, True,
+                 geometry[7])
 
 
-def bytes_per_iteration(m: int, n: int, single: bool) -> int:
+def bytes_per_iteration(m: int, n: int, small_ids: bool, single: bool) -> int:
     """Bytes one BBPGD iteration moves on one thread (the scatter path of problem.py).
 
     Per contact: the projected step reads gamma and its gradient and writes the step (3 x 8);
@@ -91,7 +98,7 @@ def bytes_per_iteration(m: int, n: int, single: bool) -> int:
     writes the new gradient.  Per particle: the (N, 4) sums written twice (zeroed, summed) and
     read twice (moves, gaps), and mt, mr, l read once.  Indices 8 or 4 bytes, geometry 8 or 4.
     """
-    ind, geo = (4, 4) if single else (8, 8)
+    ind, geo = 4 if small_ids else 8, 4 if single else 8
     step = 3 * 8
     scatter = 8 + 2 * ind + 6 * geo
     gaps = 2 * ind + 6 * geo + 2 * geo + 3 * 8 + 8
@@ -107,25 +114,26 @@ def _solve(gam, args, tol, maxiter):
 
 
 def measure(problem, gamma0, iterations: int, repeats: int) -> dict:
-    """Iterations to tolerance, gap difference and seconds per iteration, float64 / float32."""
+    """Iterations to tolerance and seconds per iteration of each of VARIANTS, alternated.
+
+    Also the float32 solution's residual in the float64 problem.
+    """
     c, length, dt, lam, tol = problem
     out = {"contacts": len(c), "particles": int(length.shape[0])}
-    runs = {p: kernel_arrays(problem, gamma0, p == "float32") for p in ("float64", "float32")}
-    sol = {}
+    runs = {p: kernel_arrays(problem, gamma0, *VARIANTS[p]) for p in VARIANTS}
     for p, (gam, args) in runs.items():
-        g, it, _ = _solve(gam, args, tol, 10**6)
-        sol[p] = g
-        out[f"{p} iterations"] = it
-    akk = runs["float64"][1][-1]
-    q = linearised_gap(c, length, dt, lam, sol["float32"])
-    out["float32 residual in float64"] = float(np.max(np.abs(np.minimum(akk * sol["float32"], q))))
+        g, out[f"{p} iterations"], _ = _solve(gam, args, tol, 10**6)
+        if p == "float32":
+            q = linearised_gap(c, length, dt, lam, g)
+            akk = runs["float64"][1][-1]
+            out["float32 residual in float64"] = float(np.max(np.abs(np.minimum(akk * g, q))))
     seconds = {p: [] for p in runs}
     for _ in range(repeats):
         for p, (gam, args) in runs.items():
             seconds[p].append(_solve(gam, args, 0.0, iterations)[2] / iterations)
     for p in runs:
         out[f"{p} s/iteration"] = float(np.median(seconds[p]))
-        out[f"{p} bytes/iteration"] = bytes_per_iteration(len(c), out["particles"], p == "float32")
+        out[f"{p} bytes/iteration"] = bytes_per_iteration(len(c), out["particles"], *VARIANTS[p])
     return out
 
 
@@ -149,10 +157,10 @@ def main(argv: list[str] | None = None) -> dict:
     out["stream GB/s"] = stream_bandwidth(args.stream_mb)
     print(f"N = {out['particles']}, contacts {out['contacts']}, {args.threads} thread(s); "
           f"stream triad {out['stream GB/s']:.1f} GB/s")
-    print("| precision | iterations to tol | s/iteration (median) | bytes/iteration | GB/s | "
+    print("| arrays | iterations to tol | s/iteration (median) | bytes/iteration | GB/s | "
           "share of stream |")
     print("|---|---|---|---|---|---|")
-    for p in ("float64", "float32"):
+    for p in VARIANTS:
         s, b = out[f"{p} s/iteration"], out[f"{p} bytes/iteration"]
         print(f"| {p} | {out[f'{p} iterations']} | {s * 1e3:.3f} ms | {b / 1e6:.1f} MB | "
               f"{b / s / 1e9:.1f} | {b / s / 1e9 / out['stream GB/s']:.2f} |")

@@ -20,7 +20,8 @@ released), ::
     gamma_I <- 0,   (H_AA + eps mean(diag H_AA) I) delta_A = -q_A + H_AI gamma_I,
     gamma_A <- max(0, gamma_A + delta_A),
 
-each step one sparse LU factorisation (SuperLU, COLAMD) of the active block.  eps
+each step one sparse LU factorisation of the active block (``--factorisation``: scipy's
+SuperLU with COLAMD, or MKL PARDISO through pypardiso when it is installed; not a dependency).  eps
 (``--regularisation``) is needed: the active contact network is nearly isostatic and often
 hyperstatic (more active contacts than rigid-body freedoms), so H_AA is singular.  An
 interior-point iteration factorises H + diag(gamma / s) over all contacts, a larger matrix of
@@ -29,7 +30,7 @@ per iteration.  BBPGD (the engine's solver, one thread) solves the same problem 
 warm start for comparison.
 
     python -m cases.bench.newton --checkpoint RUN.partial/checkpoint.npz
-           [--regularisation 1e-1] [--newton 20]
+           [--regularisation 1e-1] [--newton 20] [--factorisation superlu|pardiso]
 """
 
 from __future__ import annotations
@@ -83,11 +84,30 @@ def hessian(a, g, w, gamma) -> sp.csr_matrix:
 
 
 def residual(akk, gamma, q) -> float:
-    """The engine's residual max_k |min(a_kk gamma_k, q_k)|."""
+    """The engine's residual ``max_k |min(a_kk gamma_k, q_k)|``."""
     return float(np.max(np.abs(np.minimum(akk * gamma, q))))
 
 
-def active_set_newton(problem, gamma0, eps: float, steps: int):
+def factor_solve(matrix, rhs, method: str):
+    """(solution of matrix x = rhs, seconds, fill of the factors) by SuperLU or MKL PARDISO.
+
+    ``method``: "superlu" (scipy, COLAMD ordering) or "pardiso" (pypardiso, not a dependency of
+    the project: ``pip install pypardiso``; fill not reported, NaN).
+    """
+    matrix = matrix.tocsc() if method == "superlu" else matrix.tocsr()
+    t0 = time.perf_counter()
+    if method == "superlu":
+        lu = sla.splu(matrix)
+        x = lu.solve(rhs)
+        fill = (lu.L.nnz + lu.U.nnz) / matrix.nnz
+    else:
+        import pypardiso
+
+        x, fill = pypardiso.PyPardisoSolver().solve(matrix, rhs), float("nan")
+    return x, time.perf_counter() - t0, fill
+
+
+def active_set_newton(problem, gamma0, eps: float, steps: int, method: str = "superlu"):
     """The module's iteration from max(0, gamma0): one row per step (residual, factorisation)."""
     c, length, dt, lam, tol = problem
     a, g, w = contact_matrices(problem)
@@ -105,23 +125,19 @@ def active_set_newton(problem, gamma0, eps: float, steps: int):
         on, off = np.flatnonzero(active), np.flatnonzero(~active)
         haa = h[on][:, on]
         rhs = -q[on] + h[on][:, off] @ gamma[off]
-        t0 = time.perf_counter()
-        lu = sla.splu((haa + eps * haa.diagonal().mean() * sp.identity(on.size)).tocsc())
-        delta = lu.solve(rhs)
-        row["seconds"] = time.perf_counter() - t0
-        row["fill"] = (lu.L.nnz + lu.U.nnz) / haa.nnz
+        regular = haa + eps * haa.diagonal().mean() * sp.identity(on.size)
+        delta, row["seconds"], row["fill"] = factor_solve(regular, rhs, method)
         gamma[off] = 0.0
         gamma[on] = np.maximum(0.0, gamma[on] + delta)
     return gamma, rows
 
 
-def full_factorisation_seconds(problem, gamma, eps: float) -> float:
-    """Seconds of one SuperLU factorisation of H(gamma) + eps mean(diag) I over all contacts."""
+def full_factorisation_seconds(problem, gamma, eps: float, method: str = "superlu") -> float:
+    """Seconds of one factorisation and solve of H(gamma) + eps mean(diag) I, all contacts."""
     a, g, w = contact_matrices(problem)
     h = hessian(a, g, w, gamma)
-    t0 = time.perf_counter()
-    sla.splu((h + eps * h.diagonal().mean() * sp.identity(h.shape[0])).tocsc())
-    return time.perf_counter() - t0
+    regular = h + eps * h.diagonal().mean() * sp.identity(h.shape[0])
+    return factor_solve(regular, np.ones(h.shape[0]), method)[1]
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -131,11 +147,18 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--regularisation", type=float, default=1e-1,
                     help="eps: the active block is factorised as H_AA + eps mean(diag) I")
     ap.add_argument("--newton", type=int, default=20, help="at most this many Newton steps")
+    ap.add_argument("--factorisation", choices=("superlu", "pardiso"), default="superlu",
+                    help="sparse LU: scipy's SuperLU, or MKL PARDISO (pip install pypardiso)")
     args = ap.parse_args(argv)
     if not args.regularisation > 0:
         ap.error(f"--regularisation must be > 0, got {args.regularisation}")
     if args.newton < 1:
         ap.error(f"--newton must be >= 1, got {args.newton}")
+    if args.factorisation == "pardiso":
+        try:
+            import pypardiso  # noqa: F401
+        except ImportError:
+            ap.error("--factorisation pardiso needs pypardiso (pip install pypardiso)")
     numba.set_num_threads(1)
     problem, matched, _ = main_problem(Simulation.load(args.checkpoint))
     c, length, dt, lam, tol = problem
@@ -145,13 +168,17 @@ def main(argv: list[str] | None = None) -> dict:
     gamma_bb, hist = solver(c, length, dt, lam, matched, tol, 10**6, True)
     out = {"particles": int(length.shape[0]), "contacts": len(c), "tolerance": tol,
            "bbpgd iterations": len(hist) - 1, "bbpgd seconds": time.perf_counter() - t0}
-    _, rows = active_set_newton(problem, matched, args.regularisation, args.newton)
+    _, rows = active_set_newton(problem, matched, args.regularisation, args.newton,
+                                args.factorisation)
     out["newton"] = rows
-    out["full factorisation seconds"] = full_factorisation_seconds(problem, gamma_bb,
-                                                                   args.regularisation)
+    out["full factorisation seconds"] = full_factorisation_seconds(
+        problem, gamma_bb, args.regularisation, args.factorisation)
+    out["loaded contacts"], out["freedoms"] = int((gamma_bb > 0).sum()), 3 * out["particles"]
     print(f"N = {out['particles']}, contacts {out['contacts']}, tolerance {tol:g}: BBPGD "
           f"{out['bbpgd iterations']} iterations in {out['bbpgd seconds']:.2f} s; one "
-          f"factorisation of the whole H {out['full factorisation seconds']:.2f} s")
+          f"factorisation of the whole H {out['full factorisation seconds']:.2f} s "
+          f"({args.factorisation}); loaded contacts at the solution {out['loaded contacts']} "
+          f"against 3N = {out['freedoms']} rigid-body freedoms")
     print("| Newton step | residual | active contacts | factorisation + solve [s] | fill |")
     print("|---|---|---|---|---|")
     for k, r in enumerate(rows):
