@@ -27,7 +27,8 @@ hyperstatic (more active contacts than rigid-body freedoms), so H_AA is singular
 interior-point iteration factorises H + diag(gamma / s) over all contacts, a larger matrix of
 the same pattern: the time of one factorisation of the whole H is reported as its lower bound
 per iteration.  BBPGD (the engine's solver, one thread) solves the same problem from the same
-warm start for comparison.
+warm start for comparison, and again from the last Newton iterate (does a Newton start, right
+in the network's slow modes, save BBPGD iterations?).
 
     python -m cases.bench.newton --checkpoint RUN.partial/checkpoint.npz
            [--regularisation 1e-1] [--newton 20] [--factorisation superlu|pardiso]
@@ -168,9 +169,11 @@ def main(argv: list[str] | None = None) -> dict:
     gamma_bb, hist = solver(c, length, dt, lam, matched, tol, 10**6, True)
     out = {"particles": int(length.shape[0]), "contacts": len(c), "tolerance": tol,
            "bbpgd iterations": len(hist) - 1, "bbpgd seconds": time.perf_counter() - t0}
-    _, rows = active_set_newton(problem, matched, args.regularisation, args.newton,
-                                args.factorisation)
+    gamma_newton, rows = active_set_newton(problem, matched, args.regularisation, args.newton,
+                                           args.factorisation)
     out["newton"] = rows
+    out["bbpgd after newton"] = len(solver(c, length, dt, lam, gamma_newton, tol, 10**6,
+                                           True)[1]) - 1
     out["full factorisation seconds"] = full_factorisation_seconds(
         problem, gamma_bb, args.regularisation, args.factorisation)
     out["loaded contacts"], out["freedoms"] = int((gamma_bb > 0).sum()), 3 * out["particles"]
@@ -186,7 +189,8 @@ def main(argv: list[str] | None = None) -> dict:
               f"{r.get('fill', 0.0):.1f} |")
     spent = sum(r.get("seconds", 0.0) for r in rows)
     print(f"Newton: residual {rows[-1]['residual']:.3g} after {len(rows) - 1} steps, "
-          f"{spent:.2f} s in factorisations = {spent / out['bbpgd seconds']:.2f} BBPGD solves")
+          f"{spent:.2f} s in factorisations = {spent / out['bbpgd seconds']:.2f} BBPGD solves; "
+          f"BBPGD from there {out['bbpgd after newton']} iterations")
     return out
 
 

@@ -290,7 +290,7 @@ def test_bench_newton_matrices_and_steps(stopped_colony, capsys):
         assert np.max(np.abs(fd - hv)) <= bound * np.max(np.abs(hv))
     out = newton.main(["--checkpoint", str(stopped_colony), "--newton", "3"])
     res = [r["residual"] for r in out["newton"]]
-    assert res[-1] < res[0] and out["bbpgd iterations"] > 0
+    assert res[-1] < res[0] and out["bbpgd iterations"] > 0 and out["bbpgd after newton"] >= 0
     assert "| Newton step | residual |" in capsys.readouterr().out
     bads = [["--regularisation", "0"], ["--newton", "0"]]
     if importlib.util.find_spec("pypardiso") is None:  # optional, not a dependency
