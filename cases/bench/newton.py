@@ -21,14 +21,14 @@ released), ::
     gamma_A <- max(0, gamma_A + delta_A),
 
 each step one sparse LU factorisation of the active block (``--factorisation``: scipy's
-SuperLU with COLAMD, or MKL PARDISO through pypardiso when it is installed; not a dependency).  eps
-(``--regularisation``) is needed: the active contact network is nearly isostatic and often
-hyperstatic (more active contacts than rigid-body freedoms), so H_AA is singular.  An
-interior-point iteration factorises H + diag(gamma / s) over all contacts, a larger matrix of
-the same pattern: the time of one factorisation of the whole H is reported as its lower bound
-per iteration.  BBPGD (the engine's solver, one thread) solves the same problem from the same
-warm start for comparison, and again from the last Newton iterate (does a Newton start, right
-in the network's slow modes, save BBPGD iterations?).
+SuperLU with COLAMD, or MKL PARDISO through pypardiso, the ``pardiso`` extra, not a core
+dependency).  eps (``--regularisation``) is needed: the active contact network is nearly
+isostatic and often hyperstatic (more active contacts than rigid-body freedoms), so H_AA is
+singular.  An interior-point iteration factorises H + diag(gamma / s) over all contacts, a
+larger matrix of the same pattern: the time of one factorisation of the whole H is reported as
+its lower bound per iteration.  BBPGD (the engine's solver, one thread) solves the same problem
+from the same warm start for comparison, and again from the last Newton iterate (does a start
+with the network's slow modes solved save BBPGD iterations?).
 
     python -m cases.bench.newton --checkpoint RUN.partial/checkpoint.npz
            [--regularisation 1e-1] [--newton 20] [--factorisation superlu|pardiso]
@@ -159,7 +159,7 @@ def main(argv: list[str] | None = None) -> dict:
         try:
             import pypardiso  # noqa: F401
         except ImportError:
-            ap.error("--factorisation pardiso needs pypardiso (pip install pypardiso)")
+            ap.error("--factorisation pardiso needs pypardiso (pip install '.[pardiso]')")
     numba.set_num_threads(1)
     problem, matched, _ = main_problem(Simulation.load(args.checkpoint))
     c, length, dt, lam, tol = problem

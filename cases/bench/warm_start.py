@@ -60,9 +60,13 @@ def main_problem(sim: Simulation):
     """The main contact problem of ``sim``'s next step and the engine's warm start for it.
 
     Returns ((contacts, lengths, dt, lam, solver tolerance), matched start, contact keys), as
-    the engine's step would pose it (stepping.step).
+    the engine's step would pose it (stepping.step).  One strain only (the benchmarks pose the
+    problem with the colony's one lam).
     """
     st, cfg = sim.state, sim.config
+    if cfg.strains:
+        raise ValueError("the solver benchmarks take one-strain runs; this run has "
+                         f"{len(cfg.strains)} strains")
     c = detect(st, cfg.contact_margin, None, sim._detections)
     keys = c.keys(st.ids)
     problem = (c, st.length, st.dt_next, cfg.lam, cfg.effective_solver_tol)
