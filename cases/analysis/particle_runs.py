@@ -35,6 +35,7 @@ __all__ = [
     "particle_growth_series",
     "profile_central_stress",
     "history_segments",
+    "progress_lines",
     "progress_wall",
 ]
 
@@ -163,26 +164,36 @@ def particle_growth_series(folder: str | os.PathLike, edge_width: float = 0.5,
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
 
-def progress_wall(log: str | Path) -> tuple[np.ndarray, np.ndarray]:
-    """(step, wall seconds) of the progress lines of a ``colony particles`` log (its stderr).
+def progress_lines(log: str | Path) -> dict[str, np.ndarray]:
+    """Columns radius, particles, step, wall of the progress lines of a ``colony particles`` log.
 
-    The lines written once a minute when stderr is not a terminal, ``... step S, dt D, W s``
-    (W: seconds since the command started; the bar's carriage returns count as line ends),
-    after (0, 0): the start, before the first step. A log of a stopped and resumed run (the
-    commands' stderr one after the other) counts on: where W starts again from a smaller
-    value, the later lines are shifted by the last W before (the seconds between that line and
-    the stop are not counted).
+    The lines written once a minute when stderr is not a terminal, ``colony: radius R of ...,
+    t = T, N particles, step S, dt D, W s`` (W: seconds since the command started; the bar's
+    carriage returns count as line ends). A log of a stopped and resumed run (the commands'
+    stderr one after the other) counts on: where W starts again from a smaller value, the later
+    lines are shifted by the last W before (the seconds between that line and the stop are not
+    counted).
     """
-    found = re.findall(r"step (\d+), dt \S+, (\d+) s\s*$",
+    found = re.findall(r"radius (\S+) of \S+, t = \S+, (\d+) particles, step (\d+), "
+                       r"dt \S+, (\d+) s\s*$",
                        Path(log).read_text().replace("\r", "\n"), flags=re.MULTILINE)
-    wall, offset, last = [0.0], 0.0, 0.0
-    for _, b in found:
+    wall, offset, last = [], 0.0, 0.0
+    for *_, b in found:
         w = float(b)
         if w < last:  # a resumed command's clock
             offset += last
         last = w
         wall.append(offset + w)
-    return np.array([0] + [int(a) for a, _ in found], dtype=float), np.array(wall)
+    return {"radius": np.array([float(r) for r, *_ in found]),
+            "particles": np.array([int(n) for _, n, *_ in found]),
+            "step": np.array([int(s) for _, _, s, _ in found]), "wall": np.array(wall)}
+
+
+def progress_wall(log: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """(step, wall seconds) of :func:`progress_lines`, after (0, 0): the start, before step 1."""
+    lines = progress_lines(log)
+    return (np.concatenate([[0.0], lines["step"]]).astype(float),
+            np.concatenate([[0.0], lines["wall"]]))
 
 
 def history_segments(run: str | Path, min_particles: float = 0.0,

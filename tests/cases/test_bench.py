@@ -323,3 +323,36 @@ def test_bench_iteration_cost(stopped_colony, capsys):
     for bad in (["--repeats", "0"], ["--stream-mb", "0"]):
         with pytest.raises(SystemExit):
             ic.main(["--checkpoint", str(stopped_colony), *bad])
+
+
+def test_bench_cost_growth_fits_a_power_law(tmp_path, capsys):
+    """Progress lines on W = 2 (R/10)^3.5, N = 4 R^2: the fitted exponents and the projection."""
+    import shutil
+    from pathlib import Path
+
+    from cases.bench import cost_growth
+    run = tmp_path / "run"
+    data = Path(__file__).parents[2] / "cases" / "data" / "particles_paper"
+    shutil.copytree(data / "lam=0.001", run)
+    radii = np.arange(50.0, 151.0, 5.0)  # the history ends at R = 150.07: no end point added
+    law = 2 * (radii / 10) ** 3.5
+    (run / "progress.log").write_text("".join(
+        f"colony: radius {r:.2f} of 150, t = 1, {4 * r * r:.0f} particles, step {k + 1}, "
+        f"dt 0.001, {w:.0f} s\n" for k, (r, w) in enumerate(zip(radii, law, strict=True))))
+    (run / "time.txt").write_text("\tUser time (seconds): 3000.0\n"
+                                  "\tElapsed (wall clock) time (h:mm:ss or m:ss): 25:00\n"
+                                  "\tMaximum resident set size (kbytes): 500000\n")
+    row, = cost_growth.main(["--runs", str(run), "--radii", "100", "200", "--target", "260"])
+    assert abs(row["wall_exponent"] - 3.5) < 2e-3  # whole seconds in the log
+    assert abs(row["particle_exponent"] - 2) < 1e-4
+    assert row["wall_s at R=100"] == pytest.approx(2 * 10**3.5, abs=0.5)
+    assert np.isnan(row["wall_s at R=200"])
+    assert row["busy_threads"] == pytest.approx(2.0)
+    assert row["target_wall_h"] == pytest.approx(2 * 26**3.5 / 3600, rel=5e-3)
+    assert row["target_core_h"] == pytest.approx(2 * row["target_wall_h"])
+    assert row["target_particles"] == pytest.approx(4 * 260**2, rel=1e-3)
+    assert row["target_peak_mb"] == pytest.approx(500 * (260 / 150) ** 2, rel=1e-3)
+    assert "2688 core hours" in capsys.readouterr().out
+    with pytest.raises(SystemExit):
+        cost_growth.main(["--runs", str(run), "--fit", "200", "250"])
+    assert "need 3 to fit" in capsys.readouterr().err
