@@ -192,7 +192,7 @@ def progress_lines(log: str | Path) -> dict[str, np.ndarray]:
 def progress_wall(log: str | Path) -> tuple[np.ndarray, np.ndarray]:
     """(step, wall seconds) of :func:`progress_lines`, after (0, 0): the start, before step 1."""
     lines = progress_lines(log)
-    return (np.concatenate([[0.0], lines["step"]]).astype(float),
+    return (np.concatenate([[0.0], lines["step"]]),
             np.concatenate([[0.0], lines["wall"]]))
 
 

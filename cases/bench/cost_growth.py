@@ -10,7 +10,7 @@ per run:
 - the wall seconds at each of ``--radii`` (linear in R between the progress lines and the end:
   the history's last radius at the ``time -v`` reports' wall, when that is later than the last
   line; blank below the first line, written after a minute);
-- the exponent a of W ~ R^a, least squares of log W on log R over the lines with R in
+- the exponent a of W ~ R^a, least squares of log W on log R over the progress lines with R in
   ``--fit`` (and b of N ~ R^b likewise);
 - the projection to ``--target``: W(R_t) = W(R_last) (R_t / R_last)^a, N(R_t) the same with b,
   the cores' hours W(R_t) u with u = user CPU / wall of the run's ``time -v`` reports (the
@@ -51,17 +51,15 @@ def growth(run: str | Path, radii: list[float], fit: tuple[float, float],
     run = Path(run)
     lines = A.progress_lines(run / "progress.log")
     R, W, N = lines["radius"], lines["wall"], lines["particles"]
-    keep = (R >= fit[0]) & (R <= fit[1])
-    if keep.sum() < 3:
-        raise ValueError(f"{run}: {keep.sum()} progress lines with R in [{fit[0]}, {fit[1]}], "
+    fitted = (R >= fit[0]) & (R <= fit[1])
+    if fitted.sum() < 3:
+        raise ValueError(f"{run}: {fitted.sum()} progress lines with R in [{fit[0]}, {fit[1]}], "
                          "need 3 to fit")
-    b = power_law(R[keep], N[keep])
+    a, b = power_law(R[fitted], W[fitted]), power_law(R[fitted], N[fitted])
     row = summary(run)
-    last = float(A.read_csv(run / "history.csv")["radius"][-1])
-    if row["wall_s"] > W[-1] and last > R[-1]:
-        R, W = np.append(R, last), np.append(W, row["wall_s"])
-    keep = (R >= fit[0]) & (R <= fit[1])
-    a = power_law(R[keep], W[keep])
+    end = float(A.read_csv(run / "history.csv")["radius"][-1])
+    if row["wall_s"] > W[-1] and end > R[-1]:  # the run's end, after its last progress line
+        R, W = np.append(R, end), np.append(W, row["wall_s"])
     busy = row["user_s"] / row["wall_s"] if row["wall_s"] > 0 else math.nan
     scale, n_scale = target / R[-1], (target / lines["radius"][-1])**b
     row |= {"run": str(run), "seed": json.loads((run / "config.json").read_text())["seed"],

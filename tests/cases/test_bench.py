@@ -5,7 +5,9 @@ colonies and check that the scripts' numbers add up.
 """
 
 import importlib.util
+import shutil
 from dataclasses import replace
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -327,9 +329,6 @@ def test_bench_iteration_cost(stopped_colony, capsys):
 
 def test_bench_cost_growth_fits_a_power_law(tmp_path, capsys):
     """Progress lines on W = 2 (R/10)^3.5, N = 4 R^2: the fitted exponents and the projection."""
-    import shutil
-    from pathlib import Path
-
     from cases.bench import cost_growth
     run = tmp_path / "run"
     data = Path(__file__).parents[2] / "cases" / "data" / "particles_paper"
