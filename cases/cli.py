@@ -25,7 +25,9 @@ flags; the run writes it back as ``config.json`` next to its results.
 Output folders are never left half-written: a run writes into ``DIR.partial/`` and renames it to
 ``DIR`` only when everything (engine output, ``profile.csv``, the PNG) is written. A stopped
 particle run keeps its checkpoint in ``DIR.partial/`` and resumes from it when the same command
-is given again (``--change-step-policy``: also with another ``--dt`` or ``--step-control``). Bad
+is given again (``--change-step-policy``: also with another ``--dt`` or ``--step-control``).
+``--max-hours H`` pauses a run before H hours of wall: a checkpoint, ``run.json`` status
+``paused``, exit status 75 (``rundir.PAUSED_STATUS``); the same command resumes it. Bad
 input ends with a one-line message on stderr and exit status 2.
 """
 
@@ -43,7 +45,16 @@ import threading
 import tomllib
 from pathlib import Path
 
-from cases.rundir import RECORD, RunFolderError, describe, is_no_space, no_space_message, partial_of
+from cases.rundir import (
+    PAUSED_STATUS,
+    RECORD,
+    RunFolderError,
+    RunPaused,
+    describe,
+    is_no_space,
+    no_space_message,
+    partial_of,
+)
 from cases.runs import CHECKPOINTS, run_continuum, run_particles
 from cases.sweep import select_lams
 
@@ -215,6 +226,13 @@ def _common(p: argparse.ArgumentParser, default_out: str) -> None:
     p.add_argument("--out", default=default_out, help=f"output folder (default {default_out})")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing output folder (default: refuse)")
+    p.add_argument("--max-hours", type=float, metavar="H",
+                   help="pause before H hours of wall have passed: write a checkpoint and exit "
+                   f"with status {PAUSED_STATUS}; the same command resumes (a batch job's "
+                   "walltime, chained jobs: docs/clusters.md; default: no limit)")
+    p.add_argument("--other-engine", action="store_true",
+                   help="resume a stopped run whose checkpoint another version of the engine "
+                   "wrote (default: refuse; grow every leg with the same version)")
     p.add_argument("--config", help="TOML file of configuration values (default: none)")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
                    help="override one configuration value (repeatable)")
@@ -441,11 +459,13 @@ def _dispatch(args) -> int:
                  "time": _finite("time", args.time), "shape": args.shape,
                  "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
                  "output_every": _finite("output-every", args.output_every),
-                 "element": args.element, "strains": args.strains, "layout": args.layout}
+                 "element": args.element, "strains": args.strains, "layout": args.layout,
+                 "max_hours": _finite("max-hours", args.max_hours)}
         handoff = _handoff_options(args, flags)
         config = build_config(continuum.Config, args.config, args.set, flags)
         start = None if handoff is None else _handoff_start(config, *handoff)
-        run_continuum(config, Path(args.out), args.overwrite, progress, start)
+        run_continuum(config, Path(args.out), args.overwrite, progress, start,
+                      other_engine=args.other_engine)
         print(f"continuum run written to {args.out}")
     elif args.command == "particles":
         import particles
@@ -456,9 +476,10 @@ def _dispatch(args) -> int:
                  "dt": _finite("dt", args.dt), "step_control": args.step_control,
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads, "strains": args.strains,
-                 "layout": args.layout}
+                 "layout": args.layout, "max_hours": _finite("max-hours", args.max_hours)}
         config = build_config(particles.Config, args.config, args.set, flags)
-        run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy)
+        run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy,
+                      other_engine=args.other_engine)
         print(f"particle run written to {args.out}")
     elif args.command == "info":
         print(describe(Path(args.dir)))
@@ -598,6 +619,9 @@ def _report(args) -> int:
     except KeyboardInterrupt:
         print(f"colony: interrupted (SIGINT){kept()}", file=sys.stderr)
         return 130
+    except RunPaused as paused:
+        print(f"colony: {paused}", file=sys.stderr)
+        return PAUSED_STATUS
     except SystemExit as err:  # SIGTERM: the engine stopped after a whole step
         if isinstance(err.code, int) and err.code > 128:
             print(f"colony: terminated (signal {err.code - 128}){kept()}", file=sys.stderr)

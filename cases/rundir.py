@@ -6,10 +6,12 @@ Every run folder holds ``run.json``, the run's provenance (:func:`record`), whic
 the folder as written by this tool:
 
 - ``engine``, ``config`` (resolved), ``package_version``, ``git_commit`` (when the sources are a
-  git checkout), ``seed`` (particles), ``status`` (running, stopped, failed, finished), ``error``;
+  git checkout), ``seed`` (particles), ``status`` (running, paused, stopped, failed, finished),
+  ``error``;
 - ``sessions``: one entry per command that worked on the run (a stopped run resumed is a second
   session): ``command``, ``start``, ``end`` (UTC, ISO 8601), ``wall_seconds``, ``cpu_seconds``,
-  ``peak_memory_mb`` (the process's peak resident size), ``status``, ``error``.
+  ``peak_memory_mb`` (the process's peak resident size), ``status``, ``error``,
+  ``engine_sources`` (the engine's version, :func:`engine_sources`) and ``git_commit``.
 
 Safety rules (:func:`check_target`, :func:`prepare_stage`), checked before any work:
 
@@ -22,6 +24,8 @@ Safety rules (:func:`check_target`, :func:`prepare_stage`), checked before any w
   configuration (execution settings such as ``threads`` may differ); another configuration is
   refused with a message saying how to start afresh (``--overwrite`` clears it); a stage that
   holds no checkpoint is cleared, so the published folder holds exactly what one run wrote;
+  a checkpoint is resumed only by the version of the engine that wrote it (its sources'
+  digest, :func:`engine_sources`), or by another when asked (``--other-engine``);
 - the file system must have :data:`MIN_FREE_BYTES` free; a run that fills it ends with
   "no space left on DIR" (:func:`no_space_message`), its last checkpoint intact;
 - one writer at a time: a run holds an exclusive ``flock`` on its stage folder ``DIR.partial``
@@ -43,6 +47,8 @@ from __future__ import annotations
 
 import errno
 import fcntl
+import hashlib
+import importlib
 import json
 import os
 import resource
@@ -71,7 +77,7 @@ TEMPORARY_SUFFIXES = (".tmp", ".tmp.npz", ".gsd.tmp")
 #: A run refuses to start with less free space than this on the output's file system.
 MIN_FREE_BYTES = 32 * 2**20
 #: Configuration fields that do not change a run's result (a stopped run resumes under others).
-EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
+EXECUTION_FIELDS = ("threads", "checkpoint_seconds", "max_hours")
 
 
 class RunFolderError(ValueError):
@@ -82,12 +88,29 @@ class FolderInUseError(RunFolderError):
     """A run folder another process holds (:func:`hold`)."""
 
 
+PAUSED_STATUS = 75
+"""Exit status of a run paused at its ``--max-hours`` (EX_TEMPFAIL of sysexits.h: not done,
+not failed; the same command resumes it)."""
+
+
+class RunPaused(Exception):  # noqa: N818 (not an error: a pause)
+    """A run that paused at its wall-clock limit (``max_hours``) with a checkpoint written.
+
+    One line: where it stands and that the same command resumes it.
+    """
+
+
 #: Longest suffix colony appends to ``DIR`` (``DIR.replaced``; ``DIR.partial`` is shorter).
 LONGEST_SUFFIX = ".replaced"
 
 
 def _written_by_us(name: str) -> bool:
     return name in OUTPUT_NAMES or name.endswith(TEMPORARY_SUFFIXES)
+
+
+def _frame_written_by_us(name: str) -> bool:
+    """A name of ``fields/``: a frame (``.vtu``) or a frame being written (``.vtu.tmp``)."""
+    return name.endswith((".vtu", ".vtu.tmp"))
 
 
 def read_record(folder: Path) -> dict | None:
@@ -122,7 +145,8 @@ def foreign_entries(folder: Path, follow: bool = True) -> list[str]:
     foreign = [n for n in names if not _written_by_us(n)]
     fields = folder / "fields"
     if fields.is_dir() and (follow or not fields.is_symlink()):
-        foreign += [f"fields/{p.name}" for p in sorted(fields.iterdir()) if p.suffix != ".vtu"]
+        foreign += [f"fields/{p.name}" for p in sorted(fields.iterdir())
+                    if not _frame_written_by_us(p.name)]
     return foreign
 
 
@@ -207,7 +231,8 @@ def check_no_links(folder: Path) -> None:
     links = links_inside(folder)
     if links:
         more = f" (and {len(links) - 1} more)" if len(links) > 1 else ""
-        ours = all(_written_by_us(name) or (name.startswith("fields/") and name.endswith(".vtu"))
+        ours = all(_written_by_us(name) or (name.startswith("fields/")
+                                            and _frame_written_by_us(name))
                    for name in links)
         remedy = ("remove it, or give --overwrite to start afresh (removes the links, not what "
                   "they point to)" if ours else
@@ -263,7 +288,8 @@ def partial_of(out: Path) -> Path:
 
 
 @contextmanager
-def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_policy=()):
+def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_policy=(),
+          other_engine: bool = False):
     """Check ``out``, then hold its staging folder ``out.partial`` (created or reused).
 
     Yields the stage, locked (:func:`hold`) from before anything in it is read until the body
@@ -272,9 +298,10 @@ def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_po
     ``step_policy``: fields that may differ, the engine checks them); a stage of another engine
     is refused, and one of another configuration when it holds a checkpoint, unless
     ``overwrite``, which clears it; any other stage of this engine without a checkpoint is
-    cleared. A stage held by another process, or holding links or entries this tool did not
-    write, is refused. Nothing is removed that this tool did not write; a stage created here
-    and refused is removed again.
+    cleared. A stage whose checkpoint another version of the engine wrote (:func:`engine_sources`
+    differs, or was not recorded) is refused unless ``other_engine``. A stage held by another
+    process, or holding links or entries this tool did not write, is refused. Nothing is
+    removed that this tool did not write; a stage created here and refused is removed again.
     """
     out = check_target(out, overwrite)
     partial = partial_of(out)
@@ -294,7 +321,8 @@ def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_po
             raise RunFolderError(f"cannot create {partial}: {err.strerror}") from None
     try:
         with hold(partial):
-            _check_stage(partial, overwrite, engine, config, resumable, step_policy)
+            _check_stage(partial, overwrite, engine, config, resumable, step_policy,
+                         other_engine)
             check_free_space(partial)
             created = False  # from here on the stage is this run's, whatever happens
             yield partial
@@ -303,8 +331,8 @@ def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_po
             partial.rmdir()
 
 
-def _check_stage(partial: Path, overwrite: bool, engine: str, config, resumable,
-                 step_policy) -> None:
+def _check_stage(partial: Path, overwrite: bool, engine: str, config, resumable,  # noqa: PLR0913
+                 step_policy, other_engine: bool) -> None:
     """Check a held stage (:func:`stage`) and clear it unless it is this run's to resume."""
     if not overwrite:
         check_no_links(partial)
@@ -328,6 +356,8 @@ def _check_stage(partial: Path, overwrite: bool, engine: str, config, resumable,
                 f"{partial} holds a stopped run whose configuration differs in "
                 f"{', '.join(diff)}; give its command to resume it{hint}, or --overwrite to "
                 "start afresh (removes it)")
+        if checkpoint and not other_engine:
+            _check_engine_version(partial, engine)
     if overwrite or not checkpoint or saved_engine is None:
         _clear(partial, keep_folder=True)
 
@@ -386,6 +416,44 @@ def _existing(path: Path) -> Path:
     while not path.exists():
         path = path.parent
     return path
+
+
+def engine_sources(engine: str) -> str:
+    """The version of an engine's code: sha256 (16 hex digits) of its package's Python sources.
+
+    Over the files ``*.py`` of the package ``engine`` (``continuum`` or ``particles``), sorted
+    by their names relative to it, each name and its bytes: any edit of the engine changes it,
+    wherever the package is installed.
+    """
+    root = Path(importlib.import_module(engine).__file__).parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def _check_engine_version(partial: Path, engine: str) -> None:
+    """Refuse to resume a checkpoint that another version of the engine wrote.
+
+    The version is the ``engine_sources`` of the stage's last session (:func:`record`);
+    a stage recorded before versions were, or by another version, is refused in one line
+    naming both and the commit that wrote it. A stage without ``run.json`` (the engine's own
+    ``run(config, out)`` into it) holds no record to check.
+    """
+    record = read_record(partial)
+    if record is None:
+        return
+    sessions = [s for s in record.get("sessions", []) if isinstance(s, dict)]
+    saved = sessions[-1].get("engine_sources") if sessions else None
+    now = engine_sources(engine)
+    if saved == now:
+        return
+    made = (f"engine sources {saved}" if saved else "an engine version not recorded") + (
+        f", git {record['git_commit']}" if record.get("git_commit") else "")
+    raise RunFolderError(
+        f"{partial} holds a checkpoint of another version of the {engine} engine ({made}; "
+        f"this one: {now}); resume it with that version (a git worktree of its commit), or "
+        "give --other-engine to resume it with this one")
 
 
 def _stage_identity(folder: Path) -> tuple[str | None, dict]:
@@ -531,8 +599,9 @@ def _cpu_seconds() -> float:
 def record(folder: Path, engine: str, config, argv: list[str] | None = None):
     """Record a session of the run in ``folder/run.json`` while the body runs.
 
-    The status is ``running`` during the body, then ``finished``, ``stopped`` (Ctrl-C,
-    SIGTERM) or ``failed`` with the error's first line. A record that cannot be written at the
+    The status is ``running`` during the body, then ``finished``, ``paused`` (at ``max_hours``,
+    :class:`RunPaused`), ``stopped`` (Ctrl-C, SIGTERM) or ``failed`` with the error's first
+    line. A record that cannot be written at the
     end (e.g. a full disk) is left as it was.
     """
     folder = Path(folder)
@@ -544,7 +613,8 @@ def record(folder: Path, engine: str, config, argv: list[str] | None = None):
         "error": None, "sessions": previous.get("sessions", []),
     }
     session = {"command": list(sys.argv if argv is None else argv), "start": _now(),
-               "pid": os.getpid(), "status": "running"}
+               "pid": os.getpid(), "status": "running", "engine_sources": engine_sources(engine),
+               "git_commit": run["git_commit"]}
     run["sessions"] = run["sessions"] + [session]
     write_record(folder, run)
     t0, cpu0 = time.monotonic(), _cpu_seconds()
@@ -564,6 +634,9 @@ def record(folder: Path, engine: str, config, argv: list[str] | None = None):
         yield run
     except (KeyboardInterrupt, SystemExit) as err:
         close("stopped", f"stopped by {_signal_name(err)}")
+        raise
+    except RunPaused:
+        close("paused", None)
         raise
     except BaseException as err:
         close("failed", (str(err).strip().splitlines() or [type(err).__name__])[0])
@@ -587,7 +660,9 @@ def _signal_name(err: BaseException) -> str:
 def describe(folder: Path) -> str:
     """Human-readable summary of a run folder's ``run.json`` (``colony info DIR``).
 
-    A run whose record says ``running`` but whose folder no process holds (:func:`is_held`)
+    An unfinished run also says where it stands and the wall it will take to its goal
+    (:func:`cases.standing.standing`). A run whose record says ``running`` but whose folder no
+    process holds (:func:`is_held`)
     ended without a word (killed, out of memory): it is reported as such.
     """
     folder = Path(folder)
@@ -621,7 +696,9 @@ def describe(folder: Path) -> str:
     last = _last_history_row(folder)
     if last:
         lines.append("last step       " + ", ".join(f"{k}={v}" for k, v in last.items()))
-    return "\n".join(lines)
+    from cases.standing import standing
+
+    return "\n".join(lines + standing(folder, run))
 
 
 def _record_shape(run) -> str | None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from cases.rundir import partial_of, publish, record, stage
+from cases.rundir import RunPaused, partial_of, publish, record, stage
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
 CONTINUUM_EDGE_WIDTH = 0.05
@@ -22,15 +22,16 @@ CONTINUUM_EDGE_WIDTH = 0.05
 PARTICLE_EDGE_WIDTH = 0.5
 
 
-def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable=(),
-                step_policy=()):
+def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable=(),  # noqa: PLR0913
+                step_policy=(), other_engine: bool = False):
     """Run ``body(partial)`` in the checked stage of ``out`` with its provenance, then publish.
 
     Everything that can be checked is checked before the stage is touched (rundir); the stage
     is held by this process alone (rundir.stage), records the run (run.json) and is renamed to
     ``out`` only when ``body`` returned.
     """
-    with stage(out, overwrite, engine, config, resumable, step_policy) as partial:
+    with stage(out, overwrite, engine, config, resumable, step_policy,
+               other_engine) as partial:
         with record(partial, engine, config):
             result = body(partial)
         publish(partial)
@@ -38,8 +39,10 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
 
 
 def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True,
-                  start: tuple | None = None):
+                  start: tuple | None = None, other_engine: bool = False):
     """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG.
+
+    ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage).
 
     ``start``: (state, record) of ``cases.handoff.continuum_start``, the state at t = 0 of a
     particle colony handed over (handoff.json and outline.csv written first; the picture then
@@ -55,8 +58,10 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
     def body(partial):
         if start is not None:
             write_handoff(partial, start[1])
-        state = run(config, out=partial, progress=progress,
-                    state=None if start is None else start[0]).state
+        sim = run(config, out=partial, progress=progress,
+                  state=None if start is None else start[0])
+        _check_paused(sim, partial)
+        state = sim.state
         write_csv(partial / "profile.csv", continuum_profile(
             state.points, state.triangles, state.fields, edge_width=CONTINUUM_EDGE_WIDTH))
         write_rings(partial, state.points, state.triangles, state.fields["G"])
@@ -69,12 +74,15 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
     if not overwrite:  # a stopped run resumes from its own start only
         check_resume(partial_of(Path(os.path.abspath(out))), None if start is None else start[1])
     return _staged_run("continuum", config, Path(out), overwrite, body,
-                       resumable=CHECKPOINTS)
+                       resumable=CHECKPOINTS, other_engine=other_engine)
 
 
 def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
-                  change_step_policy: bool = False):
-    """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG."""
+                  change_step_policy: bool = False, other_engine: bool = False):
+    """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG.
+
+    ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage).
+    """
     from cases.analysis import particle_profile, write_csv
     from cases.figures.draw import particles_picture
     from cases.shapes import initial_state
@@ -85,8 +93,10 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
     start = initial_state(config)  # the particles of config.shape (None: init or one cell)
 
     def body(partial):
-        colony = run(config, out=partial, progress=progress,
-                     change_step_policy=change_step_policy, state=start).state
+        sim = run(config, out=partial, progress=progress,
+                  change_step_policy=change_step_policy, state=start)
+        _check_paused(sim, partial)
+        colony = sim.state
         profile = particle_profile(colony.x, colony.y, colony.theta, colony.length, colony.stress,
                                    edge_width=PARTICLE_EDGE_WIDTH,
                                    radius=colony.enclosing_radius())
@@ -97,7 +107,8 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
 
     check_initial(config, state=start)
     return _staged_run("particles", config, Path(out), overwrite, body, resumable=CHECKPOINTS,
-                       step_policy=STEP_POLICY_FIELDS if change_step_policy else ())
+                       step_policy=STEP_POLICY_FIELDS if change_step_policy else (),
+                       other_engine=other_engine)
 
 
 def run(config, out: str | os.PathLike, *, overwrite: bool = False, progress: bool = False):
@@ -120,6 +131,18 @@ def run(config, out: str | os.PathLike, *, overwrite: bool = False, progress: bo
 #: Checkpoint files of either engine in a stage (a stopped run resumes from them; from the
 #: previous one when the last is damaged, or its process died while replacing it).
 CHECKPOINTS = ("checkpoint.npz", "checkpoint.prev.npz")
+
+
+def _check_paused(sim, partial: Path) -> None:
+    """RunPaused when the engine's run paused at ``config.max_hours`` (its checkpoint written)."""
+    if not sim.paused:
+        return
+    row = sim.history[-1]
+    cells = f", {row['n_particles']:,} cells" if "n_particles" in row else ""
+    raise RunPaused(
+        f"paused at max_hours = {sim.config.max_hours:g}: t = {row['t']:.4g}, radius "
+        f"{row['radius']:.2f}{cells}; the checkpoint is kept in {partial}, give the same "
+        "command to resume")
 
 
 def _remove_checkpoints(partial: Path) -> None:

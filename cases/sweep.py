@@ -126,19 +126,28 @@ def is_done(folder: Path, params: Mapping[str, Any] | None = None) -> bool:
     return True
 
 
-def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path) -> Path:
+def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
+            max_hours: float | None = None) -> Path | None:
     """Run one point of a sweep into ``folder`` (staged in ``folder.partial``); skip if done.
 
     ``params.json`` is written next to the results; ``DONE`` marks success. A ``.partial``
     stage left by a stopped run is reused as it is (``run_fn`` resumes from what it holds).
     A ``run_fn`` with the attribute ``stages_itself`` (:func:`run_engine`) is given ``folder``
-    itself and stages, records and publishes it (``cases.runs``). Returns ``folder``.
+    itself and stages, records and publishes it (``cases.runs``); given ``max_hours`` (the
+    engines' execution setting, not a parameter of the point) it may pause
+    (``cases.rundir.RunPaused``). Returns ``folder``, or None when the run paused.
     """
+    from cases.rundir import RunPaused
+
     folder = Path(folder)
     if is_done(folder, params):
         return folder
     if getattr(run_fn, "stages_itself", False):  # the engine runs: cases.runs
-        run_fn(dict(params), folder)
+        extra = {} if max_hours is None else {"max_hours": max_hours}
+        try:
+            run_fn(dict(params) | extra, folder)
+        except RunPaused:
+            return None
         return folder
     stage = folder.with_name(folder.name + ".partial")
     stage.mkdir(parents=True, exist_ok=True)  # a left-over stage keeps its checkpoint
@@ -168,6 +177,7 @@ def sweep(
     scheduler: str | None = None,
     n_workers: int = 2,
     progress: bool | None = None,
+    max_hours: float | None = None,
 ) -> list[Path]:
     """Run ``run_fn(params_i, folder_i)`` for every parameter set, in parallel, resumably.
 
@@ -180,6 +190,9 @@ def sweep(
     scheduler : address of an existing dask scheduler, or None for a LocalCluster.
     n_workers : worker processes of the LocalCluster (one thread each).
     progress : tqdm progress bar; None shows it only on a terminal.
+    max_hours : each engine run's wall-clock limit per leg (:func:`run_engine` runs; a little
+        under the workers' walltime): a run that pauses is submitted again and resumes from its
+        checkpoint on the next free worker, until it finishes.
 
     Returns
     -------
@@ -207,15 +220,26 @@ def sweep(
     client, cluster = _client(scheduler, n_workers)
     failures: dict[str, str] = {}
     try:
-        futures = {
-            client.submit(run_one, run_fn, p, f, key=f"run-{f.name}", pure=False): f
-            for p, f in todo
-        }
+        points = {f: p for p, f in todo}
+        legs = dict.fromkeys(points, 1)
+
+        def submit(folder):
+            return client.submit(run_one, run_fn, points[folder], folder, max_hours,
+                                 key=f"run-{folder.name}-leg{legs[folder]}", pure=False)
+
+        futures = {submit(f): f for f in points}
         bar = tqdm(total=len(folders), initial=len(folders) - len(todo), desc="sweep",
                    disable=None if progress is None else not progress)
-        for fut in as_completed(futures):
+        running = as_completed(futures)
+        for fut in running:
+            folder = futures.pop(fut)
             if fut.status == "error":
-                failures[futures[fut].name] = repr(fut.exception())
+                failures[folder.name] = repr(fut.exception())
+            elif fut.result() is None:  # paused at max_hours: its next leg
+                legs[folder] += 1
+                futures[new := submit(folder)] = folder
+                running.add(new)
+                continue
             bar.update(1)
         bar.close()
     finally:

@@ -63,6 +63,8 @@ import re
 import signal
 import stat
 import threading
+import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -82,11 +84,11 @@ from continuum.state import State
 __all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "Checkpoint", "CheckpointError",
            "save_checkpoint", "load_checkpoint", "resume_checkpoint", "checkpoint_config",
            "checkpoint_files", "history_record", "check_resumable", "STOP_SIGNALS",
-           "StopRequest"]
+           "StopRequest", "WallLimit"]
 
 log = logging.getLogger(__name__)
 
-EXECUTION_FIELDS = ("checkpoint_seconds",)
+EXECUTION_FIELDS = ("checkpoint_seconds", "max_hours")
 """Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
 
 CHECKPOINT = "checkpoint.npz"
@@ -640,3 +642,46 @@ class StopRequest:
             raise KeyboardInterrupt
         if self.signum is not None:
             raise SystemExit(128 + self.signum)
+
+
+class WallLimit:
+    """The wall-clock limit of a run, ``Config.max_hours``: pause while a checkpoint still fits.
+
+    From the run's start (the loop's first step), the run pauses before a step when
+
+        elapsed + 2 max(recent step) + 2 (checkpoint write) >= 3600 max_hours,
+
+    the recent steps being the last RECENT_STEPS (a checkpoint's write not counted in them);
+    before the run's first checkpoint its write counts as long as a step.  The first step of a
+    run is always taken, so every leg of a chain advances.  No limit (None): never due.
+
+    The twin of the particles engine's (the two engines do not import each other).
+    """
+
+    RECENT_STEPS = 20
+
+    def __init__(self, hours: float | None):
+        self.limit = None if hours is None else 3600.0 * float(hours)
+        self.start = self.last = time.monotonic()
+        self.steps: deque[float] = deque(maxlen=self.RECENT_STEPS)
+        self.write: float | None = None
+
+    def stepped(self) -> None:
+        """A step ended now."""
+        now = time.monotonic()
+        self.steps.append(now - self.last)
+        self.last = now
+
+    def saved(self, seconds: float) -> None:
+        """A checkpoint took ``seconds`` to write, just now."""
+        self.write = seconds
+        self.last = time.monotonic()
+
+    @property
+    def due(self) -> bool:
+        """Whether the run pauses before its next step."""
+        if self.limit is None or not self.steps:
+            return False
+        step = max(self.steps)
+        write = step if self.write is None else self.write
+        return time.monotonic() - self.start + 2 * step + 2 * write >= self.limit

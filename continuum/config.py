@@ -58,6 +58,7 @@ _RULES = [  # (field, test, what the value must be), checked by Config.validate 
     ("output_every", lambda v: v >= 0, ">= 0"),
     ("step_limit", lambda v: v > 0, "a positive integer"),
     ("checkpoint_seconds", lambda v: v >= 0, ">= 0"),
+    ("max_hours", lambda v: v is None or 0 < v < math.inf, "positive and finite, or None"),
 ]
 
 
@@ -136,6 +137,11 @@ class Config:
     checkpoint_seconds : float
         Wall time between checkpoints when writing to a folder (an execution setting,
         ``EXECUTION_FIELDS``: a checkpoint resumes under another value, with the same result).
+    max_hours : float or None
+        Wall-clock limit of one ``run`` call: before it passes, the run writes a checkpoint and
+        pauses (``Simulation.paused``; checkpoint.WallLimit); the same call resumes it. An
+        execution setting like ``checkpoint_seconds`` (each leg of a chain may give its own).
+        None (the default): no limit.
     strains : tuple of continuum.strains.Strain
         The strains i = 0..S-1 of the colony, each its stress sensitivity lam_i >= 0 and growth
         factor a_i > 0 (growth rate a_i exp(-lam_i p); given as Strain, (lam, growth) pairs or
@@ -172,6 +178,7 @@ class Config:
     write_fields: bool = True
     step_limit: int = 200_000
     checkpoint_seconds: float = 300.0
+    max_hours: float | None = None
     strains: tuple = ()
     layout: str | None = None
 

@@ -236,7 +236,9 @@ class Simulation:
         The pressure solver (its AMG hierarchy is reused from step to step; a checkpoint
         saves its matrix).
     finished : bool
-        False when :func:`run` stopped before its goal (``max_steps`` or a signal).
+        False when :func:`run` stopped before its goal (``max_steps``, a signal, or paused).
+    paused : bool
+        True when :func:`run` paused at ``config.max_hours`` (the same call resumes it).
 
     Raises
     ------
@@ -257,7 +259,7 @@ class Simulation:
                  out: Path | str | None = None, *, layout=None):
         limit_blas_threads(1)
         self.config = config
-        self.finished = True
+        self.finished, self.paused = True, False
         self.output = None if out is None else _Outputs(config, Path(out))
         if self.output is not None and checkpoint.checkpoint_files(self.output.out):
             path, saved = checkpoint.resume_checkpoint(self.output.out, config)
@@ -672,12 +674,14 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
     -------
     Simulation
         ``.state`` the final state (``.state.fields``, ``.state.points``, ...), ``.history``
-        one row per step, ``.finished``.
+        one row per step, ``.finished``, ``.paused`` (stopped by ``config.max_hours``: the
+        same call resumes it).
 
     SIGINT, SIGTERM or SIGHUP in the main thread ends the run after the current step (remeshing
     and output included) with a checkpoint of that step, then raises KeyboardInterrupt (SIGINT)
     or SystemExit(128 + signum) (SIGTERM, SIGHUP); a second signal acts at once
-    (checkpoint.StopRequest).
+    (checkpoint.StopRequest). Before ``config.max_hours`` of wall have passed, the run writes a
+    checkpoint and returns paused (``.paused``; checkpoint.WallLimit).
 
     Raises
     ------
@@ -700,26 +704,32 @@ def _steps(sim: Simulation, progress: bool, max_steps: int | None,
            stop: checkpoint.StopRequest) -> None:
     """The loop of ``run``.
 
-    Step until the goal, a stop request or ``max_steps`` steps; history.csv and a checkpoint
-    every ``checkpoint_seconds`` and when stopping; the final files at the goal.
+    Step until the goal, a stop request, ``max_steps`` steps or ``config.max_hours``;
+    history.csv and a checkpoint every ``checkpoint_seconds`` and when stopping; the final
+    files at the goal.
     """
     config = sim.config
     goal = {"radius": config.radius, "time": config.time}
     last_checkpoint = _time.monotonic()
+    limit = checkpoint.WallLimit(config.max_hours)
     steps_here = 0
     with _ProgressBar(sim, progress=progress, **goal) as bar:
         while not sim._reached(**goal):
             sim._check_step_limit()
             bar.show(sim._step(**goal))
+            limit.stepped()
             steps_here += 1
             done = sim._reached(**goal)
-            pause = not done and max_steps is not None and steps_here >= max_steps
+            asked = stop.signum is not None or (max_steps is not None and steps_here >= max_steps)
+            paused = not done and not asked and limit.due
             due = not done and _time.monotonic() - last_checkpoint >= config.checkpoint_seconds
-            if sim.output is not None and (stop.signum is not None or pause or due):
+            if sim.output is not None and (asked or paused or due):
+                start = _time.monotonic()
                 sim.save()  # history.csv, then the checkpoint
                 last_checkpoint = _time.monotonic()
-            if stop.signum is not None or pause:
-                sim.finished = done
+                limit.saved(last_checkpoint - start)
+            if (asked or paused) and not done:
+                sim.finished, sim.paused = False, paused
                 break
     if sim.output is not None and sim._reached(**goal):
         sim.output.finish(sim)

@@ -49,6 +49,8 @@ import re
 import signal
 import stat
 import threading
+import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -61,7 +63,7 @@ from .state import OPTIONAL_ARRAYS, PARTICLE_ARRAYS, ParticleState
 
 __all__ = ["CHECKPOINT", "PREVIOUS", "EXECUTION_FIELDS", "Checkpoint", "CheckpointError",
            "save_checkpoint", "load_checkpoint", "resume_checkpoint", "checkpoint_config",
-           "checkpoint_files", "history_record", "STOP_SIGNALS", "StopRequest"]
+           "checkpoint_files", "history_record", "STOP_SIGNALS", "StopRequest", "WallLimit"]
 
 log = logging.getLogger(__name__)
 
@@ -324,7 +326,8 @@ class Checkpoint:
         the history.csv written beside it (then the checkpoint at the path becomes
         ``checkpoint.prev.npz``, :func:`write_arrays`). Loaded: the rows.
     frames : list of int
-        The trajectory bookkeeping: [frames written, step of the last frame] (NO_FRAMES: none).
+        The trajectory bookkeeping: [frames written, step of the last frame, bytes of the
+        trajectory] (NO_FRAMES: none; the bytes are missing in older checkpoints).
     """
 
     config: Config
@@ -427,8 +430,8 @@ def _history(path: Path, saved) -> list[dict]:
 
 
 def _frames(path: Path, saved) -> list[int]:
-    """The trajectory bookkeeping [frames written, step of the last frame], checked."""
-    if not (isinstance(saved, list) and len(saved) == 2
+    """The trajectory bookkeeping [frames written, step of the last frame(, bytes)], checked."""
+    if not (isinstance(saved, list) and len(saved) in (2, 3)
             and all(type(v) is int for v in saved) and saved[0] >= 0):
         raise damaged(path, "unexpected content (frames)")
     return saved
@@ -532,3 +535,46 @@ class StopRequest:
             raise KeyboardInterrupt
         if self.signum is not None:
             raise SystemExit(128 + self.signum)
+
+
+class WallLimit:
+    """The wall-clock limit of a run, ``Config.max_hours``: pause while a checkpoint still fits.
+
+    From the run's start (the loop's first step), the run pauses before a step when
+
+        elapsed + 2 max(recent step) + 2 (checkpoint write) >= 3600 max_hours,
+
+    the recent steps being the last RECENT_STEPS (a checkpoint's write not counted in them);
+    before the run's first checkpoint its write counts as long as a step.  The first step of a
+    run is always taken, so every leg of a chain advances.  No limit (None): never due.
+
+    The twin of the continuum engine's (the two engines do not import each other).
+    """
+
+    RECENT_STEPS = 20
+
+    def __init__(self, hours: float | None):
+        self.limit = None if hours is None else 3600.0 * float(hours)
+        self.start = self.last = time.monotonic()
+        self.steps: deque[float] = deque(maxlen=self.RECENT_STEPS)
+        self.write: float | None = None
+
+    def stepped(self) -> None:
+        """A step ended now."""
+        now = time.monotonic()
+        self.steps.append(now - self.last)
+        self.last = now
+
+    def saved(self, seconds: float) -> None:
+        """A checkpoint took ``seconds`` to write, just now."""
+        self.write = seconds
+        self.last = time.monotonic()
+
+    @property
+    def due(self) -> bool:
+        """Whether the run pauses before its next step."""
+        if self.limit is None or not self.steps:
+            return False
+        step = max(self.steps)
+        write = step if self.write is None else self.write
+        return time.monotonic() - self.start + 2 * step + 2 * write >= self.limit

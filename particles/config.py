@@ -105,6 +105,11 @@ class Config:
     checkpoint_seconds : float
         Wall time between checkpoints when writing to a folder (like ``threads`` an execution
         setting: a run may resume with another value).
+    max_hours : float or None
+        Wall-clock limit of one ``run`` call: before it passes, the run writes a checkpoint and
+        pauses (``Simulation.paused``; checkpoint.WallLimit); the same call resumes it. An
+        execution setting like ``checkpoint_seconds`` (each leg of a chain may give its own).
+        None (the default): no limit.
     max_particles : int
         Guard: a run whose colony exceeds this raises ParticleLimitError.
     solver_tol : float or None
@@ -159,6 +164,7 @@ class Config:
     solver: str = "bbpgd"
     output_every: int = 10
     checkpoint_seconds: float = 300.0
+    max_hours: float | None = None
     max_particles: int = 500_000
     solver_tol: float | None = None
     solver_tol_factor: float = 1.0
@@ -304,6 +310,8 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"output_every must be an integer >= 1, got {v}"),
     ("checkpoint_seconds", lambda v: v >= 0,
      lambda v: f"checkpoint_seconds must be >= 0, got {v}"),
+    ("max_hours", lambda v: v is None or 0 < v < math.inf,
+     lambda v: f"max_hours must be positive and finite, or None, got {v}"),
     ("max_particles", lambda v: v >= 1,
      lambda v: f"max_particles must be a positive integer, got {v}"),
     ("contact_margin", lambda v: v >= 0,
@@ -381,7 +389,7 @@ def upgrade(saved: dict) -> dict:
         out[name] = v if values is None else values[v]
     return out
 
-EXECUTION_FIELDS = ("threads", "checkpoint_seconds")
+EXECUTION_FIELDS = ("threads", "checkpoint_seconds", "max_hours")
 """Configuration fields that do not change the result: a checkpoint resumes whatever they are."""
 
 STEP_POLICY_FIELDS = ("dt", "step_control")

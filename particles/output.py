@@ -269,26 +269,33 @@ def append_frame(path: Path, state: ParticleState, step: int, t: float | None = 
         traj.append(make_frame(state, step, t))
 
 
-def truncate_trajectory(path: Path, n_frames: int) -> None:
-    """Keep the first n_frames frames of a trajectory (used when resuming from a checkpoint)."""
-    if not path.exists():
+def truncate_trajectory(path: Path, n_frames: int, size: int | None = None) -> None:
+    """Keep the first n_frames frames of a trajectory (used when resuming from a checkpoint).
+
+    ``size``: the file's bytes when it held those frames (the checkpoint's bookkeeping); a file
+    of that size is kept as it is, any other is rewritten with its first n_frames frames, one
+    at a time (a run killed while appending a frame leaves the new frame's bytes after the last
+    frame gsd indexes; the rewrite drops them).  None (older checkpoints): rewritten only when
+    it holds more frames.
+    """
+    if not path.exists() or (size is not None and path.stat().st_size == size):
         return
-    with gsd.hoomd.open(str(path), mode="r") as t:
-        if len(t) <= n_frames:
-            return
-        frames = [t[i] for i in range(n_frames)]
     tmp = path.with_suffix(".gsd.tmp")
-    with gsd.hoomd.open(str(tmp), mode="w") as t:
-        for fr in frames:
-            t.append(fr)
+    with gsd.hoomd.open(str(path), mode="r") as t:
+        if len(t) < n_frames or (size is None and len(t) == n_frames):
+            return
+        with gsd.hoomd.open(str(tmp), mode="w") as out:
+            for i in range(n_frames):
+                out.append(t[i])
     os.replace(tmp, path)
 
 
 class RunOutput:
     """The writers of a run folder: trajectory frames, history.csv, particles.csv, config.json.
 
-    ``frames`` = [frames written, step of the last frame] (saved in checkpoints, so that a
-    resumed run first truncates its trajectory to the frames of its checkpoint).
+    ``frames`` = [frames written, step of the last frame, bytes of trajectory.gsd] (saved in
+    checkpoints, so that a resumed run first truncates its trajectory to the frames of its
+    checkpoint; checkpoints written before the bytes were kept have the first two).
     """
 
     def __init__(self, out: Path, output_every: int):
@@ -308,12 +315,12 @@ class RunOutput:
     def resume(self, frames: list[int]) -> None:
         """A run resumed from a checkpoint: keep the trajectory's first ``frames[0]`` frames."""
         self.frames = list(frames)
-        truncate_trajectory(self.trajectory, self.frames[0])
+        truncate_trajectory(self.trajectory, *self.frames[0:1], *self.frames[2:3])
 
     def frame(self, state: ParticleState) -> None:
         """Append the frame of ``state`` (step ``state.step``, time ``state.t``)."""
         append_frame(self.trajectory, state, state.step, t=state.t)
-        self.frames = [self.frames[0] + 1, state.step]
+        self.frames = [self.frames[0] + 1, state.step, self.trajectory.stat().st_size]
 
     def ensure_space(self, state: ParticleState) -> None:
         """:func:`ensure_space` before the next write of ``state``."""

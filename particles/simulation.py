@@ -37,6 +37,7 @@ from .checkpoint import (
     NO_FRAMES,
     Checkpoint,
     StopRequest,
+    WallLimit,
     checkpoint_files,
     history_record,
     load_checkpoint,
@@ -235,7 +236,9 @@ class Simulation:
     output : output.RunOutput or None
         The writers of ``out``.
     finished : bool
-        False when :func:`run` stopped before its goal (``max_steps`` or a signal).
+        False when :func:`run` stopped before its goal (``max_steps``, a signal, or paused).
+    paused : bool
+        True when :func:`run` paused at ``config.max_hours`` (the same call resumes it).
     """
 
     def __init__(self, config: Config, state: ParticleState | None = None,
@@ -243,7 +246,7 @@ class Simulation:
                  layout=None):
         self.config = config
         self.history: list[dict] = []
-        self.finished = True
+        self.finished, self.paused = True, False
         self._frames = list(NO_FRAMES)
         self._detections = Detections()  # the last step's final contacts, for the next step
         self.output = None
@@ -475,10 +478,13 @@ class _ProgressBar:
 
 
 class _Checkpointer:
-    """A checkpoint (history.csv first) every ``Config.checkpoint_seconds`` of wall time."""
+    """A checkpoint (history.csv first) every ``Config.checkpoint_seconds`` of wall time.
 
-    def __init__(self, sim: Simulation):
-        self.sim = sim
+    Each write's wall seconds go to the run's WallLimit (``limit``).
+    """
+
+    def __init__(self, sim: Simulation, limit: WallLimit):
+        self.sim, self.limit = sim, limit
         self.last = _time.monotonic()
 
     def after_step(self) -> None:
@@ -486,7 +492,8 @@ class _Checkpointer:
         if now - self.last >= self.sim.config.checkpoint_seconds:
             self.sim.output.ensure_space(self.sim.state)
             self.sim.save()
-            self.last = now
+            self.last = _time.monotonic()
+            self.limit.saved(self.last - now)
 
 
 def run(config: Config, out: str | Path | None = None, progress: bool = False,
@@ -499,7 +506,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     (e.g. a batch system's time limit) or SIGHUP (a closed terminal) in the main thread ends
     the run after the current step, with a checkpoint of that step written (then
     KeyboardInterrupt, or SystemExit(128 + signal) for SIGTERM and SIGHUP); a second signal
-    interrupts at once (checkpoint.StopRequest).
+    interrupts at once (checkpoint.StopRequest).  Before ``config.max_hours`` of wall have
+    passed, the run writes a checkpoint and returns paused (``.paused``; checkpoint.WallLimit).
 
     Parameters
     ----------
@@ -528,7 +536,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     Returns
     -------
     Simulation
-        ``.state`` the final state, ``.history`` one row per step, ``.finished``.
+        ``.state`` the final state, ``.history`` one row per step, ``.finished``, ``.paused``
+        (stopped by ``config.max_hours``: the same call resumes it).
 
     Raises
     ------
@@ -544,16 +553,18 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     with StopRequest() as stop:
         sim = Simulation(config, state, out, change_step_policy=change_step_policy,
                          layout=layout)
-        checkpointer = None if sim.output is None else _Checkpointer(sim)
+        limit = WallLimit(config.max_hours)
+        checkpointer = None if sim.output is None else _Checkpointer(sim, limit)
         with _ProgressBar(config.lam, progress=progress, **goal) as bar:
             while not sim._reached(**goal):
                 bar.show(sim.step(config.time))
                 steps += 1
+                limit.stepped()
                 if checkpointer is not None:
                     checkpointer.after_step()
                 asked = stop.signum is not None or (max_steps is not None and steps >= max_steps)
-                if asked and not sim._reached(**goal):
-                    sim.finished = False
+                if (asked or limit.due) and not sim._reached(**goal):
+                    sim.finished, sim.paused = False, not asked
                     break
     if sim.output is not None:
         sim.output.ensure_space(sim.state)

@@ -66,7 +66,7 @@ ENGINE_ONLY = {
 }
 """Parameters of one engine only: resuming under another step policy (the continuum has none)."""
 
-CONFIG_COMMON = ("lam", "radius", "time", "checkpoint_seconds", "strains")
+CONFIG_COMMON = ("lam", "radius", "time", "checkpoint_seconds", "max_hours", "strains")
 """Config fields of the same name and meaning: the same annotation and default in both."""
 
 CONFIG_DIFFERENT = {

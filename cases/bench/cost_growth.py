@@ -40,11 +40,6 @@ from cases.records import summary
 PUBLISHED = {"radius": 260, "wall_h": 24.0, "cores": 112, "exponent": 5.0}
 
 
-def power_law(x: np.ndarray, y: np.ndarray) -> float:
-    """Exponent a of y ~ x^a: least-squares slope of log y on log x."""
-    return float(np.polyfit(np.log(x), np.log(y), 1)[0])
-
-
 def growth(run: str | Path, radii: list[float], fit: tuple[float, float],
            target: float) -> dict:
     """The row of the module docstring for the recorded run folder ``run``."""
@@ -55,7 +50,7 @@ def growth(run: str | Path, radii: list[float], fit: tuple[float, float],
     if fitted.sum() < 3:
         raise ValueError(f"{run}: {fitted.sum()} progress lines with R in [{fit[0]}, {fit[1]}], "
                          "need 3 to fit")
-    a, b = power_law(R[fitted], W[fitted]), power_law(R[fitted], N[fitted])
+    a, b = A.power_law_fit(R[fitted], W[fitted])[0], A.power_law_fit(R[fitted], N[fitted])[0]
     row = summary(run)
     end = float(A.read_csv(run / "history.csv")["radius"][-1])
     if row["wall_s"] > W[-1] and end > R[-1]:  # the run's end, after its last progress line
