@@ -81,6 +81,22 @@ class UsageError(ValueError):
     """Bad command-line input (reported in one line, exit status 2)."""
 
 
+SHOWN = 60
+"""Most characters of a value quoted in an error line (longer ones are cut, ``...``)."""
+
+
+def _shown(value, toml: bool = True) -> str:
+    """A value as an error line quotes it, cut at SHOWN characters.
+
+    TOML-like (true, "yes", 1e+300) for a configuration value, else as Python writes it
+    (``toml=False``: the command line's text, '1.5').
+    """
+    import json
+
+    text = json.dumps(value) if toml and isinstance(value, (bool, str)) else repr(value)
+    return text if len(text) <= SHOWN else text[:SHOWN - 3] + "..."
+
+
 # --------------------------------------------------------------------------- configuration
 
 
@@ -107,7 +123,7 @@ def strain_list(text: str) -> list[list[float]]:
         except ValueError:
             raise argparse.ArgumentTypeError(
                 f"expected LAM[:GROWTH],LAM[:GROWTH],... (e.g. 1e-2,0 or 1e-2:1,0:0.5), "
-                f"got {text!r}") from None
+                f"got {_shown(text, toml=False)}") from None
     return out
 
 
@@ -135,7 +151,21 @@ def _coerce(value: str, key: str, mismatch):
         if mismatch(key, candidate) is None:
             return candidate
     number = [c for c in candidates if isinstance(c, float)]  # "a finite number" for inf
-    raise UsageError(f"expected {mismatch(key, (number or [value])[0])}, got {value!r}")
+    expected = mismatch(key, (number or [value])[0])
+    raise UsageError(f"expected {expected}, got {_shown(value, toml=False)}")
+
+
+def _lam_of_strains(strains) -> dict:
+    """``{"lam": strain 0's lam}`` when strains are given, else ``{}``.
+
+    With strains, lam is not used by the model (each strain's own is), so it is optional; the
+    Config checks the strains.
+    """
+    try:
+        first = strains[0]
+        return {"lam": float(first["lam"] if isinstance(first, dict) else first[0])}
+    except (TypeError, LookupError, ValueError):
+        return {}
 
 
 def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
@@ -146,19 +176,14 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
     ``--config FILE: key lam: expected a number, got true``, ``--set seed: expected an
     integer, got '1.5'`` or ``--seed: ...``.
     """
-    import json
-
     names = {f.name for f in dataclasses.fields(cls)}
     mismatch = getattr(cls, "type_mismatch", lambda key, value: None)
     values: dict = {}
     source: dict = {}
 
-    def shown(value) -> str:  # as written in TOML: true, "yes", 1e+300; cut at 60 characters
-        text = json.dumps(value) if isinstance(value, (bool, str)) else repr(value)
-        return text if len(text) <= 60 else text[:57] + "..."
-
     def name(text) -> str:  # a key or file name on one line: quoted when it holds a line break
-        return str(text) if str(text).isprintable() else repr(str(text))
+        text = str(text) if str(text).isprintable() else repr(str(text))
+        return text if len(text) <= 5 * SHOWN else text[:5 * SHOWN - 3] + "..."
 
     if toml_file:
         path = Path(toml_file)
@@ -180,9 +205,10 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
         key, sep, raw = item.partition("=")
         key = key.strip().replace("-", "_")
         if not sep:
-            raise UsageError(f"--set expects KEY=VALUE, got {item!r}")
+            raise UsageError(f"--set expects KEY=VALUE, got {_shown(item, toml=False)}")
         if key not in names:
-            raise UsageError(f"unknown setting {key!r}; known: {', '.join(sorted(names))}")
+            raise UsageError(f"unknown setting {_shown(key, toml=False)}; known: "
+                             f"{', '.join(sorted(names))}")
         try:
             values[key] = (FIELD_PARSERS[key](raw) if key in FIELD_PARSERS
                            else _coerce(raw, key, mismatch))
@@ -195,12 +221,14 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
     for where, key, value in checks:
         what = mismatch(key, value)
         if what is not None:
-            raise UsageError(f"{where}: expected {what}, got {shown(value)}")
+            raise UsageError(f"{where}: expected {what}, got {_shown(value)}")
     if "lam" in given and "lam" in values and float(values["lam"]) != given["lam"]:
         raise UsageError(f"lam given twice: --lam {given['lam']:g} and lam = "
                          f"{values['lam']} in --config/--set; give it once")
     if "lam" in names and "lam" not in given and "lam" not in values:
-        raise UsageError("lam is required: give --lam or lam in --config/--set")
+        values.update(_lam_of_strains(given.get("strains", values.get("strains"))))
+    if "lam" in names and "lam" not in given and "lam" not in values:
+        raise UsageError("lam is required: give --lam or lam in --config/--set (or --strains)")
     values.update(given)
     config = cls(**values)
     config.validate()
@@ -322,7 +350,7 @@ def parser() -> argparse.ArgumentParser:
     _verbosity(pm)
 
     k = sub.add_parser("case", help="a paper figure (fig2, fig3, fig4), the cross-check, or a "
-                       "study (stability, convergence, ensemble, shapes)")
+                       "study (" + ", ".join(n for n in CASES if n not in FIGURE_CASES) + ")")
     k.add_argument("name", choices=list(CASES))
     k.add_argument("--scale", choices=("smoke", "medium", "paper"), default="smoke",
                    help="smoke (default): small colonies in about a minute, for a check; "
@@ -353,6 +381,7 @@ def parser() -> argparse.ArgumentParser:
                    "file system")
     k.add_argument("--workers", type=int, default=2,
                    help="local dask workers when no --scheduler is given (default 2)")
+    _verbosity(k)
 
     f = sub.add_parser("fit", help="stress sensitivity lam from a colony's measured R(t) "
                        "(cases.fit), or from a late radial speed")
@@ -450,6 +479,13 @@ def _handoff_start(config, run_dir: str, alpha: float, bandwidth: float) -> tupl
     return state, record
 
 
+def _check_layout(config) -> None:
+    """Refuse strains without a layout: the command line has no other way to place them."""
+    if len(config.strains) >= 2 and config.layout is None:
+        raise UsageError(f"{len(config.strains)} strains need --layout to place them at the "
+                         "start: core:R1, sector:THETA, mixture:F0,F1 or polygon:FILE.csv")
+
+
 def _dispatch(args) -> int:
     progress = not args.__dict__.get("quiet", False)
     if args.command == "continuum":
@@ -463,6 +499,7 @@ def _dispatch(args) -> int:
                  "max_hours": _finite("max-hours", args.max_hours)}
         handoff = _handoff_options(args, flags)
         config = build_config(continuum.Config, args.config, args.set, flags)
+        _check_layout(config)
         start = None if handoff is None else _handoff_start(config, *handoff)
         run_continuum(config, Path(args.out), args.overwrite, progress, start,
                       other_engine=args.other_engine)
@@ -478,6 +515,7 @@ def _dispatch(args) -> int:
                  "solver": args.solver, "threads": args.threads, "strains": args.strains,
                  "layout": args.layout, "max_hours": _finite("max-hours", args.max_hours)}
         config = build_config(particles.Config, args.config, args.set, flags)
+        _check_layout(config)
         run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy,
                       other_engine=args.other_engine)
         print(f"particle run written to {args.out}")
@@ -585,9 +623,28 @@ def _stage_of(args) -> Path | None:
     return partial_of(path) if path.name else None
 
 
+#: Options whose value is a list that may start with a minus sign (``--strains -1,0``), which
+#: argparse would take for an option: given to it as ``--strains=-1,0`` (:func:`_joined`).
+LIST_OPTIONS = ("--strains", "--lams")
+
+
+def _joined(argv: list[str]) -> list[str]:
+    """``argv`` with each LIST_OPTIONS option and a value starting with "-" joined by "="."""
+    out, i = [], 0
+    while i < len(argv):
+        if argv[i] in LIST_OPTIONS and i + 1 < len(argv) and argv[i + 1][:1] == "-" \
+                and argv[i + 1][1:2] in ".0123456789":
+            out.append(f"{argv[i]}={argv[i + 1]}")
+            i += 2
+        else:
+            out.append(argv[i])
+            i += 1
+    return out
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``colony`` console script; returns the exit status."""
-    args = parser().parse_args(argv)
+    args = parser().parse_args(_joined(sys.argv[1:] if argv is None else list(argv)))
     configure_logging(getattr(args, "quiet", False), getattr(args, "verbose", False))
     main_thread = threading.current_thread() is threading.main_thread()
     previous = ({sig: signal.signal(sig, _terminate) for sig in STOP_SIGNALS} if main_thread

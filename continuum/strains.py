@@ -68,11 +68,19 @@ FRACTION_ATOL = 1e-9
 abs(sum_i phi_i - 1) <= atol."""
 
 
+MAX_GROWTH = 100.0
+"""Largest growth factor a of a strain: a cell of it doubles in ln 2 / a, and the time step
+follows the fastest strain (the particle engine's twin constant is the same)."""
+
+MAX_STRAINS = 64
+"""Most strains of a colony: each carries its own fields (75 bytes per node and strain)."""
+
+
 @dataclass(frozen=True)
 class Strain:
     """An inherited trait: growth rate g(p) = a exp(-lam p) (a: ``growth``, lam: ``lam``).
 
-    Validated when made: lam finite and >= 0, growth finite and > 0 (one-line ValueError).
+    Validated when made: lam finite and >= 0, growth in (0, MAX_GROWTH] (one-line ValueError).
     """
 
     lam: float
@@ -86,8 +94,9 @@ class Strain:
             object.__setattr__(self, name, float(v))
         if not (math.isfinite(self.lam) and self.lam >= 0):
             raise ValueError(f"a strain's lam must be finite and >= 0, got {self.lam!r}")
-        if not (math.isfinite(self.growth) and self.growth > 0):
-            raise ValueError(f"a strain's growth must be finite and > 0, got {self.growth!r}")
+        if not (math.isfinite(self.growth) and 0 < self.growth <= MAX_GROWTH):
+            raise ValueError(f"a strain's growth must be in (0, {MAX_GROWTH:g}], got "
+                             f"{self.growth!r}")
 
     def rate(self, p):
         """g(p) = a exp(-lam p)."""
@@ -101,6 +110,8 @@ def as_strains(value) -> tuple[Strain, ...]:
     """
     if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
         raise ValueError(f"strains must be a sequence of (lam, growth) pairs, got {value!r}")
+    if len(value) > MAX_STRAINS:
+        raise ValueError(f"strains: {len(value)} given, at most {MAX_STRAINS}")
     out = []
     for entry in value:
         try:
@@ -338,6 +349,8 @@ def _layout(kind: str, items: list[str]):
         numbers = [float(a) for a in items]
     except ValueError:
         raise ValueError(f"{LAYOUTS[kind]} takes numbers") from None
+    if not all(math.isfinite(x) for x in numbers):
+        raise ValueError(f"{LAYOUTS[kind]} takes finite numbers, got {','.join(items)}")
     if kind == "core":
         return core(*numbers), len(numbers) + 1
     if kind == "sector":

@@ -34,14 +34,24 @@ STRAIN_SEED = 32
 numpy.random.default_rng((Config.seed, STRAIN_SEED)): its own stream, not the division noise's."""
 
 
+MAX_GROWTH = 100.0
+"""Largest growth factor a of a strain: a cell of it doubles in ln 2 / a, and the step follows
+the fastest strain (the continuum engine's twin constant is the same)."""
+
+MAX_STRAINS = 64
+"""Most strains of a colony (one particle type each in the trajectory)."""
+
+
 def as_strains(value) -> tuple[tuple[float, float], ...]:
     """The strains as a tuple of (lam_i, a_i) floats, checked (one-line ValueError).
 
     Each entry (lam,), (lam, growth) or {"lam": .., "growth": ..}; lam finite >= 0, growth
-    finite > 0 (default 1).
+    in (0, MAX_GROWTH] (default 1); at most MAX_STRAINS of them.
     """
     if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
         raise ValueError(f"strains must be a list of (lam, growth) pairs, got {value!r}")
+    if len(value) > MAX_STRAINS:
+        raise ValueError(f"strains: {len(value)} given, at most {MAX_STRAINS}")
     return tuple(_strain(entry) for entry in value)
 
 
@@ -58,8 +68,9 @@ def _strain(entry) -> tuple[float, float]:
                              f"got {v!r}")
     if lam < 0:
         raise ValueError(f"strains must be valid: a strain's lam must be >= 0, got {lam!r}")
-    if growth <= 0:
-        raise ValueError(f"strains must be valid: a strain's growth must be > 0, got {growth!r}")
+    if not 0 < growth <= MAX_GROWTH:
+        raise ValueError(f"strains must be valid: a strain's growth must be in "
+                         f"(0, {MAX_GROWTH:g}], got {growth!r}")
     return float(lam), float(growth)
 
 

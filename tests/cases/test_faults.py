@@ -337,3 +337,43 @@ def test_info_prints_the_provenance(colony, capsys, tmp_path):
     status, err = colony("info", str(tmp_path / "nothing"))
     one_line_error(status, err, "no run folder")
 
+
+
+# --------------------------------------------------------------------------- strains, --set
+
+
+@pytest.mark.parametrize("engine", ["continuum", "particles"])
+@pytest.mark.parametrize("extra,needle", [
+    (("--strains", "-1,0", "--layout", "core:1"), "a strain's lam must be"),
+    (("--strains", "1e-2:1e300,0", "--layout", "core:1"), "growth must be in (0, 100]"),
+    (("--strains", "1e-2,0"), "2 strains need --layout to place them"),
+    (("--strains", "1e-2,0", "--layout", "sector:1,nan"), "takes finite numbers"),
+    (("--strains", ",".join(["0"] * 65), "--layout", "core:1"), "65 given, at most 64"),
+])
+def test_strains_that_cannot_run_are_refused_before_any_work(colony, tmp_path, engine, extra,
+                                                             needle):
+    status, err = colony(engine, "--radius", "3", "--quiet", "--out", str(tmp_path / "s"),
+                         *extra)
+    one_line_error(status, err, needle)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_lam_is_optional_with_strains():
+    config = cli.build_config(__import__("particles").Config, None, [],
+                              {"strains": [[1e-2, 1.0], [0.0, 1.0]], "radius": 3.0})
+    assert config.lam == 1e-2
+
+
+def test_a_huge_set_key_or_value_is_cut_in_the_message(colony, tmp_path):
+    for item in ("k" * 100_000 + "=1", "seed=" + "1" * 100_000):
+        status, err = colony("particles", "--lam", "0", "--radius", "3", "--set", item,
+                             "--out", str(tmp_path / "s"))
+        one_line_error(status, err)
+        assert len(err) < 400 and "..." in err
+
+
+def test_case_help_and_quiet(capsys):
+    cli.parser().parse_args(["case", "orientation", "--quiet"])
+    help_text = cli.parser().format_help()
+    for name in ("orientation", "strains", "shapes"):
+        assert name in help_text

@@ -195,8 +195,9 @@ def test_layouts():
 
 @pytest.mark.parametrize(("strains", "match"), [
     (((-1e-3, 1.0),), "lam must be finite and >= 0"),
-    (((0.0, 0.0),), "growth must be finite and > 0"),
-    (((0.0, -1.0), (0.0, 1.0)), "growth must be finite and > 0"),
+    (((0.0, 0.0),), r"growth must be in \(0, 100\]"),
+    (((0.0, 1e300),), r"growth must be in \(0, 100\]"), (((0.0,),) * 65, "65 given, at most 64"),
+    (((0.0, -1.0), (0.0, 1.0)), r"growth must be in \(0, 100\]"),
     (((0.0, 1.0, 2.0),), "a strain must be"),
     ((("x", 1.0),), "lam must be a number"),
     ("fast", "strains must be"),

@@ -135,7 +135,8 @@ def test_bad_strains_are_refused_in_one_line(grown, kwargs, match):
 
 
 @pytest.mark.parametrize(("strains", "match"), [
-    ("0.1", "list of strains"), ([(0.1, 0.0)], "growth must be > 0"),
+    ("0.1", "list of strains"), ([(0.1, 0.0)], r"growth must be in \(0, 100\]"),
+    ([(0.1, 1e300)], r"growth must be in \(0, 100\]"), ([(0.0,)] * 65, "65 given, at most 64"),
     ([(-1.0,)], "lam must be >= 0"), ([(1, 2, 3)], "must be"), ([(float("nan"),)], "finite"),
 ])
 def test_bad_strain_configs(strains, match):
