@@ -56,6 +56,7 @@ import numpy as np
 import scipy.sparse as sp
 from scipy.spatial import Delaunay, cKDTree
 
+from cases import rundir
 from cases.analysis.io import DamagedFileError, check_trajectory, read_particle_frames
 from continuum.mesh import PolygonError, check_polygon, polygon_area, triangle_areas
 from continuum.sizes import LengthGrid
@@ -300,6 +301,7 @@ def final_particles(run_dir: str | os.PathLike):
     folder = Path(run_dir)
     if not folder.is_dir():
         raise ValueError(f"particle run folder not found: {folder}")
+    rundir.check_source(folder)
     path = folder / "trajectory.gsd"
     if not path.is_file():
         raise ValueError(f"{folder} is not a particle run folder (no trajectory.gsd)")

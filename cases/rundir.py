@@ -387,6 +387,37 @@ def hold(folder: Path, wait: bool = False):
         os.close(fd)
 
 
+def check_source(folder: Path) -> None:
+    """Refuse to read a run folder that a run is still writing, or whose run.json is damaged.
+
+    What ``colony plot|movie`` and ``--from-particles`` check first (one line naming the
+    folder): a folder held by a run (:func:`is_held`; a stopped ``DIR.partial`` is not held)
+    and a ``run.json`` of the wrong shape (:func:`_record_shape`).
+    """
+    folder = Path(folder)
+    if is_held(folder):
+        raise FolderInUseError(f"{folder} is in use by {holder(folder)}; wait for it to end or "
+                               "stop it (a stopped run resumes with its command)")
+    if (folder / RECORD).is_file():
+        shape = _record_shape(_load_record(folder))
+        if shape:
+            raise RunFolderError(f"{folder / RECORD} is damaged: {shape}")
+
+
+def check_output_of(source: Path, out: Path) -> None:
+    """Refuse pictures or a movie of ``source`` written into another run's folder.
+
+    ``out`` (a folder) and the folders above it may not be a run folder (one holding
+    ``run.json``) other than ``source`` itself: colony's pictures in another run's folder would
+    make it refuse ``--overwrite``.
+    """
+    source = Path(source).resolve()
+    for folder in (Path(out).resolve(), *Path(out).resolve().parents):
+        if folder != source and (folder / RECORD).is_file():
+            raise RunFolderError(f"refusing to write into {folder}: it is the folder of another "
+                                 f"run; give a folder of its own (or none: {source})")
+
+
 def is_held(folder: Path) -> bool:
     """Whether a process holds the lock of ``folder`` (:func:`hold`); False if unreadable."""
     try:

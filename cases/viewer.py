@@ -190,8 +190,10 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
     ``profile.png``, the radial mean-length profile from profile.csv when present.
     """
     d = Path(run_dir)
+    rundir.check_source(d)
     kind = run_kind(d)
     o = d if out is None else Path(out)
+    rundir.check_output_of(d, o)
     with _writing_into(o) as staging:
         lam = _lam(d)
         hist = _history(d)
@@ -368,7 +370,9 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     """
     out_path = check_movie_options(out_path, fps, max_frames)
     d = Path(run_dir)
+    rundir.check_source(d)
     kind = run_kind(d)
+    rundir.check_output_of(d, out_path.parent)
     with _writing_into(out_path.parent) as staging:
         _write_movie(d, kind, staging / out_path.name, fps, max_frames, pixels, progress)
     return out_path

@@ -286,6 +286,10 @@ def _is_file(path: str) -> bool:
         return False
 
 
+MAX_CONTACT_MARGIN = 10.0
+"""Largest contact margin (gap, in birth lengths) of the pairs a solve takes: 20 particle
+diameters, far beyond any pair a step can bring into contact (the default is 0.1)."""
+
 _RULES = [  # (field, test, message of a failed test), checked in order by Config.validate
     # after the types (Config.type_mismatch): a test may compare its number
     ("radius", lambda v: v is None or v > 0,
@@ -314,8 +318,8 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"max_hours must be positive and finite, or None, got {v}"),
     ("max_particles", lambda v: v >= 1,
      lambda v: f"max_particles must be a positive integer, got {v}"),
-    ("contact_margin", lambda v: v >= 0,
-     lambda v: f"contact_margin must be >= 0, got {v}"),
+    ("contact_margin", lambda v: 0 <= v <= MAX_CONTACT_MARGIN,
+     lambda v: f"contact_margin must be in [0, {MAX_CONTACT_MARGIN:g}], got {v}"),
     ("max_passes", lambda v: v >= 0,
      lambda v: f"max_passes must be an integer >= 0, got {v}"),
     ("max_iterations", lambda v: v >= 1,

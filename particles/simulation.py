@@ -27,6 +27,7 @@ import logging
 import math
 import sys
 import time as _time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -340,6 +341,17 @@ class Simulation:
         check_goal(radius, time)
         return radius, time
 
+    def _check_budget(self, radius: float | None, time: float | None) -> None:
+        """Config.check_budget of the way from the state to a goal of :meth:`advance`.
+
+        The same one-line refusal as :func:`run`'s (e.g. dt = 1e-300), before any step.
+        """
+        if self._reached(radius, time):
+            return
+        rest = None if time is None else time - self.state.t
+        replace(self.config, radius=radius, time=rest).check_budget(
+            self.state.enclosing_radius())
+
     def step(self, time: float | None = None) -> StepRecord:
         """Advance the state by one step, not past ``time``, divisions included; its record.
 
@@ -429,6 +441,7 @@ class Simulation:
             No goal (:meth:`done`).
         """
         radius, time = self._goal(radius, time)
+        self._check_budget(radius, time)
         with _ProgressBar(self.config.lam, radius, time, progress) as bar:
             while not self._reached(radius, time):
                 bar.show(self.step(time))

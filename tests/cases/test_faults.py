@@ -377,3 +377,43 @@ def test_case_help_and_quiet(capsys):
     help_text = cli.parser().format_help()
     for name in ("orientation", "strains", "shapes"):
         assert name in help_text
+
+
+# --------------------------------------------------------------------------- plot, movie
+
+
+@pytest.fixture
+def particle_run(colony, tmp_path):
+    out = tmp_path / "p8"
+    assert colony("particles", "--lam", "1e-2", "--radius", "2", "--quiet", "--out",
+                  str(out))[0] == 0
+    return out
+
+
+@pytest.mark.parametrize("command", [["plot"], ["movie", "--quiet"]])
+def test_plot_or_movie_of_a_folder_a_run_is_writing(colony, particle_run, command):
+    with rundir.hold(particle_run):
+        status, err = colony(command[0], str(particle_run), *command[1:])
+    one_line_error(status, err, f"{particle_run} is in use by")
+
+
+@pytest.mark.parametrize("command", [["plot", "--out", "{other}"],
+                                     ["movie", "--out", "{other}/m.mp4", "--quiet"]])
+def test_plot_or_movie_into_another_runs_folder(colony, particle_run, tmp_path, command):
+    other = tmp_path / "c8"
+    assert colony(*SMALL_CONTINUUM, "--out", str(other))[0] == 0
+    before = tree(other)
+    args = [a.format(other=other) for a in command]
+    status, err = colony(args[0], str(particle_run), *args[1:])
+    one_line_error(status, err, f"refusing to write into {other}: it is the folder of another run")
+    assert tree(other) == before
+
+
+@pytest.mark.parametrize("command", [["plot"], ["movie", "--quiet"],
+                                     ["continuum", "--radius", "20", "--from-particles"]])
+def test_a_run_json_of_the_wrong_shape(colony, particle_run, tmp_path, command):
+    (particle_run / "run.json").write_text("[1, 2]")
+    args = [*command, str(particle_run)] + (["--out", str(tmp_path / "c9")]
+                                            if command[0] == "continuum" else [])
+    status, err = colony(*args)
+    one_line_error(status, err, "run.json is damaged: expected a JSON object, found list")

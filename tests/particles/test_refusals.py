@@ -57,3 +57,19 @@ def test_init_file_reads(tmp_path):
     x, y, theta, length = read_init(p)
     np.testing.assert_array_equal(x, [0.0, 3.0])
     np.testing.assert_array_equal(length, [1.0, 1.5])
+
+
+def test_advance_refuses_what_run_refuses():
+    """``Simulation.advance`` checks the budget of its goal as ``run`` does (no hang)."""
+    import particles
+
+    sim = particles.Simulation(particles.Config(lam=0.0, dt=1e-300))
+    with pytest.raises(ValueError, match=r"dt = 1e-300 takes more than 1e\+300 steps"):
+        sim.advance(radius=8)
+    assert sim.state.step == 0
+
+
+@pytest.mark.parametrize("margin", [1e300, -0.1, 10.5])
+def test_contact_margin_within_its_range(margin):
+    with pytest.raises(ValueError, match=r"contact_margin must be in \[0, 10\]"):
+        Config(lam=0.0, radius=3.0, contact_margin=margin)
