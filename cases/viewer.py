@@ -33,6 +33,7 @@ import json
 import math
 import os
 import shutil
+import sys
 import tempfile
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -427,7 +428,8 @@ def _write_movie(d: Path, kind: str, out_path: Path, fps: float, max_frames: int
             items = iter(pick)
         else:
             items = ((None, fr) for fr in read_particle_frames(d / "trajectory.gsd", pick))
-        bar = tqdm(items, total=len(pick), desc=f"movie {out_path.name}", disable=not progress)
+        bar = tqdm(items, total=len(pick), desc=f"movie {out_path.name}",
+                   disable=not (progress and sys.stderr.isatty()))  # no bar in a log file
         for t, item in bar:
             ax.clear()
             if kind == "continuum":

@@ -230,3 +230,34 @@ def test_info_says_where_a_paused_run_stands(colony, capsys, tmp_path):
     text = capsys.readouterr().out
     assert "status          paused" in text
     assert "stands at       radius 0.5101 of 3, 1 cells, t = 0.02, step 1; wall spent" in text
+
+
+# --------------------------------------------------------------------------- carry
+
+
+def test_a_paused_run_carried_without_its_trajectory_resumes(colony, tmp_path):
+    """pack, unpack on "another machine", the same command: the uninterrupted run's results.
+
+    The history and the final state are the uninterrupted run's; the trajectory restarts at
+    the leg's first frame.
+    """
+    from cases import carry
+
+    args = ["particles", "--lam", "1e-2", "--time", "0.3", "--quiet", "--set", "output_every=3"]
+    assert colony(*args, "--out", str(tmp_path / "one"))[0] == 0
+    here = tmp_path / "here" / "run"
+    while colony(*args, "--out", str(here), "--max-hours", "1e-9")[0] == rundir.PAUSED_STATUS:
+        if len(json.loads((rundir.partial_of(here) / "run.json").read_text())["sessions"]) == 4:
+            break
+    record = carry.pack(rundir.partial_of(here), tmp_path / "repo" / "resume")
+    assert record["cells"] >= 1 and record["step"] == 4
+    assert sorted(p.name for p in (tmp_path / "repo" / "resume").iterdir()) == sorted(
+        [*carry.RESUME_FILES, carry.CARRY])
+    there = tmp_path / "there" / "run"
+    carry.unpack(tmp_path / "repo" / "resume", there)
+    assert colony(*args, "--out", str(there))[0] == 0
+    one, carried = files(tmp_path / "one"), files(there)
+    for name in ("history.csv", "particles.csv", "profile.csv"):
+        assert carried[Path(name)] == one[Path(name)], name
+    with pytest.raises(ValueError, match="exists; move it away first"):
+        carry.unpack(tmp_path / "repo" / "resume", there)
