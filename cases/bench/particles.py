@@ -51,17 +51,22 @@ def _save(path: Path, state: ParticleState, t: float, warm, rng) -> None:
 
 
 def load_state(path: Path):
-    """(state, t, warm, rng) saved by :func:`grow_states`, or of a ``particles.csv`` colony."""
+    """(state, t, warm, rng) of a saved state, a run's checkpoint or a ``particles.csv`` colony.
+
+    Saved states are :func:`grow_states`'; a run's ``checkpoint.npz`` (e.g. a paper colony's,
+    ``colony particles``) gives its state warm-started as the run would resume it.
+    """
     if path.suffix == ".csv":
         state = ParticleState.from_arrays(*read_init(path))
         return state, 0.0, (np.zeros(0, dtype=np.int64), np.zeros(0)), np.random.default_rng(0)
     with np.load(path) as z:
+        meta = json.loads(str(z["meta"])) if "meta" in z.files else {}  # a run's checkpoint
         st = ParticleState(z["x"], z["y"], z["theta"], z["length"], z["stress"], z["ids"],
-                           int(z["next_id"]))
+                           int(meta["next_id"] if meta else z["next_id"]))
         warm = (z["warm_keys"], z["warm_gamma"])
         rng = np.random.default_rng()
-        rng.bit_generator.state = json.loads(str(z["rng"]))
-        return st, float(z["t"]), warm, rng
+        rng.bit_generator.state = meta["rng"] if meta else json.loads(str(z["rng"]))
+        return st, float(meta["t"] if meta else z["t"]), warm, rng
 
 
 FIXED_DT = 0.01

@@ -355,3 +355,16 @@ def test_bench_cost_growth_fits_a_power_law(tmp_path, capsys):
     with pytest.raises(SystemExit):
         cost_growth.main(["--runs", str(run), "--fit", "200", "250"])
     assert "need 3 to fit" in capsys.readouterr().err
+
+
+def test_bench_particles_reads_a_run_checkpoint(tmp_path):
+    """``--state checkpoint.npz``: a run's state, time and warm start, as the run resumes it."""
+    from particles import Config, run
+
+    from cases.bench.particles import load_state
+
+    sim = run(Config(lam=1e-2, time=1.0), tmp_path, max_steps=30)
+    state, t, warm, _ = load_state(tmp_path / "checkpoint.npz")
+    np.testing.assert_array_equal(state.x, sim.state.x)
+    assert state.next_id == sim.state.next_id and t == sim.state.t
+    np.testing.assert_array_equal(warm[1], sim.state.warm_gamma)
