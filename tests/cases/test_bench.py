@@ -359,9 +359,8 @@ def test_bench_cost_growth_fits_a_power_law(tmp_path, capsys):
 
 def test_bench_particles_reads_a_run_checkpoint(tmp_path):
     """``--state checkpoint.npz``: a run's state, time and warm start, as the run resumes it."""
-    from particles import Config, run
-
     from cases.bench.particles import load_state
+    from particles import Config, run
 
     sim = run(Config(lam=1e-2, time=1.0), tmp_path, max_steps=30)
     state, t, warm, _ = load_state(tmp_path / "checkpoint.npz")
