@@ -55,11 +55,19 @@ interval of the refitted lam; slower (one fit per replicate), and at the boundar
 trusted (a percentile interval of an estimate held at lam >= 0 can exclude a true lam = 0).
 
 Bad data (:func:`read_series`, :func:`check_series`) is refused with a ValueError of one line
-naming the rows or columns: missing columns, an unreadable file, text or NaN/inf, fewer than
-4 points, negative or non-increasing times, radii that are not positive or that decrease
-beyond noise (5 % of their range, or less for a smooth series), radii implausible for the cell
-length (smaller than one cell, or beyond 1e5 cell lengths) and growth faster than the
-stress-free limit allows (time unit or tau wrong).
+naming the rows or columns: missing columns, an unreadable file, a ragged row (another number
+of fields than the header, its file line named), text or NaN/inf, fewer than 4 points,
+negative or non-increasing times, radii that are not positive or that decrease beyond noise
+(5 % of their range, or less for a smooth series), a radius that does not grow (the data do not
+identify lam), radii implausible for the cell length (smaller than one cell, or beyond 1e5 cell
+lengths) and growth faster than the stress-free limit allows (time unit or tau wrong). Before
+any of it, options out of their physical range (:data:`OPTION_RANGES`: tau in [1e-3, 1e6] min,
+the cell length in [1e-2, 1e4] um, ...) and more than :data:`MAX_BOOTSTRAP` replicates are
+refused. A fit whose best lam is the largest searched, or whose interval is [0, inf], is
+refused too (:func:`_check_identified`: no estimate), and a numerical failure of the fit is
+reported in one line naming the time and radius units (:func:`_fit_failure`). A colony far from
+what E. coli colonies do (mean radial speed over its radii 30 times off, or beyond 1 cm:
+:func:`_implausible_colony`) gives a warning naming --time-unit and --radius-unit.
 
 Outputs (:func:`write_fit`): ``fit.json`` and ``fit.png`` in the output folder, each written
 to a temporary file in that folder and renamed over its namesake (``os.replace``: a link
@@ -72,9 +80,12 @@ import csv
 import io
 import json
 import math
+import numbers
 import os
 import shlex
 import sys
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import BinaryIO
@@ -83,6 +94,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
+from cases.analysis.statistics import ecoli_lambda
 from cases.rundir import replace_file
 from continuum import radial
 
@@ -123,6 +135,36 @@ DROP_SHARE = 0.05
 """A drop of the radius between two rows is an error beyond the smaller of
 NOISE_FACTOR sqrt(2) sigma_noise and DROP_SHARE (R_max - R_min)."""
 
+MIN_GROWTH = 1e-6
+"""A series whose last radius exceeds its first by no more than the drop tolerance, or by no
+more than MIN_GROWTH of the largest radius, does not grow (:func:`_check_growth`)."""
+
+OPTION_RANGES = {
+    "--tau-minutes": (1e-3, 1e6, "min", "a growth time from 0.06 s to 2 years"),
+    "--tau-prior-sd": (1e-3, 1e6, "min", "a spread of the growth time from 0.06 s to 2 years"),
+    "--cell-length-um": (1e-2, 1e4, "um", "a cell from 10 nm to 1 cm long"),
+    "--speed": (1e-6, 1e3, "um/s", "from 0.1 um a day to 1 mm/s"),
+}
+"""Accepted range of each numeric option (:func:`_check_option`): physically generous; beyond
+it the number is a typo or a unit slip, and the arithmetic would overflow or take forever."""
+
+MAX_BOOTSTRAP = 10_000
+"""Most bootstrap replicates (``--bootstrap``): each is a full refit (about 0.03 s for 20
+points), so 10,000 take minutes; 1,000-2,000 already give a stable 95 % percentile interval."""
+
+ECOLI_LAM = ecoli_lambda()
+"""The paper's E. coli lam, 2 / v^2 = 1.13e-3 (cases.analysis.ecoli_lambda: tau = 54 min,
+l0 = 1 um, late speed 1.3e-2 um/s)."""
+
+SPEED_FACTOR = 30.0
+"""A colony growing over its radii more than SPEED_FACTOR times faster or slower than one of
+lam = ECOLI_LAM (with the given tau and cell length) is implausible (a warning): lam within
+about a factor 1000 of E. coli's (the paper's 1e-4 to 0.1 with margin) stays inside."""
+
+ECOLI_MAX_RADIUS_UM = 1e4
+"""Largest plausible E. coli colony radius (1 cm, a warning beyond): at the paper's late speed
+of 1.3e-2 um/s a colony needs 9 days to reach it."""
+
 TIME_COLUMNS = ("t", "time")
 RADIUS_COLUMNS = ("radius", "r")
 
@@ -149,20 +191,24 @@ def read_series(
     ------
     ValueError
         One line: the file cannot be read, a column is missing (the columns found are named),
-        or a cell is not a number (its row and column named).
+        a row has another number of fields than the header (its line named,
+        :func:`_check_ragged`), or a cell is not a number (its row and column named).
     """
     path = Path(path)
     try:
         with path.open(newline="", encoding="utf-8-sig") as fh:
-            rows = [r for r in csv.reader(fh) if r and any(c.strip() for c in r)
-                    and not r[0].lstrip().startswith("#")]
+            reader = csv.reader(fh)
+            lines = [(reader.line_num, r) for r in reader if r and any(c.strip() for c in r)
+                     and not r[0].lstrip().startswith("#")]
     except OSError as err:
         raise ValueError(f"cannot read {path}: {err.strerror or err}") from None
     except (UnicodeDecodeError, csv.Error) as err:
         raise ValueError(f"cannot read {path}: not a text CSV file ({err})") from None
-    if not rows:
+    if not lines:
         raise ValueError(f"{path} is empty: expected a header row and at least {MIN_POINTS} "
                          "rows of times and radii")
+    _check_ragged(path, lines)
+    rows = [r for _, r in lines]
     header = [c.strip() for c in rows[0]]
     found = ", ".join(header)
 
@@ -195,6 +241,21 @@ def read_series(
     return values[:, 0], values[:, 1], (header[it], header[ir])
 
 
+def _check_ragged(path: Path, lines: list[tuple[int, list[str]]]) -> None:
+    """Refuse a row with another number of fields than the header (its file line named).
+
+    ``lines`` are (line number in the file, fields) of the header and the data rows. A ragged
+    row means a shifted or half-written line: its values would be read from the wrong columns.
+    """
+    (_, header), *data = lines
+    for number, row in data:
+        if len(row) != len(header):
+            raise ValueError(
+                f"{path}, line {number}: {len(row)} field{'s' * (len(row) != 1)}, but the header "
+                f"has {len(header)} ({', '.join(c.strip() for c in header)}); every row needs "
+                "one value per column")
+
+
 def _rows(index: NDArray, limit: int = 6) -> str:
     """Data rows (1-based) of the indices, at most ``limit`` named."""
     rows = [str(i + 1) for i in np.asarray(index).ravel()]
@@ -222,12 +283,12 @@ def check_series(t: ArrayLike, R: ArrayLike, radius_unit: str = "um") -> None:
     """Refuse a series a growing colony cannot have made (ValueError, one line).
 
     In order: NaN or infinite values, fewer than :data:`MIN_POINTS` rows, negative times, times
-    that do not increase, radii that are not positive, and radii that decrease by more than
+    that do not increase, radii that are not positive, radii that decrease by more than
     noise: a drop R_{i-1} - R_i between two rows beyond both 5 sqrt(2) sigma_noise
     (sigma_noise the robust scatter about the neighbours' chord, :func:`_noise_scale`) and
     5 % of the range R_max - R_min (exact data may not decrease at all; one or two outliers
-    in a short series inflate sigma_noise, not the range). Rows are data rows counted from 1
-    below the header.
+    in a short series inflate sigma_noise, not the range), and a radius that does not grow
+    (:func:`_check_growth`). Rows are data rows counted from 1 below the header.
     """
     t = np.asarray(t, dtype=float)
     R = np.asarray(R, dtype=float)
@@ -258,6 +319,23 @@ def check_series(t: ArrayLike, R: ArrayLike, radius_unit: str = "um") -> None:
             f"the radius decreases in data row(s) {_rows(bad)} (row {i + 1}: {R[i]:g} after "
             f"{R[i - 1]:g} {radius_unit}), beyond noise ({tol:.3g} {radius_unit}): a growing "
             "colony's radius does not shrink; check the rows and the columns")
+    _check_growth(R, tol, radius_unit)
+
+
+def _check_growth(R: NDArray, tol: float, radius_unit: str) -> None:
+    """Refuse a radius that does not grow: the data then do not identify lam.
+
+    The last radius must exceed the first by more than ``tol`` (the noise tolerance of the drop
+    test in :func:`check_series`) and by more than :data:`MIN_GROWTH` of the largest radius
+    (round-off). lam is read from how growth slows; without growth the best fit runs to the
+    largest lam searched, which is no estimate.
+    """
+    growth = float(R[-1] - R[0])
+    if growth <= max(tol, MIN_GROWTH * float(R.max())):
+        raise ValueError(
+            f"the data do not identify lam: the radius does not grow ({R[0]:g} {radius_unit} in "
+            f"data row 1, {R[-1]:g} in data row {R.size}, within noise {tol:.3g} {radius_unit}); "
+            "lam is read from how a growing colony slows (no growth, or no slowing: no lam)")
 
 
 def _check_units(s: NDArray, y: NDArray, cell_length_um: float, radius_unit: str,
@@ -277,12 +355,48 @@ def _check_units(s: NDArray, y: NDArray, cell_length_um: float, radius_unit: str
             f"{MAX_CELL_LENGTHS:.0e}; are the radii in another unit (--radius-unit um|mm) or is "
             "--cell-length-um right?")
     span = s[-1] - s[0]
-    if y[-1] / y[0] > 4.0 * math.exp(span / 2.0):
+    if math.log(y[-1] / y[0]) > math.log(4.0) + span / 2.0:  # in logs: no overflow
         raise ValueError(
             f"time unit implausible: the radius grows {y[-1] / y[0]:.3g}-fold in {span:.3g} "
             f"growth times, faster than stress-free growth allows (R ~ exp(t / (2 tau)), "
             f"{math.exp(span / 2.0):.3g}-fold); is --time-unit ({time_unit}) or --tau-minutes "
             "right?")
+
+
+def _implausible_colony(t: NDArray, R: NDArray, time_unit: str, radius_unit: str,
+                        tau_minutes: float, cell_length_um: float) -> str | None:
+    """One line when the implied colony is far from what E. coli colonies do, else None.
+
+    Two checks, from the paper's E. coli numbers (:data:`ECOLI_LAM`, :data:`SPEED_FACTOR`,
+    :data:`ECOLI_MAX_RADIUS_UM`): the time the data take to grow from their first to their last
+    radius against the time a colony of lam = ECOLI_LAM (the given tau and cell length) takes
+    between the same radii (its mean radial speed, more than 30 times slower or faster), and the
+    largest radius beyond 1 cm. Either points to a wrong --time-unit or --radius-unit, which
+    the line names with their values.
+    """
+    to_um = RADIUS_UNITS[radius_unit]
+    y_first, y_last = R[0] * to_um / cell_length_um, R[-1] * to_um / cell_length_um
+    data_min = float(t[-1] - t[0]) * TIME_UNITS[time_unit]
+    reasons = []
+    grows = 0 < y_first < y_last and data_min > 0  # else check_series refused it (check=False)
+    ecoli_min = (float(radial.time_to_radius(y_last, ECOLI_LAM, y_first)) * tau_minutes
+                 if grows else math.nan)
+    speed = (R[-1] - R[0]) * to_um / (data_min * 60.0) if grows else math.nan
+    if grows and not 1.0 / SPEED_FACTOR <= data_min / ecoli_min <= SPEED_FACTOR:
+        ratio = data_min / ecoli_min
+        how = f"{ratio:.3g} times slower" if ratio > 1 else f"{1 / ratio:.3g} times faster"
+        reasons.append(
+            f"its mean radial speed, {speed:.3g} um/s, is {how} than an E. coli colony's over "
+            f"these radii (lam = {ECOLI_LAM:.3g}, tau = {tau_minutes:g} min: "
+            f"{ecoli_min:.3g} min from {R[0]:g} to {R[-1]:g} {radius_unit}, the data take "
+            f"{data_min:.3g} min)")
+    if R.max() * to_um > ECOLI_MAX_RADIUS_UM:
+        reasons.append(f"its largest radius, {R.max() * to_um:g} um, is beyond the "
+                       f"{ECOLI_MAX_RADIUS_UM:g} um an E. coli colony reaches in 9 days")
+    if not reasons:
+        return None
+    return (f"implausible colony: {'; '.join(reasons)}; check --time-unit (now {time_unit}) and "
+            f"--radius-unit (now {radius_unit})")
 
 
 # --------------------------------------------------------------------------- model
@@ -504,13 +618,20 @@ class ColonyFit:
 
     @property
     def warnings(self) -> list[str]:
-        """What the interval does not account for (residuals correlated beyond 3/sqrt(n))."""
+        """What the interval does not account for, one line each.
+
+        Residuals correlated beyond 3/sqrt(n), and a colony implausible for E. coli
+        (:func:`_implausible_colony`: probably a wrong unit flag).
+        """
+        found = []
         if self.lag1 > 3.0 / math.sqrt(self.n):
-            return [f"the residuals are correlated (lag-1 autocorrelation {self.lag1:.2f}, "
-                    f"independent noise: |r| < {3.0 / math.sqrt(self.n):.2f}): R(t) deviates "
-                    "systematically from the radial solution, and the interval, which assumes "
-                    "independent noise, is too narrow"]
-        return []
+            found.append(f"the residuals are correlated (lag-1 autocorrelation {self.lag1:.2f}, "
+                         f"independent noise: |r| < {3.0 / math.sqrt(self.n):.2f}): R(t) "
+                         "deviates systematically from the radial solution, and the interval, "
+                         "which assumes independent noise, is too narrow")
+        implausible = _implausible_colony(self.t, self.R, self.time_unit, self.radius_unit,
+                                          self.tau_minutes, self.cell_length_um)
+        return found + ([implausible] if implausible else [])
 
     def summary(self) -> str:
         """One line: lam, its interval and the method."""
@@ -718,19 +839,23 @@ def fit_colony(  # noqa: PLR0913 (the fit's options, all keywords with defaults)
     grid = _grid(y, dt_min / tau)
     x0 = np.array([math.log(max(y[0], 1e-3)), 0.0])
     prof = _Profile(pb, x0)
-    lam_hat, q_min = _mle(prof, grid)
+    with _fit_failure(time_unit, radius_unit):
+        lam_hat, q_min = _mle(prof, grid)
+    _check_identified(lam_hat, time_unit)
     dof = pb.n - pb.p
     c = pb.n * math.log1p(float(stats.f.ppf(level, 1, dof)) / dof)
-    if interval == "profile":
-        lo, hi = _interval(prof, lam_hat, q_min, grid, c)
-        method = (f"profile likelihood: lam >= 0 with n ln(RSS_p(lam)/RSS_min) "
-                  f"{'+ tau prior ' if pb.free_tau else ''}<= n ln(1 + F_{{1,n-p}}({level:g})/"
-                  f"(n-p)) = {c:.4g}, n = {pb.n}, p = {pb.p}")
-    else:
-        lo, hi = _bootstrap(pb, prof, lam_hat, level, n_boot, seed)
-        method = (f"residual bootstrap, {n_boot} replicates (seed {seed}), percentile interval "
-                  f"at {level:g}")
-    x_hat = prof.x(lam_hat)
+    with _fit_failure(time_unit, radius_unit):
+        if interval == "profile":
+            lo, hi = _interval(prof, lam_hat, q_min, grid, c)
+            method = (f"profile likelihood: lam >= 0 with n ln(RSS_p(lam)/RSS_min) "
+                      f"{'+ tau prior ' if pb.free_tau else ''}<= n ln(1 + F_{{1,n-p}}"
+                      f"({level:g})/(n-p)) = {c:.4g}, n = {pb.n}, p = {pb.p}")
+        else:
+            lo, hi = _bootstrap(pb, prof, lam_hat, level, n_boot, seed)
+            method = (f"residual bootstrap, {n_boot} replicates (seed {seed}), percentile "
+                      f"interval at {level:g}")
+        x_hat = prof.x(lam_hat)
+    _check_identified(lam_hat, time_unit, lo, hi)
     theta = x_hat[1] if pb.free_tau else 0.0
     tau_hat = tau * math.exp(theta)
     R1 = math.exp(x_hat[0])
@@ -748,6 +873,46 @@ def fit_colony(  # noqa: PLR0913 (the fit's options, all keywords with defaults)
         doubling_time=doubling_time, cell_length_um=float(cell_length_um), time_unit=time_unit,
         radius_unit=radius_unit, t=t, R=R, fitted=fitted * to_unit, threshold=c, q_min=q_min,
         _prof=prof)
+
+
+@contextmanager
+def _fit_failure(time_unit: str, radius_unit: str) -> Iterator[None]:
+    """Turn a numerical failure of the fit into one line naming the units (ValueError).
+
+    Data in the wrong time or radius unit (minutes read as hours) can drive the radial
+    solution out of floating-point range; the failure then says which units were used and
+    which flags to check. numpy's overflow warnings are silenced meanwhile (the message is the
+    one line the user gets).
+    """
+    try:
+        with np.errstate(all="ignore"):
+            yield
+    except (ValueError, ArithmeticError) as err:
+        detail = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        raise ValueError(
+            f"the fit failed with times in {time_unit} and radii in {radius_unit} ({detail}): "
+            f"are the times in another unit (--time-unit s|min|h, now {time_unit})? check "
+            f"--radius-unit ({radius_unit}) and --tau-minutes too") from None
+
+
+def _check_identified(lam_hat: float, time_unit: str, lo: float | None = None,
+                      hi: float | None = None) -> None:
+    """Refuse an estimate that is no number: the data do not identify lam.
+
+    Two cases: the best lam is at the largest lam searched (:data:`LAM_MAX`: a colony that
+    does not grow measurably, every large lam fits alike), or the interval is [0, inf] (every
+    lam >= 0 fits: no slowing detected and none excluded).
+    """
+    if lam_hat >= 0.5 * LAM_MAX:
+        raise ValueError(
+            f"the data do not identify lam: the best fit runs to the largest lam searched "
+            f"({LAM_MAX:.0e}), a colony that does not grow measurably (no growth, or no "
+            f"slowing to measure); check the radius column and --time-unit ({time_unit})")
+    if lo is not None and hi is not None and lo == 0.0 and math.isinf(hi):
+        raise ValueError(
+            "the data do not identify lam: every lam >= 0 fits them (the interval would be "
+            "[0, inf]: no slowing detected and no lam excluded); a fit needs a series long "
+            f"enough to show growth slowing; check --time-unit ({time_unit}) and --tau-minutes")
 
 
 def _bootstrap(pb: _Problem, prof: _Profile, lam_hat: float, level: float, n_boot: int,
@@ -770,13 +935,30 @@ def _bootstrap(pb: _Problem, prof: _Profile, lam_hat: float, level: float, n_boo
     return float(lo), float(hi)
 
 
+def _check_option(flag: str, value: float) -> None:
+    """Refuse a numeric option that is not a finite number in its :data:`OPTION_RANGES` range.
+
+    One line naming the flag, the range with its unit and what the range means.
+    """
+    lo, hi, unit, meaning = OPTION_RANGES[flag]
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not (ok and math.isfinite(value) and lo <= value <= hi):
+        shown = f"{value:g}" if ok else repr(value)
+        raise ValueError(f"{flag} must be a positive number in [{lo:g}, {hi:g}] {unit} "
+                         f"({meaning}), got {shown}")
+
+
 def _check_options(tau_minutes, cell_length_um, time_unit, radius_unit, tau_prior_sd, interval,
                    n_boot, level) -> None:
-    for name, v in (("--tau-minutes", tau_minutes), ("--cell-length-um", cell_length_um)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be a positive number, got {v}")
-    if tau_prior_sd is not None and not (math.isfinite(tau_prior_sd) and tau_prior_sd > 0):
-        raise ValueError(f"--tau-prior-sd must be a positive number, got {tau_prior_sd}")
+    """Refuse options out of range before any work (one line each, the first found).
+
+    tau, the cell length and the tau prior's spread in :data:`OPTION_RANGES`; known units and
+    interval; 20 <= ``n_boot`` <= :data:`MAX_BOOTSTRAP`; 0 < ``level`` < 1.
+    """
+    _check_option("--tau-minutes", tau_minutes)
+    _check_option("--cell-length-um", cell_length_um)
+    if tau_prior_sd is not None:
+        _check_option("--tau-prior-sd", tau_prior_sd)
     if time_unit not in TIME_UNITS:
         raise ValueError(f"unknown time unit {time_unit!r}; known: {', '.join(TIME_UNITS)}")
     if radius_unit not in RADIUS_UNITS:
@@ -786,6 +968,10 @@ def _check_options(tau_minutes, cell_length_um, time_unit, radius_unit, tau_prio
         raise ValueError(f"interval must be profile or bootstrap, got {interval!r}")
     if not (isinstance(n_boot, int) and n_boot >= 20):
         raise ValueError(f"--bootstrap must be an integer >= 20, got {n_boot}")
+    if n_boot > MAX_BOOTSTRAP:
+        raise ValueError(f"--bootstrap {n_boot} is above the cap of {MAX_BOOTSTRAP:,} replicates "
+                         f"(each is a full refit: {MAX_BOOTSTRAP:,} already take minutes, "
+                         "1,000-2,000 give a stable 95 % interval)")
     if not 0 < level < 1:
         raise ValueError(f"level must lie in (0, 1), got {level}")
 
@@ -867,10 +1053,9 @@ def lam_from_speed(
     lam = 1.13e-3 when tau = 54 min is the e-folding time of dl/dt = l/tau (the model's
     time unit); read as a doubling time, tau = 54 / ln 2 = 77.9 min, v = 60.8, lam = 5.4e-4.
     """
-    for name, v in (("--speed", speed_um_per_s), ("--tau-minutes", tau_minutes),
+    for flag, v in (("--speed", speed_um_per_s), ("--tau-minutes", tau_minutes),
                     ("--cell-length-um", cell_length_um)):
-        if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise ValueError(f"{name} must be a positive number, got {v}")
+        _check_option(flag, v)
     ln2 = math.log(2.0)
 
     def lam_of(tau_min: float) -> tuple[float, float, float | None]:
@@ -1024,6 +1209,8 @@ def main_fit(args) -> int:
         return 0
     if args.speed_radius is not None:
         raise ValueError("--speed-radius goes with --speed")
+    _check_options(args.tau_minutes, args.cell_length_um, args.time_unit, args.radius_unit,
+                   args.tau_prior_sd, args.interval, args.bootstrap, 0.95)  # before any work
     if args.out is None:
         args.out = f"fit-{Path(args.data).stem}"
     result = fit_file(args.data, time_column=args.time_column,

@@ -360,6 +360,118 @@ def test_noisy_but_growing_series_is_accepted():
         fit.check_series(t, R)
 
 
+def _error_line(err):
+    """The one line of stderr, ``colony: error: ...`` (asserted to be the only one)."""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("colony: error: "), err
+    return lines[0]
+
+
+def _fit_args(data, tmp_path, *extra):
+    return ("fit", str(data), "--tau-minutes", "54", "--cell-length-um", "1", "--out",
+            str(tmp_path / "out"), *extra)
+
+
+def test_no_growth_does_not_identify_lam(tmp_path, colony):
+    """A constant radius used to give lam = 1e8 [9e7, None]; data showing no slowing, [0, inf].
+
+    Neither is an estimate: both are refused in one line saying the data do not identify lam.
+    """
+    flat = tmp_path / "flat.csv"
+    flat.write_text(rows_csv([(60.0 * k, 50.0) for k in range(6)]))
+    status, err = colony(*_fit_args(flat, tmp_path))
+    assert status == 2
+    line = _error_line(err)
+    assert "do not identify lam" in line and "does not grow" in line
+    # GOOD read in seconds: 3-fold in 7 min, near stress-free growth, no slowing to measure
+    fast = tmp_path / "fast.csv"
+    fast.write_text(rows_csv(GOOD))
+    status, err = colony(*_fit_args(fast, tmp_path, "--time-unit", "s"))
+    assert status == 2
+    line = _error_line(err)
+    assert "do not identify lam" in line and "[0, inf]" in line and "--time-unit (s)" in line
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize(("flag", "value"), [
+    ("--tau-minutes", "1e-300"), ("--tau-minutes", "1e300"), ("--tau-minutes", "inf"),
+    ("--tau-minutes", "nan"), ("--tau-minutes", "0"), ("--cell-length-um", "1e-300"),
+    ("--cell-length-um", "1e300"), ("--tau-prior-sd", "0"), ("--tau-prior-sd", "1e300"),
+    ("--speed", "1e-300"), ("--speed", "1e300")])
+def test_absurd_numbers_are_refused_before_any_work(flag, value, tmp_path, colony):
+    """--tau-minutes 1e-300 used to end in an OverflowError traceback.
+
+    Every numeric option outside its generous physical range is refused in one line naming the
+    flag and the range, before the data file is read (here it does not exist).
+    """
+    base = {"--tau-minutes": "54", "--cell-length-um": "1"}
+    base[flag] = value
+    argv = ["fit", *[w for item in base.items() for w in item]]
+    if flag != "--speed":
+        argv.insert(1, str(tmp_path / "missing.csv"))
+    status, err = colony(*argv, "--out", str(tmp_path / "out"))
+    assert status == 2
+    line = _error_line(err)
+    low, high, unit, _ = fit.OPTION_RANGES[flag]
+    assert f"{flag} must be a positive number in [{low:g}, {high:g}] {unit}" in line, line
+    assert not (tmp_path / "out").exists()
+
+
+def test_bootstrap_count_above_the_cap_is_refused_at_once(tmp_path, colony):
+    """--bootstrap 1000000000 used to run on for minutes; above MAX_BOOTSTRAP it is refused."""
+    argv = _fit_args(tmp_path / "missing.csv", tmp_path, "--interval", "bootstrap",
+                     "--bootstrap", "1000000000")
+    status, err = colony(*argv)
+    assert status == 2
+    line = _error_line(err)
+    assert "--bootstrap 1000000000" in line and f"cap of {fit.MAX_BOOTSTRAP:,}" in line
+    fit._check_options(54.0, 1.0, "min", "um", None, "bootstrap", fit.MAX_BOOTSTRAP, 0.95)
+    with pytest.raises(ValueError, match="above the cap"):
+        fit._check_options(54.0, 1.0, "min", "um", None, "bootstrap", fit.MAX_BOOTSTRAP + 1,
+                           0.95)
+
+
+@pytest.mark.filterwarnings("error::RuntimeWarning")  # no numpy overflow warning on stderr
+def test_wrong_time_unit_failure_names_the_unit(tmp_path, colony):
+    """Minutes read as hours drive the radial solution out of range: the line names the unit."""
+    data = tmp_path / "minutes.csv"
+    data.write_text(rows_csv(GOOD))
+    status, err = colony(*_fit_args(data, tmp_path, "--time-unit", "h"))
+    assert status == 2
+    line = _error_line(err)
+    assert "times in h" in line and "--time-unit" in line, line
+    assert not (tmp_path / "out").exists()
+
+
+def test_ragged_rows_are_refused_with_their_line(tmp_path, colony):
+    """A row with another number of fields than the header, named by its line in the file."""
+    data = tmp_path / "ragged.csv"
+    lines = rows_csv(GOOD).splitlines()
+    lines[5] += ",7"  # data row 5
+    data.write_text("# a comment\n\n" + "\n".join(lines) + "\n")  # data row 5 is line 8
+    status, err = colony(*_fit_args(data, tmp_path))
+    assert status == 2
+    line = _error_line(err)
+    assert "line 8: 3 fields" in line and "header has 2 (t, radius)" in line, line
+    assert not (tmp_path / "out").exists()
+
+
+def test_implausible_colony_is_a_one_line_warning(tmp_path, colony):
+    """GOOD in um given as mm: 1-3 cm at 0.8 um/s, far beyond E. coli; exit 0 with a warning."""
+    data = tmp_path / "good.csv"
+    data.write_text(rows_csv(GOOD))
+    status, err = colony(*_fit_args(data, tmp_path, "--radius-unit", "mm"))
+    assert status == 0, err
+    warned = [w for w in err.splitlines() if "implausible colony" in w]
+    assert len(warned) == 1 and warned[0].startswith("colony: warning: "), err
+    assert "--radius-unit (now mm)" in warned[0] and "times faster" in warned[0]
+    record = json.loads((tmp_path / "out" / "fit.json").read_text())
+    assert any("implausible colony" in w for w in record["warnings"])
+    # the same numbers in um are a plausible colony: no warning
+    status, err = colony(*_fit_args(data, tmp_path / "um"))
+    assert status == 0 and "implausible" not in err, err
+
+
 # --------------------------------------------------------------------------- particle colonies
 
 
