@@ -569,10 +569,17 @@ def is_no_space(err: BaseException, folder: Path | None) -> bool:
 
 
 def git_commit() -> str | None:
-    """The git commit of the sources (``+dirty`` when they differ from it), or None."""
+    """The git commit of the sources (``+dirty`` when they differ from it), or None.
+
+    From the git checkout the sources are in, else the one recorded when the package was built
+    from a checkout (``cases/_build.json``, written by setup.py).
+    """
     root = Path(__file__).resolve().parent.parent
     if not (root / ".git").exists():
-        return None
+        try:
+            return json.loads((Path(__file__).parent / "_build.json").read_text())["git_commit"]
+        except (OSError, ValueError, KeyError, TypeError):
+            return None
     try:
         head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
                               text=True, timeout=10, check=True).stdout.strip()

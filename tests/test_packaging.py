@@ -48,3 +48,21 @@ def test_every_runtime_import_is_a_core_dependency():
                if not {d.lower().replace("_", "-") for d in providers.get(m, [])} & core}
     assert not missing, f"imported but not core dependencies (module: distributions): {missing}"
     assert "dask" in third_party  # the check sees the sweep's imports
+
+
+def test_an_installed_package_knows_its_commit(tmp_path):
+    """Outside a git checkout, rundir.git_commit reads the commit setup.py's build recorded."""
+    import importlib.util
+    import json
+    import shutil
+
+    from cases import rundir
+
+    (tmp_path / "cases").mkdir()
+    shutil.copy(rundir.__file__, tmp_path / "cases" / "rundir.py")
+    (tmp_path / "cases" / "_build.json").write_text(json.dumps({"git_commit": "abc123"}))
+    spec = importlib.util.spec_from_file_location("installed_rundir",
+                                                  tmp_path / "cases" / "rundir.py")
+    installed = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(installed)
+    assert installed.git_commit() == "abc123"
