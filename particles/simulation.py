@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import logging
 import math
+import os
 import sys
 import time as _time
 from dataclasses import replace
@@ -448,6 +449,20 @@ class Simulation:
         return self.state
 
 
+def kernels_cached() -> bool:
+    """Whether the contact solver's kernels are in Numba's cache (else the first step compiles).
+
+    Numba caches next to the sources, or in the user's cache folder when they are read-only
+    (an installed package); True when the cache cannot be asked.
+    """
+    from .solvers import bbpgd
+
+    try:
+        return os.path.exists(bbpgd._bbpgd._cache._cache_file._index_path)
+    except AttributeError:
+        return True
+
+
 PROGRESS_SECONDS = 60.0
 """With ``progress`` and stderr not a terminal (a batch job's log), :func:`run` logs one line
 of progress at most this often (wall seconds)."""
@@ -561,6 +576,9 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         A step failed (see their docstrings).
     """
     require_goal(config)
+    if progress and not kernels_cached():
+        log.info("compiling the engine's kernels (first run only, about a minute; Numba caches "
+                 "them for later runs)")
     goal = {"radius": config.radius, "time": config.time}
     steps = 0
     with StopRequest() as stop:

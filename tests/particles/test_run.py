@@ -421,3 +421,17 @@ def test_kept_detections_change_nothing(monkeypatch):
     assert a.history == b.history
     for name, value in a.state.arrays().items():
         assert value.tobytes() == getattr(b.state, name).tobytes(), name
+
+
+def test_a_first_run_says_it_compiles(tmp_path, monkeypatch, caplog):
+    """Without the kernels in Numba's cache, a run with progress says once that it compiles."""
+    import logging
+
+    import particles.simulation as S
+
+    assert S.kernels_cached()  # the suite has run them: the cache is written
+    monkeypatch.setattr(S, "kernels_cached", lambda: False)
+    with caplog.at_level(logging.INFO, logger="particles.simulation"):
+        S.run(Config(lam=1e-2, time=0.04), tmp_path, progress=True)
+    assert sum("compiling the engine's kernels (first run only" in r.message
+               for r in caplog.records) == 1
