@@ -679,9 +679,18 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         fig, axes = plt.subplots(1, len(particle), figsize=(5 * len(particle), 4.5), squeeze=False)
         for ax, (p, path) in zip(axes[0], particle, strict=True):
             tab = A.read_csv(path)
+            drawn = 0
             for q in PARTICLE_QUANTITIES:
                 y = tab[f"diff_{q}"][:-1] / tab[f"spread_{q}"][:-1]
-                ax.loglog(tab["x"][:-1], y, "o-", ms=3, label=q)
+                pos = np.isfinite(y) & (y > 0)  # an exact 0 (the same bits) has no logarithm
+                if np.any(pos):
+                    ax.loglog(tab["x"][:-1][pos], y[pos], "o-", ms=3, label=q)
+                    drawn += 1
+            if not drawn:
+                ax.text(0.5, 0.6, "no positive difference to draw\n(zero, or no seed spread)",
+                        ha="center", transform=ax.transAxes, fontsize=8)
+                ax.set_xscale("log")
+                ax.set_yscale("log")
             ax.axhline(1.0, color="k", ls="--", lw=0.8, label="seed spread")
             ax.set(xlabel=p, ylabel="difference from the finest / seed spread", title=p)
             ax.legend(fontsize=7)

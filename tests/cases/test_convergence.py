@@ -19,6 +19,7 @@ import csv
 
 import numpy as np
 
+from cases import analysis as A
 from cases.studies import convergence as C
 from cases.sweep import run_engine, run_name, run_one
 from tests.pictures import assert_figures
@@ -103,3 +104,23 @@ def test_plot_from_committed_data(tmp_path):
     paths = C.plot(data, tmp_path)
     assert_figures(paths)
     assert "| mesh | radius | lam=0.01 |" in (tmp_path / "orders.md").read_text()
+
+
+def test_a_particle_panel_without_positive_differences_says_so(tmp_path):
+    """Differences all zero (or no seed spread): no empty log axes, no matplotlib warning."""
+    import shutil
+    import warnings
+    from pathlib import Path
+
+    import cases
+
+    data = tmp_path / "data"
+    shutil.copytree(Path(cases.__file__).parent / "data" / "convergence", data)
+    table = A.read_csv(data / "particles_tol.csv")
+    for q in C.PARTICLE_QUANTITIES:
+        table[f"diff_{q}"] = np.zeros_like(table[f"diff_{q}"])
+    A.write_csv(data / "particles_tol.csv", table)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        paths = C.plot(data, tmp_path / "fig")
+    assert any(p.name == "convergence_particles.png" for p in paths)
