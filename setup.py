@@ -6,8 +6,8 @@ the installed package could not tell its commit. The build writes it (``git rev-
 build, where ``cases.rundir.git_commit`` reads it. Everything else is in pyproject.toml.
 """
 
+import importlib.util
 import json
-import subprocess
 from pathlib import Path
 
 from setuptools import setup
@@ -15,16 +15,12 @@ from setuptools.command.build_py import build_py
 
 
 def _commit() -> str | None:
-    root = Path(__file__).resolve().parent
-    try:
-        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
-                              text=True, timeout=10, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--",
-                                "continuum", "particles", "cases"], capture_output=True,
-                               text=True, timeout=10).stdout.strip()
-    except (OSError, subprocess.SubprocessError):
-        return None
-    return head + ("+dirty" if dirty else "")
+    """``cases.rundir.git_commit`` of this checkout (rundir.py loaded alone: standard library)."""
+    spec = importlib.util.spec_from_file_location(
+        "_rundir", Path(__file__).resolve().parent / "cases" / "rundir.py")
+    rundir = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(rundir)
+    return rundir.git_commit()
 
 
 class BuildWithCommit(build_py):
