@@ -180,6 +180,11 @@ def initial_fractions(config: Config, state: State, layout=None) -> None:
     n = len(state.points)
     if layout is not None:
         state.phi = fractions_at(layout, state.points, n_strains)
+        absent = [i for i in range(n_strains) if not np.any(state.phi[:, i] > 0)]
+        if absent:
+            log.warning("strain(s) %s absent from the initial colony: the layout %s places "
+                        "them outside it", ", ".join(map(str, absent)),
+                        config.layout or "given")
     elif state.phi is not None:
         state.phi = check_fractions(state.phi, n, n_strains)
     elif n_strains == 1:

@@ -187,6 +187,10 @@ def initial_strains(config: Config, state: ParticleState, layout=None) -> None:
     if layout is not None:
         rng = np.random.default_rng((config.seed, STRAIN_SEED))
         state.strain = draw_strains(layout, state.x, state.y, n_strains, rng)
+        absent = sorted(set(range(n_strains)) - set(state.strain.tolist()))
+        if absent:
+            log.warning("strain(s) %s absent from the initial colony: the layout %s places "
+                        "no cell in them", ", ".join(map(str, absent)), config.layout or "given")
     elif state.strain is None:
         state.strain = np.zeros(state.n, dtype=np.int64)
     s = np.asarray(state.strain)

@@ -417,3 +417,15 @@ def test_a_run_json_of_the_wrong_shape(colony, particle_run, tmp_path, command):
                                             if command[0] == "continuum" else [])
     status, err = colony(*args)
     one_line_error(status, err, "run.json is damaged: expected a JSON object, found list")
+
+
+@pytest.mark.parametrize("engine", ["continuum", "particles"])
+def test_a_layout_outside_the_colony_warns(colony, tmp_path, engine, caplog):
+    polygon = tmp_path / "far.csv"
+    polygon.write_text("x,y\n100,100\n101,100\n101,101\n100,100\n")
+    with caplog.at_level("WARNING"):
+        status, _ = colony(engine, "--strains", "1e-2,0", "--layout", f"polygon:{polygon}",
+                           "--radius", "1.5", "--quiet", "--set", "n_nodes=200"
+                           if engine == "continuum" else "seed=0", "--out", str(tmp_path / "s"))
+    assert status == 0
+    assert any("strain(s) 1 absent from the initial colony" in r.message for r in caplog.records)
