@@ -9,7 +9,7 @@
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv | --shape SHAPE]
                      [--fill-orientation tangent|rows] [--seed S] [--dt DT]
                      [--step-control overlap|fixed|cost] [--division-noise EPS]
-                     [--solver bbpgd|apgd|twolevel] [--threads N] [--change-step-policy]
+                     [--solver bbpgd|apgd] [--threads N] [--change-step-policy]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
@@ -42,6 +42,7 @@ import os
 import signal
 import sys
 import threading
+import time
 import tomllib
 from pathlib import Path
 
@@ -326,7 +327,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--division-noise", type=float,
                    help="amplitude eps of the daughters' angle noise theta + eps U(-1, 1), in "
                    "radians (default 0.02)")
-    p.add_argument("--solver", help="contact solver: bbpgd (default), apgd or twolevel")
+    p.add_argument("--solver", help="contact solver: bbpgd (default) or apgd")
     p.add_argument("--threads", type=_threads,
                    help="threads of the contact solver: a number or auto (the default: one "
                    "thread below 2e4 particles, every core above; give 1 when runs share the "
@@ -502,7 +503,7 @@ def _dispatch(args) -> int:
         _check_layout(config)
         start = None if handoff is None else _handoff_start(config, *handoff)
         run_continuum(config, Path(args.out), args.overwrite, progress, start,
-                      other_engine=args.other_engine)
+                      other_engine=args.other_engine, started=args.started)
         print(f"continuum run written to {args.out}")
     elif args.command == "particles":
         import particles
@@ -517,7 +518,7 @@ def _dispatch(args) -> int:
         config = build_config(particles.Config, args.config, args.set, flags)
         _check_layout(config)
         run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy,
-                      other_engine=args.other_engine)
+                      other_engine=args.other_engine, started=args.started)
         print(f"particle run written to {args.out}")
     elif args.command == "info":
         print(describe(Path(args.dir)))
@@ -644,7 +645,9 @@ def _joined(argv: list[str]) -> list[str]:
 
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``colony`` console script; returns the exit status."""
+    started = time.monotonic()  # what --max-hours counts from: the imports of a run are work
     args = parser().parse_args(_joined(sys.argv[1:] if argv is None else list(argv)))
+    args.started = started
     configure_logging(getattr(args, "quiet", False), getattr(args, "verbose", False))
     main_thread = threading.current_thread() is threading.main_thread()
     previous = ({sig: signal.signal(sig, _terminate) for sig in STOP_SIGNALS} if main_thread

@@ -38,11 +38,14 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
     return result
 
 
-def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True,
-                  start: tuple | None = None, other_engine: bool = False):
+def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True,  # noqa: PLR0913
+                  start: tuple | None = None, other_engine: bool = False,
+                  started: float | None = None):
     """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG.
 
-    ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage).
+    ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage);
+    ``started``: the time.monotonic() reading ``max_hours`` counts from (the command line's
+    process start).
 
     ``start``: (state, record) of ``cases.handoff.continuum_start``, the state at t = 0 of a
     particle colony handed over (handoff.json and outline.csv written first; the picture then
@@ -59,7 +62,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
         if start is not None:
             write_handoff(partial, start[1])
         sim = run(config, out=partial, progress=progress,
-                  state=None if start is None else start[0])
+                  state=None if start is None else start[0], started=started)
         _check_paused(sim, partial)
         state = sim.state
         write_csv(partial / "profile.csv", continuum_profile(
@@ -77,11 +80,14 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
                        resumable=CHECKPOINTS, other_engine=other_engine)
 
 
-def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,
-                  change_step_policy: bool = False, other_engine: bool = False):
+def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,  # noqa: PLR0913
+                  change_step_policy: bool = False, other_engine: bool = False,
+                  started: float | None = None):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG.
 
-    ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage).
+    ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage);
+    ``started``: the time.monotonic() reading ``max_hours`` counts from (the command line's
+    process start).
     """
     from cases.analysis import particle_profile, write_csv
     from cases.figures.draw import particles_picture
@@ -94,7 +100,7 @@ def run_particles(config, out: Path, overwrite: bool = False, progress: bool = T
 
     def body(partial):
         sim = run(config, out=partial, progress=progress,
-                  change_step_policy=change_step_policy, state=start)
+                  change_step_policy=change_step_policy, state=start, started=started)
         _check_paused(sim, partial)
         colony = sim.state
         profile = particle_profile(colony.x, colony.y, colony.theta, colony.length, colony.stress,

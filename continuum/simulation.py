@@ -644,9 +644,9 @@ class _Outputs:
 # ---------------------------------------------------------------------------- run
 
 
-def run(config: Config, out: Path | str | None = None, progress: bool = False,
+def run(config: Config, out: Path | str | None = None, progress: bool = False,  # noqa: PLR0913
         state: State | None = None, max_steps: int | None = None, *,
-        layout=None) -> Simulation:
+        layout=None, started: float | None = None) -> Simulation:
     """Grow the colony until ``config.radius`` or ``config.time``; optionally write ``out``.
 
     The loop over the steps of a :class:`Simulation` that hands each step to the run folder's
@@ -674,6 +674,9 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
         steps a run may take in all, an error beyond.)
     layout : callable or ndarray, optional
         The initial strain fractions of ``config.strains`` (:class:`Simulation`).
+    started : float, optional
+        The time.monotonic() reading ``config.max_hours`` counts from (the command line gives
+        its process's start); default: this call's.
 
     Returns
     -------
@@ -700,13 +703,13 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,
     require_goal(config)
     with checkpoint.StopRequest() as stop:
         sim = Simulation(config, state, out, layout=layout)
-        _steps(sim, progress, max_steps, stop)
+        _steps(sim, progress, max_steps, stop, started)
     stop.reraise()
     return sim
 
 
 def _steps(sim: Simulation, progress: bool, max_steps: int | None,
-           stop: checkpoint.StopRequest) -> None:
+           stop: checkpoint.StopRequest, started: float | None = None) -> None:
     """The loop of ``run``.
 
     Step until the goal, a stop request, ``max_steps`` steps or ``config.max_hours``;
@@ -716,7 +719,7 @@ def _steps(sim: Simulation, progress: bool, max_steps: int | None,
     config = sim.config
     goal = {"radius": config.radius, "time": config.time}
     last_checkpoint = _time.monotonic()
-    limit = checkpoint.WallLimit(config.max_hours)
+    limit = checkpoint.WallLimit(config.max_hours, started)
     steps_here = 0
     with _ProgressBar(sim, progress=progress, **goal) as bar:
         while not sim._reached(**goal):

@@ -19,10 +19,10 @@ StepRecord), ``neighbours`` (cell lists), ``geometry`` (contacts, D gamma), ``st
 axial stress sigma = G gamma), ``growth`` (the growth law exp(-lam sigma)), ``strains``
 (inherited traits: each cell's lam and growth factor), ``division`` (the division rule),
 ``solvers`` (the per-step convex problem: ``solvers.problem``, and one file per solver,
-``solvers.bbpgd``, ``solvers.apgd``, ``solvers.twolevel``), ``stepping`` (one step,
-halving, adaptive dt), ``simulation`` (Simulation, run), ``checkpoint`` (save_checkpoint,
-load_checkpoint, StopRequest), ``output`` (files), ``packings`` (initial configurations),
-``measures`` (colony radii).
+``solvers.bbpgd``, ``solvers.apgd``), ``stepping`` (one step, halving, adaptive dt),
+``simulation`` (Simulation, run), ``checkpoint`` (save_checkpoint, load_checkpoint,
+StopRequest), ``output`` (files), ``packings`` (initial configurations), ``measures`` (colony
+radii).
 """
 
 from __future__ import annotations

@@ -540,7 +540,8 @@ class StopRequest:
 class WallLimit:
     """The wall-clock limit of a run, ``Config.max_hours``: pause while a checkpoint still fits.
 
-    From the run's start (the loop's first step), the run pauses before a step when
+    From the run's start (``start``, a time.monotonic() reading: the process's start as the
+    command line gives it; default: now), the run pauses before a step when
 
         elapsed + 2 max(recent step) + 2 (checkpoint write) >= 3600 max_hours,
 
@@ -553,9 +554,10 @@ class WallLimit:
 
     RECENT_STEPS = 20
 
-    def __init__(self, hours: float | None):
+    def __init__(self, hours: float | None, start: float | None = None):
         self.limit = None if hours is None else 3600.0 * float(hours)
-        self.start = self.last = time.monotonic()
+        self.last = time.monotonic()
+        self.start = self.last if start is None else start
         self.steps: deque[float] = deque(maxlen=self.RECENT_STEPS)
         self.write: float | None = None
 

@@ -18,11 +18,14 @@ import numba
 from .geometry import B
 from .strains import as_strains
 
-__all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "SOLVERS",
-           "STEP_CONTROLS", "STEP_POLICY_FIELDS"]
+__all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "REMOVED_SOLVERS",
+           "SOLVERS", "STEP_CONTROLS", "STEP_POLICY_FIELDS"]
 
 #: Names of the contact solvers (``Config.solver``; the solvers by name: ``solvers.BY_NAME``).
-SOLVERS = ("bbpgd", "apgd", "twolevel")
+SOLVERS = ("bbpgd", "apgd")
+#: Solvers that were measured and removed (issue 43), with why: a configuration or checkpoint
+#: that names one is refused with this note (the code is in git history, docs/benchmarks.md).
+REMOVED_SOLVERS = {"twolevel": "measured, no gain over bbpgd; docs/benchmarks.md"}
 #: Step controls of ``stepping.next_dt`` (``Config.step_control``).
 STEP_CONTROLS = ("fixed", "overlap", "cost")
 #: Orientations of ``packings.fill_outline`` (``Config.fill_orientation``; the first is the
@@ -309,7 +312,8 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
     ("division_noise", lambda v: 0 <= v <= 0.5,
      lambda v: f"division_noise must be in [0, 0.5] rad, got {v}"),
     ("solver", lambda v: v in SOLVERS,
-     lambda v: f"unknown solver {v!r}; choose from {sorted(SOLVERS)}"),
+     lambda v: f"unknown solver {v!r}; choose from {sorted(SOLVERS)}"
+               + (f" ({v} was removed: {REMOVED_SOLVERS[v]})" if v in REMOVED_SOLVERS else "")),
     ("output_every", lambda v: v >= 1,
      lambda v: f"output_every must be an integer >= 1, got {v}"),
     ("checkpoint_seconds", lambda v: v >= 0,

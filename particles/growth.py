@@ -11,9 +11,9 @@ so at lam = 0 the total length is exactly exp(t) times its initial value (divisi
 The contact solvers' kernels predict the same growth inside the solve, as the exact increment
 l_n (exp(dt exp(-lam sigma_n)) - 1) (:func:`length_increment`; solvers/problem.py).
 
-:func:`growth_rate` is a Numba function (the kernels call it per particle); :func:`grow` and
-the two-level solver's coarse step evaluate the same expression with NumPy on arrays
-(``growth_rate.py_func``).  The division rule is in division.py.
+:func:`growth_rate` is a Numba function (the kernels call it per particle); :func:`grow`
+evaluates the same expression with NumPy on arrays (``growth_rate.py_func``).  The division
+rule is in division.py.
 """
 
 from __future__ import annotations

@@ -353,9 +353,16 @@ class Simulation:
         """
         if self._reached(radius, time):
             return
-        rest = None if time is None else time - self.state.t
-        replace(self.config, radius=radius, time=rest).check_budget(
-            self.state.enclosing_radius())
+        goals = [{"radius": radius, "time": None}] if radius is not None else []
+        goals += [{"radius": None, "time": time - self.state.t}] if time is not None else []
+        refusals = []
+        for goal in goals:  # the first goal reached stops: one within the budget will do
+            try:
+                replace(self.config, **goal).check_budget(self.state.enclosing_radius())
+                return
+            except ValueError as err:
+                refusals.append(err)
+        raise refusals[0]
 
     def step(self, time: float | None = None) -> StepRecord:
         """Advance the state by one step, not past ``time``, divisions included; its record.
@@ -528,9 +535,10 @@ class _Checkpointer:
             self.limit.saved(self.last - now)
 
 
-def run(config: Config, out: str | Path | None = None, progress: bool = False,
+def run(config: Config, out: str | Path | None = None, progress: bool = False,  # noqa: PLR0913
         state: ParticleState | None = None, max_steps: int | None = None, *,
-        change_step_policy: bool = False, layout=None) -> Simulation:
+        change_step_policy: bool = False, layout=None, started: float | None = None
+        ) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
     The loop over the steps of a :class:`Simulation` that hands each step to the writers, the
@@ -564,6 +572,9 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
         time-stepping error).  Particles only.
     layout : callable or int array, optional
         The cells' strains of ``config.strains`` (:class:`Simulation`).
+    started : float, optional
+        The time.monotonic() reading ``config.max_hours`` counts from (the command line gives
+        its process's start); default: this call's.
 
     Returns
     -------
@@ -588,7 +599,7 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,
     with StopRequest() as stop:
         sim = Simulation(config, state, out, change_step_policy=change_step_policy,
                          layout=layout)
-        limit = WallLimit(config.max_hours)
+        limit = WallLimit(config.max_hours, started)
         checkpointer = None if sim.output is None else _Checkpointer(sim, limit)
         with _ProgressBar(config.lam, progress=progress, **goal) as bar:
             while not sim._reached(**goal):

@@ -3,8 +3,7 @@
 - problem.py: the problem E(gamma) every solver solves (model.md), its Numba kernels, the
   stopping test and ``ContactSolveError``;
 - bbpgd.py: Barzilai-Borwein projected gradient descent (``--solver bbpgd``, the default);
-- apgd.py: Jacobi-scaled accelerated projected gradient with adaptive restart (``apgd``);
-- twolevel.py: BBPGD smoothing with a multiplicative coarse correction (``twolevel``).
+- apgd.py: Jacobi-scaled accelerated projected gradient with adaptive restart (``apgd``).
 
 Every solver is a callable (contacts, length, dt, lam, gamma0, tol, maxiter, growth)
 -> (gamma, residual history); ``BY_NAME`` maps the names of ``config.SOLVERS`` to them.
@@ -15,12 +14,10 @@ from __future__ import annotations
 from .apgd import solve_contacts_apgd
 from .bbpgd import solve_contacts
 from .problem import ContactSolveError as ContactSolveError  # re-exported
-from .twolevel import solve_contacts_twolevel
 
 BY_NAME = {
     "bbpgd": solve_contacts,
     "apgd": solve_contacts_apgd,
-    "twolevel": solve_contacts_twolevel,
 }
 """Contact solvers by name (``Config.solver``, one of config.SOLVERS): callables
 (contacts, length, dt, lam, gamma0, tol, maxiter, growth) -> (gamma, residual history)."""

@@ -18,7 +18,7 @@ the two agree to O(dt^2).  The term is convex for any lam >= 0 (its gradient is 
 gamma), and lam = 0 is its linear limit.  Growth is thus coupled to the stress inside the
 solve, not lagged.
 
-Every solver (bbpgd.py, apgd.py, twolevel.py) stops when the projected residual ::
+Every solver (bbpgd.py, apgd.py) stops when the projected residual ::
 
     res = max_k |min(a_kk gamma_k, grad_k)|,   a_kk = dt (D^T M D)_kk,
 
