@@ -57,7 +57,7 @@ from cases.rundir import (
     partial_of,
 )
 from cases.runs import CHECKPOINTS, run_continuum, run_particles
-from cases.sweep import select_lams
+from cases.sweep import check_scheduler, check_workers, select_lams
 
 #: ``colony case NAME``: the module of each case (``compute``, ``plot``; docs/DESIGN.md).
 CASES = {
@@ -539,6 +539,11 @@ def _dispatch(args) -> int:
     else:
         module = importlib.import_module(CASES[args.name])
         out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
+        if not (args.from_data or args.print_runs):  # the runs go to Dask: check it first
+            if args.scheduler is None:
+                check_workers(args.workers)
+            else:
+                check_scheduler(args.scheduler)
         created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         try:

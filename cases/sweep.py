@@ -160,13 +160,125 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
     return folder
 
 
+#: Seconds a scheduler given by address has to answer (:func:`check_scheduler`).
+CONNECT_TIMEOUT = 10.0
+
+#: Local worker processes allowed per CPU core (:func:`check_workers`).
+WORKERS_PER_CORE = 4
+
+
+class SchedulerError(RuntimeError):
+    """No Dask scheduler answers at a --scheduler address (:func:`check_scheduler`)."""
+
+
+def _cores() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+def check_workers(n_workers: int) -> None:
+    """Check that ``n_workers`` local worker processes fit this machine.
+
+    At least 1 and at most WORKERS_PER_CORE per CPU core available to this process (each worker
+    is a process of one thread); ValueError otherwise, before any process is started.
+    """
+    cores = _cores()
+    if not 1 <= n_workers <= WORKERS_PER_CORE * cores:
+        raise ValueError(f"--workers {n_workers}: give 1 to {WORKERS_PER_CORE * cores} local "
+                         f"Dask workers ({WORKERS_PER_CORE} per CPU core, {cores} cores here)")
+
+
+async def _identity(address: str, timeout: float) -> dict:
+    from distributed.comm import connect
+    from distributed.security import Security
+
+    comm = await connect(address, timeout=timeout,
+                         **Security().get_connection_args("client"))
+    try:
+        await comm.write({"op": "identity", "reply": True})
+        return await comm.read()
+    finally:
+        comm.abort()
+
+
+def check_scheduler(address: str, timeout: float | None = None) -> None:
+    """Check that a Dask scheduler answers at ``address`` within ``timeout`` (CONNECT_TIMEOUT) s.
+
+    Connects, shakes hands and asks its identity, all within ``timeout`` (Dask's own connect
+    timeout does not bound the handshake: a silent socket or an HTTP server would hang it, and
+    an HTTP answer reads as a frame of exabytes). Raises :class:`SchedulerError`, one line
+    saying why, for anything else: a malformed address, nothing listening, a silent or non-Dask
+    service, a worker.
+    """
+    import asyncio
+    from concurrent.futures import ThreadPoolExecutor
+
+    from distributed.comm.addressing import parse_address, parse_host_port
+    from distributed.comm.registry import get_backend
+
+    timeout = CONNECT_TIMEOUT if timeout is None else timeout
+    try:
+        scheme, location = parse_address(address)
+        get_backend(scheme)
+        if scheme in ("tcp", "tls", "ws", "wss"):
+            parse_host_port(location)
+    except ValueError as err:
+        raise SchedulerError(f"--scheduler {address!r} is not a Dask address like "
+                             f"tcp://host:8786: {err}") from None
+
+    def probe():  # in a thread of its own: the caller may be running an event loop
+        return asyncio.run(asyncio.wait_for(_identity(address, timeout / 2), timeout))
+
+    try:
+        with ThreadPoolExecutor(1) as pool:
+            identity = pool.submit(probe).result()
+    except TimeoutError:  # (asyncio's too) connected within timeout / 2, then silence
+        why = "it accepts connections but does not answer (an HTTP server or another service?)"
+    except OSError:  # no connection within timeout / 2 (Dask's connect retries until then)
+        why = "nothing accepts connections there (refused, or an unknown or unreachable host)"
+    except Exception as err:  # noqa: BLE001 (anything else is an answer Dask cannot read)
+        why = f"it does not speak Dask's protocol ({type(err).__name__} reading its answer)"
+    else:
+        kind = identity.get("type") if isinstance(identity, dict) else None
+        if kind == "Scheduler":
+            return
+        why = f"it answers as {kind!r}, not as a scheduler"
+    raise SchedulerError(f"no Dask scheduler answers at {address} within {timeout:g} s: {why}")
+
+
+def _quiet_dask() -> bool:
+    """Mute Dask's INFO messages unless the root logger is at DEBUG (``colony --verbose``).
+
+    Importing ``distributed`` sets its logger to INFO, whatever the caller set before (that
+    shows a cluster's start-up and shut-down, some 40 lines per sweep); this sets it to WARNING,
+    or INFO at DEBUG. Returns whether Dask may talk.
+    """
+    import logging
+
+    verbose = logging.getLogger().getEffectiveLevel() <= logging.DEBUG
+    logging.getLogger("distributed").setLevel(logging.INFO if verbose else logging.WARNING)
+    return verbose
+
+
 def _client(scheduler: str | None, n_workers: int):
+    """A client of the scheduler at ``scheduler`` (checked first), or of a new LocalCluster.
+
+    The LocalCluster has ``n_workers`` (:func:`check_workers`) processes of one thread each;
+    it keeps quiet unless the logging level is DEBUG (:func:`_quiet_dask`) and serves its HTTP
+    routes on a free port of 127.0.0.1 (the default, port 8787, warns when taken).
+    """
+    import logging
+
     from dask.distributed import Client, LocalCluster
 
+    verbose = _quiet_dask()
     if scheduler is not None:
-        return Client(scheduler), None
+        check_scheduler(scheduler)
+        return Client(scheduler, timeout=CONNECT_TIMEOUT), None
+    check_workers(n_workers)
     cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None)
+                           dashboard_address=None,
+                           silence_logs=False if verbose else logging.WARNING,
+                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
     return Client(cluster), cluster
 
 
