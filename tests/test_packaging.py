@@ -2,9 +2,8 @@
 
 Every third-party module that ``continuum``, ``particles`` or ``cases`` imports (at the top of a
 module or inside a function) must come from a distribution among pyproject's core
-``dependencies``, except the viewers of the ``viz`` extra and the benchmark's ``pardiso``
-extra, which are imported where used and named in their error. So ``colony case`` works after
-the README's install.
+``dependencies``, except the viewers of the ``viz`` extra, which are imported where used and
+named in their error. So ``colony case`` works after the README's install.
 """
 
 from __future__ import annotations
@@ -18,7 +17,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 OURS = {"continuum", "particles", "cases", "tests"}
-OPTIONAL = {"ovito", "pyvista", "pypardiso"}  # the viz and pardiso extras
+OPTIONAL = {"ovito", "pyvista"}  # the viz extra
 
 
 def imported_modules(package: str) -> set[str]:

@@ -1,6 +1,7 @@
 """Benchmark of the per-step contact solvers on the same saved states (issue 4).
 
-For each state the growth step of model.md is solved at the same tolerance by every solver:
+For each state the growth step of model.md is solved at the same tolerance by every solver
+(BBPGD and APGD):
 
 - cold: from gamma0 = 0 on the state's contacts (gap <= margin);
 - warm: after one step of the engine's update with the reference solution (move by
@@ -34,7 +35,8 @@ frictionless contacts is close to isostatic (3022 active contacts for 3N = 3066 
 so its low modes are not smooth and aggregation does not capture them.  SuperLU (MMD) on the
 same H at 4N = 50900 did not factor within 9 minutes.
 
-Second candidate, kept as ``twolevel`` (particles/twolevel.py) but no faster: BBPGD smoothing
+Second candidate, ``twolevel``, measured by this script at commit d7ef4ce (removed since:
+rejected; the code was particles/solvers/twolevel.py), no faster: BBPGD smoothing
 (nu = 200, BB step kept across cycles) + one coarse Newton step on the smooth multiplicative
 correction gamma <- max(0, gamma (1 + P c)), P the bilinear hats of a square grid of spacing h =
 4 (601 nodes at N = 1e4, ~8000 at N = 1e5; sparse Galerkin H_c, SuperLU). Gradient evaluations
@@ -103,11 +105,9 @@ from particles.packings import ring_packing, warm_problem
 from particles.solvers.apgd import solve_contacts_apgd
 from particles.solvers.bbpgd import solve_contacts
 from particles.solvers.problem import linearised_gap
-from particles.solvers.twolevel import solve_contacts_twolevel
 from particles.stress import axial_stress
 
-SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1),
-           "twolevel": (solve_contacts_twolevel, 1)}
+SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1)}
 """name -> (solver, gradient evaluations per iteration)."""
 
 

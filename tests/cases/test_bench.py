@@ -4,7 +4,6 @@ The continuum target run to radius 150 is marked slow; the others run a few step
 colonies and check that the scripts' numbers add up.
 """
 
-import importlib.util
 import shutil
 from dataclasses import replace
 from pathlib import Path
@@ -235,96 +234,24 @@ def test_history_stretches_of_size_with_wall_times(tmp_path, capsys):
         bench_timestep.main(["--history", str(run), "--logs", str(log), str(log)])
 
 
-def test_bench_warm_start_small(tmp_path, capsys):
-    """cases.bench.warm_start (issue 33): paired starts on a run's own steps, the run unchanged.
+def test_bench_contact_solvers_small(tmp_path):
+    """cases.bench.contact_solvers (issue 4): both kept solvers, cold and warm, meet the tol.
 
-    The engine's own start ("matched") takes the main-solve iterations that the uninterrupted
-    run recorded at the same steps, so the experiment measures the run's real problems; every
-    other start converges; a bad --steps is a usage error.
+    The removed two-level solver (issue 43) is no longer a choice: a usage error.
     """
-    from cases.bench import warm_start as bench_warm
+    import csv
 
-    cfg = Config(lam=1e-2, time=3.0, dt=0.02, seed=3, step_control="fixed")
-    a, part = _whole_and_stopped(cfg, tmp_path, 120)
-    means = bench_warm.main(["--checkpoint", str(part / "checkpoint.npz"), "--steps", "4"])
-    nxt = a.history[120:124]
-    assert means["matched"] == pytest.approx(
-        np.mean([r["iterations"] - r["pass_iterations"] for r in nxt]))
-    assert set(means) >= {"matched", "new exact", "extrapolated", "extrapolated + new exact"}
-    assert "ratio to matched" in capsys.readouterr().out
+    from cases.bench import contact_solvers
+
+    out = tmp_path / "solvers.csv"
+    contact_solvers.main(["--sizes", "400", "--tol", "1e-3", "--repeat", "1", "--out", str(out)])
+    with open(out, newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert {(r["solver"], r["start"]) for r in rows} == {
+        (s, start) for s in ("bbpgd", "apgd") for start in ("cold", "warm")}
+    assert all(int(r["iterations"]) > 0 and float(r["residual"]) <= 1e-3 for r in rows)
     with pytest.raises(SystemExit):
-        bench_warm.main(["--checkpoint", str(part / "checkpoint.npz"), "--steps", "0"])
-
-
-@pytest.fixture(scope="module")
-def stopped_colony(tmp_path_factory):
-    """A lam = 1e-2 colony of ~100 cells stopped after 120 steps: its checkpoint.npz."""
-    part = tmp_path_factory.mktemp("stopped")
-    run(Config(lam=1e-2, time=3.0, dt=0.02, seed=3, step_control="fixed"), part, max_steps=120)
-    return part / "checkpoint.npz"
-
-
-def test_bench_newton_matrices_and_steps(stopped_colony, capsys):
-    """cases.bench.newton (issue 33): its sparse gradient and Hessian are the engine's.
-
-    A gamma equals the kernels' gradient difference q(gamma) - q(0) at lam = 0 to round-off,
-    and H(gamma) v their central difference at lam = 1e-2 to the difference's O(h^2); the
-    active-set iteration lowers the residual of the run's own problem; bad flags are usage
-    errors.
-    """
-    from cases.bench import newton
-    from cases.bench.warm_start import main_problem
-    from particles.simulation import Simulation
-    from particles.solvers.problem import linearised_gap
-
-    problem, matched, _ = main_problem(Simulation.load(stopped_colony))
-    c, length, dt, lam, tol = problem
-    rng = np.random.default_rng(0)
-    gamma, v = rng.random(len(c)), rng.standard_normal(len(c))
-    a, g, w = newton.contact_matrices((c, length, dt, 0.0, tol))
-    diff = linearised_gap(c, length, dt, 0.0, gamma) - linearised_gap(c, length, dt, 0.0, 0 * gamma)
-    assert np.max(np.abs(a @ gamma - diff)) <= 1e-12 * np.max(np.abs(diff))
-    a, g, w = newton.contact_matrices(problem)
-    hv = newton.hessian(a, g, w, gamma) @ v
-    for h, bound in ((1e-3, 1e-5), (1e-4, 1e-7)):
-        fd = (linearised_gap(c, length, dt, lam, gamma + h * v)
-              - linearised_gap(c, length, dt, lam, gamma - h * v)) / (2 * h)
-        assert np.max(np.abs(fd - hv)) <= bound * np.max(np.abs(hv))
-    out = newton.main(["--checkpoint", str(stopped_colony), "--newton", "3"])
-    res = [r["residual"] for r in out["newton"]]
-    assert res[-1] < res[0] and out["bbpgd iterations"] > 0 and out["bbpgd after newton"] >= 0
-    assert "| Newton step | residual |" in capsys.readouterr().out
-    bads = [["--regularisation", "0"], ["--newton", "0"]]
-    if importlib.util.find_spec("pypardiso") is None:  # optional, not a dependency
-        bads.append(["--factorisation", "pardiso"])
-    for bad in bads:
-        with pytest.raises(SystemExit):
-            newton.main(["--checkpoint", str(stopped_colony), *bad])
-
-
-def test_bench_iteration_cost(stopped_colony, capsys):
-    """cases.bench.iteration_cost (issue 33): bytes counted from the kernels, float32 solves.
-
-    An iteration moves 208 bytes per contact in float64 and 136 with float32 geometry and int32
-    indices; the float32-geometry solve meets the tolerance in the float64 problem (up to the
-    rounding of its coefficients); the stream bandwidth is positive; bad flags are usage errors.
-    """
-    from cases.bench import iteration_cost as ic
-
-    m, n = 1000, 10
-    per_contact = {v: (ic.bytes_per_iteration(m, n, *ic.VARIANTS[v])
-                       - ic.bytes_per_iteration(0, n, *ic.VARIANTS[v])) / m for v in ic.VARIANTS}
-    assert per_contact == {"float64": 208, "float32": 136, "float64, int32 ids": 192,
-                           "float32, int64 ids": 152}
-    out = ic.main(["--checkpoint", str(stopped_colony), "--iterations", "5", "--repeats", "1",
-                   "--stream-mb", "8"])
-    assert out["float32 residual in float64"] <= 1e-3 * (1 + 1e-4)
-    assert all(out[f"{v} iterations"] > 0 for v in ic.VARIANTS)
-    assert out["stream GB/s"] > 0
-    assert "share of stream" in capsys.readouterr().out
-    for bad in (["--repeats", "0"], ["--stream-mb", "0"]):
-        with pytest.raises(SystemExit):
-            ic.main(["--checkpoint", str(stopped_colony), *bad])
+        contact_solvers.main(["--solvers", "twolevel"])
 
 
 def test_bench_cost_growth_fits_a_power_law(tmp_path, capsys):

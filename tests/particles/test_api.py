@@ -142,3 +142,27 @@ def test_option_names_live_in_the_config():
     assert local_imports(particles.config) == {"geometry", "strains"}
     assert local_imports(particles.strains) == set()
     assert tuple(BY_NAME) == particles.config.SOLVERS
+
+
+def test_a_removed_solver_is_refused_with_a_note(tmp_path):
+    """A configuration or checkpoint naming a removed solver (issue 43) fails in one line.
+
+    ValueError from Config's validation, naming the solvers there are and why it went.
+    """
+    import json
+
+    from particles.checkpoint import read_arrays
+
+    with pytest.raises(ValueError, match=r"unknown solver 'twolevel'; choose from "
+                                         r"\['apgd', 'bbpgd'\] \(twolevel was removed"):
+        Config(lam=1e-2, solver="twolevel")
+    sim = Simulation(Config(lam=1e-2, seed=1))
+    sim.step()
+    arrays = read_arrays(sim.save(tmp_path / "sim.npz"))
+    meta = json.loads(str(arrays["meta"]))
+    meta["config"]["solver"] = "twolevel"
+    arrays["meta"] = np.array(json.dumps(meta))
+    np.savez(tmp_path / "old.npz", **arrays)  # no checksum entry: an older checkpoint's format
+    with pytest.raises(ValueError, match="twolevel was removed") as err:
+        Simulation.load(tmp_path / "old.npz")
+    assert "\n" not in str(err.value)

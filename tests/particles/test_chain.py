@@ -26,7 +26,6 @@ from scipy.optimize import brentq, root
 from particles.solvers.apgd import solve_contacts_apgd
 from particles.solvers.bbpgd import solve_contacts
 from particles.solvers.problem import linearised_gap
-from particles.solvers.twolevel import solve_contacts_twolevel
 from particles.stress import axial_stress
 
 
@@ -55,8 +54,7 @@ def test_chain_contacts_are_end_to_end(chain):
 
 #: Both contact solvers must reproduce the exact chain answers.
 SOLVERS = pytest.mark.parametrize(
-    "solve", [solve_contacts, solve_contacts_apgd, solve_contacts_twolevel],
-    ids=["bbpgd", "apgd", "twolevel"])
+    "solve", [solve_contacts, solve_contacts_apgd], ids=["bbpgd", "apgd"])
 
 
 @SOLVERS
