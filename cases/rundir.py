@@ -51,6 +51,7 @@ import hashlib
 import importlib
 import json
 import os
+import re
 import resource
 import secrets
 import shutil
@@ -108,6 +109,12 @@ def _written_by_us(name: str) -> bool:
     return name in OUTPUT_NAMES or name.endswith(TEMPORARY_SUFFIXES)
 
 
+def _replacing(name: str) -> bool:
+    """A temporary file of :func:`replace_file` (``.NAME.PID.HEX.tmp``, NAME one of ours)."""
+    match = re.fullmatch(r"\.(.+)\.[0-9]+\.[0-9a-f]{8}\.tmp", name)
+    return match is not None and match[1] in OUTPUT_NAMES
+
+
 def _frame_written_by_us(name: str) -> bool:
     """A name of ``fields/``: a frame (``.vtu``) or a frame being written (``.vtu.tmp``)."""
     return name.endswith((".vtu", ".vtu.tmp"))
@@ -140,8 +147,8 @@ def foreign_entries(folder: Path, follow: bool = True) -> list[str]:
     listed = set(record["files"]) | {RECORD} if record and "files" in record else None
     if listed is not None:  # plus what ``colony plot|movie`` add later
         return [n for n in names if n not in listed and not _written_by_us(n)]
-    if record is None and "config.json" not in names:
-        return names
+    if record is None and "config.json" not in names:  # ours only if all are our temporaries
+        return [] if all(_replacing(n) for n in names) else names
     foreign = [n for n in names if not _written_by_us(n)]
     fields = folder / "fields"
     if fields.is_dir() and (follow or not fields.is_symlink()):

@@ -261,3 +261,13 @@ def test_a_paused_run_carried_without_its_trajectory_resumes(colony, tmp_path):
         assert carried[Path(name)] == one[Path(name)], name
     with pytest.raises(ValueError, match="exists; move it away first"):
         carry.unpack(tmp_path / "repo" / "resume", there)
+
+
+def test_a_stage_holding_only_a_torn_run_json_is_ours(tmp_path):
+    """Killed in the first write of a run, run.json's temporary file alone: colony's own."""
+    partial = tmp_path / "run.partial"
+    partial.mkdir()
+    (partial / ".run.json.24553.78abe933.tmp").write_text("{")
+    assert rundir.foreign_entries(partial) == []
+    (partial / ".notes.24553.78abe933.tmp").write_text("")
+    assert rundir.foreign_entries(partial) != []
