@@ -57,7 +57,7 @@ from cases.rundir import (
     partial_of,
 )
 from cases.runs import CHECKPOINTS, run_continuum, run_particles
-from cases.sweep import check_scheduler, check_workers, select_lams
+from cases.sweep import check_scheduler, check_workers, legs, select_lams
 
 #: ``colony case NAME``: the module of each case (``compute``, ``plot``; docs/DESIGN.md).
 CASES = {
@@ -382,6 +382,9 @@ def parser() -> argparse.ArgumentParser:
                    "file system")
     k.add_argument("--workers", type=int, default=2,
                    help="local dask workers when no --scheduler is given (default 2)")
+    k.add_argument("--max-hours", type=float, metavar="H",
+                   help="each engine run in legs of at most H hours of wall (a little under the "
+                   "workers' walltime); a paused run is submitted again (default: no limit)")
     _verbosity(k)
 
     f = sub.add_parser("fit", help="stress sensitivity lam from a colony's measured R(t) "
@@ -433,6 +436,13 @@ def _finite(name: str, value):
     if value is not None and not math.isfinite(value):
         raise UsageError(f"--{name} must be finite, got {value}")
     return value
+
+
+def _positive_hours(hours: float | None) -> float | None:
+    """``--max-hours`` of ``colony case``: positive and finite (the engines check their own)."""
+    if hours is not None and not (math.isfinite(hours) and hours > 0):
+        raise UsageError(f"--max-hours must be positive and finite, got {hours}")
+    return hours
 
 
 def _handoff_options(args, flags: dict) -> tuple | None:
@@ -547,7 +557,8 @@ def _dispatch(args) -> int:
         created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         try:
-            data = _case_data(module, args, out)
+            with legs(_positive_hours(args.max_hours)):
+                data = _case_data(module, args, out)
         except BaseException:
             if created and not any(out.iterdir()):  # bad input: leave nothing behind
                 out.rmdir()

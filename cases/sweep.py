@@ -40,6 +40,7 @@ import math
 import os
 import shutil
 from collections.abc import Callable, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -259,6 +260,24 @@ def _quiet_dask() -> bool:
     return verbose
 
 
+_LEG_HOURS: list[float | None] = [None]
+"""The ``max_hours`` of :func:`sweep` when it is given none (:func:`legs`)."""
+
+
+@contextmanager
+def legs(hours: float | None):
+    """Every :func:`sweep` in the body gives its engine runs ``max_hours = hours`` per leg.
+
+    ``colony case NAME --max-hours H``: the cases' sweeps, however deep, run their engine runs
+    in legs of H hours, each paused run submitted again until it finishes.
+    """
+    before, _LEG_HOURS[0] = _LEG_HOURS[0], hours
+    try:
+        yield
+    finally:
+        _LEG_HOURS[0] = before
+
+
 def _client(scheduler: str | None, n_workers: int):
     """A client of the scheduler at ``scheduler`` (checked first), or of a new LocalCluster.
 
@@ -332,6 +351,7 @@ def sweep(
     client, cluster = _client(scheduler, n_workers)
     failures: dict[str, str] = {}
     try:
+        max_hours = _LEG_HOURS[0] if max_hours is None else max_hours
         points = {f: p for p, f in todo}
         legs = dict.fromkeys(points, 1)
 

@@ -271,3 +271,20 @@ def test_a_stage_holding_only_a_torn_run_json_is_ours(tmp_path):
     assert rundir.foreign_entries(partial) == []
     (partial / ".notes.24553.78abe933.tmp").write_text("")
     assert rundir.foreign_entries(partial) != []
+
+
+def test_legs_give_every_sweep_its_limit(tmp_path):
+    """``colony case --max-hours``: cases.sweep.legs sets the limit of the sweeps inside it."""
+    from cases.sweep import legs, run_engine, sweep
+
+    points = [{"engine": "particles", "lam": 1e-2, "time": 0.04}]
+    with legs(1e-9):
+        (folder,) = sweep(run_engine, points, tmp_path, n_workers=1, progress=False)
+    sessions = json.loads((folder / rundir.RECORD).read_text())["sessions"]
+    assert [s["status"] for s in sessions] == ["paused", "finished"]
+
+
+def test_case_max_hours_must_be_positive(colony, tmp_path):
+    status, err = colony("case", "fig2", "--out", str(tmp_path / "c"), "--max-hours", "-1")
+    assert status == 2 and "--max-hours must be positive and finite" in err
+    assert not (tmp_path / "c").exists()
