@@ -5,7 +5,8 @@ continuum solver (samples = points of the mesh) are reduced the same way:
 
 - :mod:`.io`: the runs' files: CSVs, continuum VTU frames, particle trajectory frames;
 - :mod:`.profiles`: radial profiles in annuli of equal area (Fig 3A, Fig 4A);
-- :mod:`.rings`: ring peaks and wavelengths, ring coherence, contour wavelengths (Fig 4);
+- :mod:`.rings`: ring peaks and wavelengths, ring coherence, contour wavelengths, and the 1D
+  radial reference's wavelength and rings at a colony's radius (Fig 4);
 - :mod:`.statistics`: late-time slope, maxima, power-law fits, the E. coli estimate (Fig 3);
 - :mod:`.continuum_runs`, :mod:`.particle_runs`: reductions of one engine's run folder
   (wavelength at every frame, final profile, final rings) used by the figure cases;

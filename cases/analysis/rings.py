@@ -8,7 +8,10 @@
 - continuum (smooth growth phase G): the rings are the contours G = k ln 2, where
   lbar = 2^frac(G / ln 2) jumps from 2 to 1 and so peaks (:mod:`continuum.rings`):
   :func:`contour_wavelength` of a ring table, :func:`profile_ring_radii` of a radial profile
-  of G.
+  of G;
+- the 1D radial reference (:func:`continuum.radial.ring_radii`) at a colony's radius:
+  :func:`exact_wavelength`, the difference of its two outermost ring radii (Fig 4C, the
+  cross-check), and :func:`exact_rings`, its radius of each ring k of a ring table.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from collections.abc import Mapping
 import numpy as np
 from scipy.signal import find_peaks
 
+from continuum import radial
 from continuum import rings as _rings
 from continuum.growth import LN2
 
@@ -31,6 +35,8 @@ __all__ = [
     "ring_coherence",
     "profile_ring_radii",
     "contour_wavelength",
+    "exact_wavelength",
+    "exact_rings",
 ]
 
 
@@ -273,3 +279,24 @@ def contour_wavelength(table: Mapping[str, np.ndarray]) -> float:
     """
     return _rings.ring_wavelength(table)
 
+
+def exact_wavelength(lam: float, radius: float) -> float:
+    """Wavelength of the 1D radial reference at colony radius R.
+
+    It is the difference of its two outermost ring radii, G(r) = k ln 2
+    (continuum.radial.ring_radii, ``|G - k ln 2| <= 1e-11``); nan with fewer than two rings
+    (lam = 0 has none).
+    """
+    if lam <= 0:
+        return math.nan
+    r = radial.ring_radii(lam, radius=radius)
+    return float(r[-1] - r[-2]) if r.size >= 2 else math.nan
+
+
+def exact_rings(table: dict[str, np.ndarray], lam: float, radius: float) -> np.ndarray:
+    """The 1D reference's radius of each ring k of ``table`` at colony radius R (nan if absent)."""
+    if lam <= 0:
+        return np.full(len(table["k"]), math.nan)
+    r, k = radial.ring_radii(lam, radius=radius, with_index=True)
+    by_k = dict(zip(k.tolist(), r.tolist(), strict=True))
+    return np.array([by_k.get(int(kk), math.nan) for kk in table["k"]], dtype=float)

@@ -14,7 +14,7 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
 - final ring wavelength of both models and of the 1D radial reference (continuum and reference:
   the difference of the two outermost rings G = k ln 2, the contours of the growth phase,
   cases.analysis.continuum_wavelength, and continuum.radial.ring_radii at the continuum's final
-  radius, cases.figures.fig4.exact_wavelength; particles: the last two peaks of the radial
+  radius, cases.analysis.exact_wavelength; particles: the last two peaks of the radial
   mean-length profile), and whether the particle colony has rings at all: the azimuthal
   coherence C of its final length pattern and its significance z
   (:func:`cases.analysis.ring_coherence`; z >= analysis.RING_Z: rings);
@@ -43,7 +43,6 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.figures.fig4 import exact_wavelength
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 from continuum import radial
 
@@ -149,7 +148,7 @@ def _continuum_row(fc: Path, lam: float) -> dict[str, float]:
         "max_pressure_continuum": float(hc["max_pressure"][-1]),
         "p0_exact": radial.max_pressure(R_f, lam),
         "wavelength_continuum": A.continuum_wavelength(fc),
-        "wavelength_exact": exact_wavelength(lam, R_f),
+        "wavelength_exact": A.exact_wavelength(lam, R_f),
     }
 
 

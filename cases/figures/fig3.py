@@ -29,7 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.studies.ensemble import ensemble_data
+from cases.datasets import ensemble_data
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 from continuum import radial
 
@@ -174,7 +174,7 @@ def _blank_without_lam(axes, lam: np.ndarray) -> None:
 def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 3 (PNG and PDF in ``out``) from the CSVs in ``data`` only.
 
-    Where the seed ensemble's data lie beside ``data`` (cases.studies.ensemble.ensemble_data:
+    Where the seed ensemble's data lie beside ``data`` (cases.datasets.ensemble_data:
     cases/data/ensemble for cases/data/fig3, OUT/ensemble for OUT/data) at the same radius, the
     particle curves get its seed bands (2.5-97.5 % of the seeds) and panels C, D its seed ranges.
     """

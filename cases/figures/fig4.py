@@ -15,14 +15,16 @@
     between the last two peaks of the radial mean-length profile (cases.analysis.ring_wavelength);
 (C) final wavelength against lam for both models and the converged 1D radial reference
     (difference of the two outermost ring radii G(r) = k ln 2 of continuum.radial.ring_radii at
-    the continuum's final radius, the same definition as the continuum's), with the lam^(-1/2)
+    the continuum's final radius, the same definition as the continuum's;
+    cases.analysis.exact_wavelength), with the lam^(-1/2)
     law and fitted exponents; a particle colony without rings (ring coherence
     z < cases.analysis.RING_Z) is drawn apart and left out of the particle fit (its
     "wavelength" is peak-finder noise).
 
 ``rings_continuum_lam=*.csv``: the final ring table of each continuum run (columns of
 continuum.rings.COLUMNS) with ``radius_exact``, the 1D reference's radius of the same ring k at
-the continuum's final radius (nan where the reference has no such ring).
+the continuum's final radius (nan where the reference has no such ring;
+cases.analysis.exact_rings).
 
 Scale: "smoke" (radius 15, lam in {0.03, 0.1, 0.3}; about a minute on 2 cores, runs shared with
 the other cases through a common ``runs`` folder) or "paper" (radius 150, lam in
@@ -42,10 +44,11 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.studies.ensemble import ensemble_data
+from cases.analysis.rings import exact_rings, exact_wavelength
+from cases.datasets import ensemble_data
 from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
 
-__all__ = ["compute", "reduce", "plot", "runs_needed", "exact_wavelength", "exact_rings"]
+__all__ = ["compute", "reduce", "plot", "runs_needed"]
 
 
 def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
@@ -54,32 +57,6 @@ def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
     cfg = scale_config(scale)
     lams = sorted({*cfg["lams"], *cfg["scaling_lams"]})
     return lams, engine_pairs(lams, engines)
-
-
-def exact_wavelength(lam: float, radius: float) -> float:
-    """Wavelength of the 1D radial reference at colony radius R.
-
-    It is the difference of its two outermost ring radii, G(r) = k ln 2
-    (continuum.radial.ring_radii, ``|G - k ln 2| <= 1e-11``); nan with fewer than two rings
-    (lam = 0 has none).
-    """
-    from continuum import radial
-
-    if lam <= 0:
-        return math.nan
-    r = radial.ring_radii(lam, radius=radius)
-    return float(r[-1] - r[-2]) if r.size >= 2 else math.nan
-
-
-def exact_rings(table: dict[str, np.ndarray], lam: float, radius: float) -> np.ndarray:
-    """The 1D reference's radius of each ring k of ``table`` at colony radius R (nan if absent)."""
-    from continuum import radial
-
-    if lam <= 0:
-        return np.full(len(table["k"]), math.nan)
-    r, k = radial.ring_radii(lam, radius=radius, with_index=True)
-    by_k = dict(zip(k.tolist(), r.tolist(), strict=True))
-    return np.array([by_k.get(int(kk), math.nan) for kk in table["k"]], dtype=float)
 
 
 def compute(scale: str = "smoke", out: str | Path = "runs/case-fig4-smoke",

@@ -19,7 +19,8 @@ So NEW may also hold only some lam (``colony case CASE --lams L,...``): a new pa
 is then reduced with its continuum run alone, and the other lam keep their earlier data.
 
 The seed ensemble (``ensemble``: ``colony case ensemble --lams L,...``) is merged by
-:func:`cases.studies.ensemble.merge`: NEW's lam replace or add whole rows and per-lam files.
+:func:`cases.datasets.merge`: NEW's lam replace or add whole rows and per-lam files. The lam a
+file belongs to is :func:`cases.datasets.lam_of`.
 
 Command line::
 
@@ -32,7 +33,6 @@ copied (to be edited).
 from __future__ import annotations
 
 import argparse
-import re
 import shutil
 import sys
 from pathlib import Path
@@ -40,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
+from cases import datasets
 from cases.figures import crosscheck, fig3
 
 __all__ = ["merge", "TABLES"]
@@ -56,15 +57,6 @@ CASES = ("fig2", *TABLES, "ensemble")
 def is_particle_file(name: str) -> bool:
     """A file of a case's particle part (``particles`` or ``radius_diff`` in its name)."""
     return "particles" in name or name.startswith("radius_diff")
-
-
-_LAM = re.compile(r"lam=([0-9.eE+-]+?)(?:_|\.csv)")
-
-
-def lam_of(name: str) -> float | None:
-    """The lam a case's file belongs to (``..._lam=L.csv``, ``..._lam=L_k=K.csv.gz``), or None."""
-    m = _LAM.search(name)
-    return float(m.group(1)) if m else None
 
 
 def merge_table(new: dict, old: dict, columns) -> dict:
@@ -117,9 +109,7 @@ def merge(case: str, new: str | Path, old: str | Path, out: str | Path) -> Path:
     if case not in CASES:
         raise ValueError(f"case must be one of {', '.join(CASES)}, got {case!r}")
     if case == "ensemble":
-        from cases.studies import ensemble
-
-        return ensemble.merge(new, old, out)
+        return datasets.merge(new, old, out)
     new, old, out = Path(new), Path(old), Path(out)
     for d in (new, old):
         if not d.is_dir():
@@ -132,7 +122,7 @@ def merge(case: str, new: str | Path, old: str | Path, out: str | Path) -> Path:
     shutil.copytree(new, stage)
     lams = new_lams(case, new)
     for p in sorted(old.iterdir()):
-        lam = lam_of(p.name)
+        lam = datasets.lam_of(p.name)
         if lam is None or (stage / p.name).exists():
             continue
         if is_particle_file(p.name) or lam not in lams:

@@ -27,14 +27,14 @@ Scales (:data:`ENSEMBLES`): "smoke" (radius 8, lam = 0.1, 2 seeds; about 40 s of
 (radius 40, the lam of the medium figure cases and 1e-4, 8 seeds each; about 60 particle runs of
 30-80 s CPU each). Committed data: cases/data/ensemble (``colony case ensemble --from-data``).
 Some lam only (``compute(lams=...)``, ``colony case ensemble --lams L,...``), merged into earlier
-data by :func:`merge` (``python -m cases.figures.merge ensemble NEW OLD OUT``).
+data by :func:`cases.datasets.merge` (``python -m cases.figures.merge ensemble NEW OLD OUT``);
+the figures find the ensemble's data beside theirs by :func:`cases.datasets.ensemble_data`.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import shutil
 from collections.abc import Sequence
 from dataclasses import fields
 from pathlib import Path
@@ -50,9 +50,9 @@ from particles.geometry import B
 from particles.measures import centroid, enclosing_radius
 
 __all__ = ["ENSEMBLES", "particle_params", "continuum_params", "compute", "reduce", "plot",
-           "QUANTITIES", "ensemble_data", "central_packing", "continuum_mean_pressure",
+           "QUANTITIES", "central_packing", "continuum_mean_pressure",
            "cycle_mean", "mean_stress_ratio", "history_growth", "trailing_rate",
-           "DIVISION_PERIOD", "markdown_tables", "merge", "merge_rows", "LAM_TABLES"]
+           "DIVISION_PERIOD", "markdown_tables"]
 
 #: Ensemble sizes. medium: the lam of the medium figure cases (Fig 3, Fig 4) and 1e-4 (a paper
 #: panel's) at radius 40, 8 seeds each (the lam of the figures' curves first); "numerics": one
@@ -160,8 +160,8 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-ensemble-smoke",
     whose runs are only reused where finished (``--engines finished``: the particle seeds
     finished so far; a lam without any is left out, ``n_seeds`` in summary.csv says how many
     each lam has). ``lams``: only these lam of the ensemble (``colony case ensemble --lams``),
-    e.g. a new lam, to add to the committed data with :func:`merge`; numerics.csv only if
-    ``numerics_lam`` is one of them.
+    e.g. a new lam, to add to the committed data with :func:`cases.datasets.merge`;
+    numerics.csv only if ``numerics_lam`` is one of them.
     """
     if set(engines) != set(ENGINES):
         raise ValueError("the ensemble compares particles with the continuum: it needs both "
@@ -516,96 +516,6 @@ def _write_numerics(data: Path, numerics: dict[str, Path],
         _append(rows, {"lam": lam, "seed": 0, "dt": config.dt, "tol": config.tol,
                        "solver_tol": config.effective_solver_tol} | row)
     A.write_csv(data / "numerics.csv", rows)
-
-
-# --------------------------------------------------------------------------- merge
-
-#: The tables with one row per lam (seeds.csv: per lam and seed) that :func:`merge` replaces
-#: lam by lam; numerics.csv and the files of cases.studies.stress_offset (estimators.csv,
-#: growth_paper.csv) are the earlier data set's.
-LAM_TABLES = ("seeds.csv", "summary.csv", "differences.csv", "growth_rates.csv")
-
-
-def merge_rows(new: str, old: str) -> str:
-    """CSV text: ``old``'s rows of the lam ``new`` has no row of, and ``new``'s rows.
-
-    The rows are ordered by lam (the first column), stably: a lam's rows keep their order (the
-    seeds of seeds.csv) and every row is kept as its text, so the untouched lam's rows stay
-    byte for byte. ValueError when the headers differ.
-    """
-    new_lines, old_lines = new.splitlines(keepends=True), old.splitlines(keepends=True)
-    if not new_lines or not old_lines or new_lines[0] != old_lines[0]:
-        raise ValueError("the tables' columns differ: "
-                         f"{new_lines[:1]!r} and {old_lines[:1]!r}")
-    if not new_lines[0].startswith("lam,"):
-        raise ValueError(f"the first column must be lam, got {new_lines[0]!r}")
-
-    def lam(line: str) -> float:
-        return float(line.split(",", 1)[0])
-
-    replaced = {lam(line) for line in new_lines[1:]}
-    rows = [line for line in old_lines[1:] if lam(line) not in replaced] + new_lines[1:]
-    rows = [line if line.endswith("\n") else line + "\n" for line in rows]
-    return old_lines[0] + "".join(sorted(rows, key=lam))
-
-
-def merge(new: str | Path, old: str | Path, out: str | Path) -> Path:
-    """The ensemble data ``old`` with the lam of the partial reduction ``new`` added or replaced.
-
-    ``new``: the data of ``colony case ensemble --lams L,...`` (:func:`compute` with ``lams``).
-    Written to ``out`` (which must not exist; staged as OUT.partial, then renamed, as
-    :func:`cases.figures.merge.merge`): every file of ``old``, the per-lam files of ``new``
-    (``profile_lam=``, ``radius_lam=``, ``time_lam=``, ``growth_lam=``), and in each table of
-    :data:`LAM_TABLES` the rows of ``new``'s lam in place of ``old``'s (:func:`merge_rows`).
-    """
-    from cases.figures.merge import lam_of
-
-    new, old, out = Path(new), Path(old), Path(out)
-    for d in (new, old):
-        if not (d / "summary.csv").is_file():
-            raise ValueError(f"no ensemble data (summary.csv) in {d}")
-    if out.exists():
-        raise ValueError(f"{out} exists already")
-    tables = {name: merge_rows((new / name).read_text(), (old / name).read_text())
-              for name in LAM_TABLES}
-    lams = set(np.atleast_1d(A.read_csv(new / "summary.csv")["lam"]).tolist())
-    files = [p for p in sorted(new.iterdir()) if lam_of(p.name) is not None]
-    for p in files:
-        if lam_of(p.name) not in lams:
-            raise ValueError(f"{p.name} of {new} belongs to no lam of its summary.csv")
-    stage = out.with_name(out.name + ".partial")
-    if stage.exists():
-        shutil.rmtree(stage)
-    shutil.copytree(old, stage)
-    for p in files:
-        shutil.copy2(p, stage / p.name)
-    for name, text in tables.items():
-        (stage / name).write_text(text)
-    stage.rename(out)
-    return out
-
-
-# --------------------------------------------------------------------------- figures
-
-
-def ensemble_data(figure_data: str | Path, radius: float | None = None) -> Path | None:
-    """The ensemble's data beside a figure case's data, if any (for the figures' seed bands).
-
-    ``cases/data/fig3`` -> ``cases/data/ensemble``, ``NAME_paper`` -> ``ensemble_paper``, an
-    ``OUT/data`` folder -> ``OUT/ensemble`` (copy or link an ensemble's data there). Taken only
-    when its radius is ``radius`` (within one particle length), if given.
-    """
-    figure_data = Path(figure_data)
-    suffix = "_paper" if figure_data.name.endswith("_paper") else ""
-    for candidate in (figure_data.parent / f"ensemble{suffix}",
-                      figure_data.parent / "ensemble"):
-        if (candidate / "summary.csv").is_file():
-            if radius is not None and math.isfinite(radius):
-                R = float(A.read_csv(candidate / "summary.csv")["radius"][0])
-                if abs(R - radius) > 1.0:
-                    return None
-            return candidate
-    return None
 
 
 def plot(data: str | Path, out: str | Path) -> list[Path]:

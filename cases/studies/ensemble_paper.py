@@ -6,7 +6,7 @@ A paper-scale particle colony takes about an hour, so its seeds are grown one by
 records of every seed S of a lam, seed 0 being the figures' own colony (its pooled profile
 ``cases/data/fig3_paper/profile_particles_lam=LAM.csv`` and history
 ``cases/data/particles_paper/lam=LAM/history.csv``), to the ensemble's files that the paper
-figures draw as bands (:func:`cases.studies.ensemble.ensemble_data` finds them beside
+figures draw as bands (:func:`cases.datasets.ensemble_data` finds them beside
 ``fig3_paper``):
 
 - ``profile_lam=LAM.csv``: the seeds' pooled stress and mean-length profiles on the common

@@ -17,6 +17,7 @@ import pytest
 from scipy.stats import t as student_t
 
 from cases import analysis as A
+from cases import datasets
 from cases.studies import ensemble
 from tests.pictures import assert_figures
 
@@ -224,7 +225,7 @@ def test_merge_adds_and_replaces_lam_and_keeps_the_rest_byte_for_byte(tmp_path):
     def lines(path):
         return path.read_bytes().splitlines(keepends=True)
 
-    for name in ensemble.LAM_TABLES:
+    for name in datasets.LAM_TABLES:
         got, was, add = lines(out / name), lines(old / name), lines(new / name)
         assert got[0] == was[0]
         lam_of_row = [float(r.split(b",")[0]) for r in got[1:]]
@@ -245,10 +246,10 @@ def test_merge_adds_and_replaces_lam_and_keeps_the_rest_byte_for_byte(tmp_path):
         {p.name for p in old.iterdir()} | {p.name for p in new.iterdir()})
 
     with pytest.raises(ValueError, match="exists already"):
-        ensemble.merge(new, old, out)
+        datasets.merge(new, old, out)
     A.write_csv(new / "growth_rates.csv", {"lam": [1e-4, 1e-2], "other": [1.0, 2.0]})
     with pytest.raises(ValueError, match="columns differ"):
-        ensemble.merge(new, old, tmp_path / "bad")
+        datasets.merge(new, old, tmp_path / "bad")
     assert not (tmp_path / "bad").exists() and not (tmp_path / "bad.partial").exists()
 
 

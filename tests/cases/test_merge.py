@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from cases import analysis as A
+from cases import datasets
 from cases.figures import merge
 
 NAN = np.nan
@@ -82,8 +83,8 @@ def test_merge_of_a_reduction_of_some_lam_keeps_the_other_lam_whole(tmp_path):
     assert A.read_csv(out / "radius_continuum_lam=0.csv")["radius"][0] == 8  # new
     assert A.read_csv(out / "radius_continuum_lam=0.001.csv")["radius"][0] == 7  # old lam
     assert A.read_csv(out / "radius_particles_lam=0.01.csv")["radius"][-1] == 4
-    assert merge.lam_of("particles_lam=0.0001_k=3.csv.gz") == 1e-4
-    assert merge.lam_of("summary.csv") is None
+    assert datasets.lam_of("particles_lam=0.0001_k=3.csv.gz") == 1e-4
+    assert datasets.lam_of("summary.csv") is None
 
 
 def test_merge_snapshots_of_some_lam_keep_every_row_of_the_others():
