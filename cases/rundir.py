@@ -421,6 +421,7 @@ def check_output_of(source: Path, out: Path) -> None:
     source = Path(source).resolve()
     for folder in (Path(out).resolve(), *Path(out).resolve().parents):
         if folder != source and (folder / RECORD).is_file():
+            check_source(folder)  # a run writing there: say so first
             raise RunFolderError(f"refusing to write into {folder}: it is the folder of another "
                                  f"run; give a folder of its own (or none: {source})")
 

@@ -50,24 +50,18 @@ myst_heading_anchors = 3
 autosummary_generate = True
 
 
-def _remove_stale_stubs(folder: Path) -> None:
-    """Delete generated pages of modules that no longer exist (a module moved or renamed).
+def _clear_stubs(folder: Path) -> None:
+    """Delete the generated pages, so that autosummary writes them anew from today's modules.
 
-    autosummary writes ``api/generated/NAME.rst`` (git-ignored) and never removes one, so a page
-    of a moved module would stay in the toctree and fail to import.
+    autosummary writes ``api/generated/NAME.rst`` (git-ignored) and never removes one: a page of
+    a removed module, or a package's page still listing it, would stay and fail to import.
     """
-    from importlib.util import find_spec
+    import shutil
 
-    for stub in folder.glob("*.rst"):
-        try:
-            found = find_spec(stub.stem) is not None
-        except (ImportError, ValueError):
-            found = False
-        if not found:
-            stub.unlink(missing_ok=True)
+    shutil.rmtree(folder, ignore_errors=True)
 
 
-_remove_stale_stubs(Path(__file__).resolve().parent / "api" / "generated")
+_clear_stubs(Path(__file__).resolve().parent / "api" / "generated")
 autosummary_imported_members = False
 autodoc_default_options = {"members": True, "show-inheritance": True}
 autodoc_member_order = "bysource"
