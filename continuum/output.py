@@ -8,7 +8,7 @@
   condition, from G), mean_length_psi, length_std_psi, number, total_length (moments of Psi:
   mean length, standard deviation of the lengths, number and length per area), whenever G is
   written, ring_index = floor(G / ln 2) and, whenever u is written, the strain rate of the flow
-  E = (grad u + grad u^T) / 2 (:mod:`continuum.strain`, its FIELDS: e_xx, e_yy, e_xy; e_rr,
+  E = (grad u + grad u^T) / 2 (:mod:`continuum.strain_rate`, its FIELDS: e_xx, e_yy, e_xy; e_rr,
   e_tt, e_rt about the colony's area centroid; e_rr_minus_e_tt; shear, the difference of E's
   eigenvalues; axis_angle, the extension axis from the radius in radians); meshio VTU (binary,
   zlib), one file per output step;
@@ -63,8 +63,8 @@ import meshio
 import numpy as np
 
 from continuum.growth import ring_index
-from continuum.strain import FIELDS as STRAIN_FIELDS
-from continuum.strain import strain_rate_fields
+from continuum.strain_rate import FIELDS as STRAIN_FIELDS
+from continuum.strain_rate import strain_rate_fields
 
 __all__ = ["write_config", "write_history", "write_boundary", "write_rings", "write_interfaces",
            "FieldWriter",
@@ -310,7 +310,7 @@ class FieldWriter:
 
         The frame carries t as FieldData ``TimeValue``; when ``fields`` has G (and no
         ring_index) the point data ``ring_index`` = floor(G / ln 2) is added, when it has u
-        (and none of them) the strain-rate fields of continuum.strain.strain_rate_fields.
+        (and none of them) the strain-rate fields of continuum.strain_rate.strain_rate_fields.
         """
         _check_finite("t", [t])
         data = {}

@@ -31,7 +31,7 @@ compression azimuthal, and rods are turned toward the radius at a rate (e_rr - e
 (Jeffery's rate of a long rod, 2D). Numbers only (no plotting): continuum.output writes these
 fields into every VTU frame (:data:`FIELDS`).
 
-Accuracy (tests/continuum/test_strain.py, disc R = 10, lam = 1e-2, against the closed form).
+Accuracy (tests/continuum/test_strain_rate.py, disc R = 10, lam = 1e-2, against the closed form).
 With the P2 pressure (``element="P2"``: u = -grad p_h is O(h^2) at the vertices) E converges at
 the nodes, root-mean-square error O(h^1.2) (the boundary's O(h) dominates; the interior is
 exact for lam = 0). With the default P1 pressure u is the recovered gradient, and a gradient of

@@ -19,13 +19,13 @@ import numpy as np
 
 from continuum import rings as _rings
 from continuum.mesh import triangle_areas
-from continuum.strain import strain_rate_fields
+from continuum.strain_rate import strain_rate_fields
 
 from .io import continuum_frames, read_continuum_frame, read_csv
 from .profiles import PSI_FIELDS, field_profile
 from .rings import contour_wavelength, profile_wavelength
 
-#: Strain-rate columns of a continuum profile (the polar components of continuum.strain).
+#: Strain-rate columns of a continuum profile (the polar components of continuum.strain_rate).
 STRAIN_COLUMNS = ("e_rr", "e_tt", "e_rr_minus_e_tt")
 
 __all__ = [
@@ -93,7 +93,7 @@ def continuum_profile(points: np.ndarray, triangles: np.ndarray, fields: dict,
     - mean_length_phase (no _std): the closed form 2^frac(<G> / ln 2) of the annulus mean of G,
       the mean length for Psi0 = delta(l - 1), the check beside mean_length_psi;
     - e_rr, e_tt, e_rr_minus_e_tt: the strain rate of the Darcy flow in polar components about
-      the colony's centroid (:func:`continuum.strain.strain_rate_fields`; the frame's fields,
+      the colony's centroid (:func:`continuum.strain_rate.strain_rate_fields`; the frame's fields,
       else from the velocity u), whose difference is the flow's anisotropy;
     - count: samples in the annulus.
 

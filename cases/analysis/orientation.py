@@ -19,7 +19,7 @@ same tensor in the polar frame, q_r = <cos 2 (theta - phi)>, q_s = <sin 2 (theta
 q_r = +1 for rods all along the radius, -1 for rods all along circles (tangent), and its angle
 psi_r = atan2(q_s, q_r) / 2 is the director's angle from the radial direction (0 radial, +-90
 degrees azimuthal). Per annulus (:func:`annulus_order`) these give the colony's radial
-alignment q_r(r), which is what a flow with e_rr > e_tt (continuum.strain) would produce; the
+alignment q_r(r), which is what a flow with e_rr > e_tt (continuum.strain_rate) would produce; the
 local order S_local(r) is the mean order of the grid cells in the annulus, which a uniform
 azimuthal or radial arrangement does not need.
 

@@ -12,7 +12,7 @@ them) and reduces the last frame of each with :mod:`cases.analysis.orientation`:
 - per colony: the +1/2 and -1/2 defects of the smoothed director per area (a +1 counts as two
   +1/2: the module doc of cases.analysis.orientation), and the same at every frame as the
   colony grows (``series.csv``);
-- the flow: the radial solution's strain rate at the same radius (continuum.strain:
+- the flow: the radial solution's strain rate at the same radius (continuum.strain_rate:
   e_rr - e_tt = 8 lam c^2 r^2 / D^2, and relative to the expansion rate e_rr + e_tt = g), the
   rate at which it would turn a rod toward the radius.
 
@@ -36,7 +36,7 @@ import numpy as np
 
 from cases import analysis as A
 from cases.analysis import orientation as O
-from continuum import strain
+from continuum import strain_rate
 
 __all__ = ["SCALES", "CELL", "SMOOTH", "WIDTH", "run_params", "compute", "plot",
            "markdown_table", "flow_profile", "paper_colonies"]
@@ -81,7 +81,7 @@ def run_params(scale: str) -> list[tuple[float, int, dict]]:
 
 def flow_profile(r: np.ndarray, R: float, lam: float) -> dict[str, np.ndarray]:
     """The radial solution's e_rr, e_tt, e_rr - e_tt and (e_rr - e_tt) / (e_rr + e_tt) at r."""
-    e = strain.radial_strain_rate(np.minimum(r, R), R, lam)
+    e = strain_rate.radial_strain_rate(np.minimum(r, R), R, lam)
     return e | {"relative_anisotropy": e["e_rr_minus_e_tt"] / (e["e_rr"] + e["e_tt"])}
 
 

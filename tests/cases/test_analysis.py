@@ -373,10 +373,10 @@ def test_continuum_profile_holds_the_flows_strain_rate(continuum_run):
     """The profile's (profile.csv's) e_rr, e_tt of a disc against the radial closed form.
 
     The run (lam = 1e-2, radius 2, P1) is a disc, so the annulus means of the recovered strain
-    rate follow continuum.strain.radial_strain_rate within the P1 recovery error (a few
+    rate follow continuum.strain_rate.radial_strain_rate within the P1 recovery error (a few
     percent of div u = g ~ 1), at every annulus but the outermost two.
     """
-    from continuum.strain import radial_strain_rate
+    from continuum.strain_rate import radial_strain_rate
 
     profile = A.final_continuum_profile(continuum_run)
     R = float(A.read_csv(continuum_run / "history.csv")["radius"][-1])
