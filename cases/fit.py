@@ -95,7 +95,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
 from cases.analysis.statistics import ecoli_lambda
-from cases.rundir import replace_file
+from cases.rundir import check_output_folder, replace_file
 from continuum import radial
 
 __all__ = [
@@ -1089,11 +1089,7 @@ def lam_from_speed(
 
 def _out_folder(out: str | os.PathLike) -> Path:
     folder = Path(out)
-    if folder.is_symlink():
-        raise ValueError(f"{folder} is a symbolic link; colony never writes through links: "
-                         "give the folder itself")
-    if folder.exists() and not folder.is_dir():
-        raise ValueError(f"{folder} is a file, not a folder")
+    check_output_folder(folder)
     folder.mkdir(parents=True, exist_ok=True)
     return folder
 

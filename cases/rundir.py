@@ -411,6 +411,19 @@ def check_source(folder: Path) -> None:
             raise RunFolderError(f"{folder / RECORD} is damaged: {shape}")
 
 
+def check_output_folder(folder: Path) -> None:
+    """Refuse an output folder (of pictures, a movie, a fit) that is a link or a file.
+
+    One line naming it: colony never writes through a link.
+    """
+    folder = Path(folder)
+    if folder.is_symlink():
+        raise RunFolderError(f"{folder} is a symbolic link; colony never writes through links: "
+                             "give the folder itself")
+    if folder.exists() and not folder.is_dir():
+        raise RunFolderError(f"{folder} is a file, not a folder")
+
+
 def check_output_of(source: Path, out: Path) -> None:
     """Refuse pictures or a movie of ``source`` written into another run's folder.
 

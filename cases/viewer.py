@@ -132,21 +132,11 @@ def _continuum_field(vtu: Path, data: dict, transported: bool) -> np.ndarray:
 # --------------------------------------------------------------------------- writing
 
 
-def _check_folder(folder: Path) -> None:
-    """Refuse an output folder that is a symbolic link or a file (one line naming it)."""
-    if folder.is_symlink():
-        raise rundir.RunFolderError(
-            f"{folder} is a symbolic link; colony never writes through links: give the folder "
-            "itself")
-    if folder.exists() and not folder.is_dir():
-        raise ValueError(f"{folder} is a file, not a folder")
-
-
 @contextmanager
 def _writing_into(folder: Path) -> Iterator[Path]:
     """A temporary folder whose files replace their namesakes in ``folder`` when the body ends.
 
-    ``folder`` (not a link, :func:`_check_folder`) is created when missing, with its missing
+    ``folder`` (not a link, :func:`cases.rundir.check_output_folder`) is created when missing, with its missing
     parents, which are removed again when the body fails. Its lock is held meanwhile
     (cases.rundir.hold: a run still writing into it, or another ``colony plot|movie``, is
     refused with one line). The body writes into a fresh temporary folder inside ``folder``
@@ -155,7 +145,7 @@ def _writing_into(folder: Path) -> Iterator[Path]:
     replaced, never followed; a folder of that name is refused first). The temporary folder
     is always removed.
     """
-    _check_folder(folder)
+    rundir.check_output_folder(folder)
     created = [p for p in (folder, *folder.parents) if not p.exists()]
     folder.mkdir(parents=True, exist_ok=True)
     try:
