@@ -137,7 +137,8 @@ def _writing_into(folder: Path) -> Iterator[Path]:
     """A temporary folder whose files replace their namesakes in ``folder`` when the body ends.
 
     ``folder`` (not a link, :func:`cases.rundir.check_output_folder`) is created when missing,
-    with its missing parents, which are removed again when the body fails. Its lock is held meanwhile
+    with its missing parents, which are removed again when the body fails. Its lock is held
+    meanwhile
     (cases.rundir.hold: a run still writing into it, or another ``colony plot|movie``, is
     refused with one line). The body writes into a fresh temporary folder inside ``folder``
     (``colony-*.tmp``, a name the run folders count as colony's); when the body ends normally
