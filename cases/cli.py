@@ -56,7 +56,7 @@ from cases.rundir import (
     no_space_message,
     partial_of,
 )
-from cases.runs import CHECKPOINTS, run_continuum, run_particles
+from cases.runs import CHECKPOINTS, ENGINES
 from cases.sweep import check_scheduler, check_workers, legs, select_lams
 
 #: ``colony case NAME``: the module of each case (``compute``, ``plot``; docs/DESIGN.md).
@@ -76,6 +76,8 @@ CASES = {
 FIGURE_CASES = ("fig2", "fig3", "fig4", "crosscheck")
 #: Committed data sets of every case: cases/data/NAME (medium), cases/data/NAME_paper.
 DATA_SETS = ("medium", "paper")
+#: The committed data of the cases, in a git checkout (the wheel carries none: issue 43).
+DATA = Path(__file__).resolve().parent / "data"
 
 
 class UsageError(ValueError):
@@ -360,6 +362,9 @@ def parser() -> argparse.ArgumentParser:
     k.add_argument("--out", default=None, help="output folder (default runs/case-NAME-SCALE)")
     k.add_argument("--from-data", action="store_true",
                    help="redraw from the data committed in cases/data (no computation)")
+    k.add_argument("--data", metavar="FOLDER",
+                   help="with --from-data: the folder of the committed data (default: cases/data "
+                   "of this checkout; an installed package carries none)")
     k.add_argument("--data-set", choices=DATA_SETS, default="medium",
                    help="committed data to redraw: medium (radius 40, both engines, default) or "
                    "paper (radius 150; particles for the lam computed so far)")
@@ -500,8 +505,6 @@ def _check_layout(config) -> None:
 def _dispatch(args) -> int:
     progress = not args.__dict__.get("quiet", False)
     if args.command == "continuum":
-        import continuum
-
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "shape": args.shape,
                  "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
@@ -509,15 +512,13 @@ def _dispatch(args) -> int:
                  "element": args.element, "strains": args.strains, "layout": args.layout,
                  "max_hours": _finite("max-hours", args.max_hours)}
         handoff = _handoff_options(args, flags)
-        config = build_config(continuum.Config, args.config, args.set, flags)
+        config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
         _check_layout(config)
         start = None if handoff is None else _handoff_start(config, *handoff)
-        run_continuum(config, Path(args.out), args.overwrite, progress, start,
-                      other_engine=args.other_engine, started=args.started)
+        ENGINES[args.command].run(config, Path(args.out), args.overwrite, progress, start,
+                                  other_engine=args.other_engine, started=args.started)
         print(f"continuum run written to {args.out}")
     elif args.command == "particles":
-        import particles
-
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
                  "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
                  "shape": args.shape, "fill_orientation": args.fill_orientation,
@@ -525,10 +526,11 @@ def _dispatch(args) -> int:
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads, "strains": args.strains,
                  "layout": args.layout, "max_hours": _finite("max-hours", args.max_hours)}
-        config = build_config(particles.Config, args.config, args.set, flags)
+        config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
         _check_layout(config)
-        run_particles(config, Path(args.out), args.overwrite, progress, args.change_step_policy,
-                      other_engine=args.other_engine, started=args.started)
+        ENGINES[args.command].run(config, Path(args.out), args.overwrite, progress,
+                                  args.change_step_policy, other_engine=args.other_engine,
+                                  started=args.started)
         print(f"particle run written to {args.out}")
     elif args.command == "info":
         print(describe(Path(args.dir)))
@@ -576,9 +578,13 @@ def _case_data(module, args, out: Path) -> Path:
     """The data folder a case draws from: committed (--from-data) or computed into ``out``."""
     if args.from_data:
         suffix = "" if args.data_set == "medium" else f"_{args.data_set}"
-        data = Path(__file__).parent / "data" / f"{args.name}{suffix}"
+        root = Path(args.data) if args.data else DATA
+        data = root / f"{args.name}{suffix}"
         if not data.is_dir():
-            raise UsageError(f"no committed data for case {args.name} in {data}")
+            where = ("" if args.data or DATA.is_dir() else
+                     "; the committed data live in a git checkout's cases/data, not in the "
+                     "installed package: give --data CHECKOUT/cases/data")
+            raise UsageError(f"no committed data for case {args.name} in {data}{where}")
         return data
     if args.workers < 1:
         raise UsageError(f"--workers must be >= 1, got {args.workers}")
@@ -634,7 +640,7 @@ STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
 def _stage_of(args) -> Path | None:
     """The stage folder of a run command (None for other commands or unusable --out)."""
     out = getattr(args, "out", None)
-    if args.command not in ("continuum", "particles") or not out:
+    if args.command not in ENGINES or not out:
         return None
     path = Path(os.path.abspath(out))
     return partial_of(path) if path.name else None

@@ -267,3 +267,16 @@ def test_help_states_the_engine_defaults(engine):
             assert float(value) == pytest.approx(float(default)), f"--{field}: {value} vs {default}"
         checked.append(field)
     assert len(checked) >= 3, checked
+
+
+def test_from_data_reads_a_given_data_folder(tmp_path):
+    """--data FOLDER: the committed data from anywhere (the wheel carries none)."""
+    import shutil
+
+    data = tmp_path / "data"
+    shutil.copytree(cli.DATA / "fig2", data / "fig2")
+    assert cli.main(["case", "fig2", "--from-data", "--data", str(data),
+                     "--out", str(tmp_path / "out")]) == 0
+    res = _colony("case", "fig2", "--from-data", "--data", str(tmp_path / "none"),
+                  "--out", str(tmp_path / "out2"))
+    assert res.returncode == 2 and "no committed data for case fig2" in res.stderr
