@@ -11,7 +11,10 @@ read any of them.
 
 from __future__ import annotations
 
+import importlib
 import os
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 from cases.rundir import RunPaused, partial_of, publish, record, stage
@@ -125,13 +128,35 @@ def run(config, out: str | os.PathLike, *, overwrite: bool = False, progress: bo
     (continuum) and the picture, where the engines' own ``run(config, out)`` writes the engine's
     files into an existing folder only. Returns the final state.
     """
-    engine = type(config).__module__.split(".")[0]
-    if engine == "continuum":
-        return run_continuum(config, Path(out), overwrite, progress)
-    if engine == "particles":
-        return run_particles(config, Path(out), overwrite, progress)
-    raise TypeError(f"config must be a continuum.Config or particles.Config, got "
-                    f"{type(config).__name__}")
+    return engine_of(config).run(config, Path(out), overwrite, progress)
+
+
+@dataclass(frozen=True)
+class Engine:
+    """An engine by name: its package's ``Config`` (imported when asked for) and its run."""
+
+    name: str
+    run: Callable
+
+    @property
+    def config(self) -> type:
+        """The engine's ``Config`` class (its package imported now, not with this module)."""
+        return importlib.import_module(self.name).Config
+
+
+#: The engines by name, the one place that maps a name to its Config class and run function
+#: (the command line, the sweeps and :func:`run` choose from it).
+ENGINES = {"continuum": Engine("continuum", run_continuum),
+           "particles": Engine("particles", run_particles)}
+
+
+def engine_of(config) -> Engine:
+    """The engine of a ``continuum.Config`` or ``particles.Config`` (TypeError otherwise)."""
+    engine = ENGINES.get(type(config).__module__.split(".")[0])
+    if engine is None:
+        raise TypeError(f"config must be a continuum.Config or particles.Config, got "
+                        f"{type(config).__name__}")
+    return engine
 
 
 #: Checkpoint files of either engine in a stage (a stopped run resumes from them; from the

@@ -44,6 +44,8 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
+from cases import runs
+
 __all__ = ["SweepError", "run_name", "initial_config", "is_done", "run_one", "sweep", "DONE",
            "run_engine", "engine_runs", "finished_runs", "case_runs", "engine_pairs", "select_lams",
            "ENGINES", "SCALES", "scale_config"]
@@ -383,7 +385,8 @@ def sweep(
     return folders
 
 
-ENGINES = ("continuum", "particles")
+#: The engines' names in the order of cases.runs.ENGINES (the figure cases number them 0, 1).
+ENGINES = tuple(runs.ENGINES)
 
 
 def engine_pairs(lams: Sequence[float], engines: Sequence[str] = ENGINES
@@ -411,20 +414,15 @@ def run_engine(params: dict, folder: Path) -> None:
     sweep's runs share the cores, so a particle run takes one solver thread unless ``params``
     say otherwise (``threads`` changes no result).
     """
-    from cases import runs
-
     params = dict(params)
     engine = params.pop("engine", None)
-    if engine == "continuum":
-        from continuum import Config
-    elif engine == "particles":
-        from particles import Config
-        params.setdefault("threads", 1)
-    else:
+    if engine not in ENGINES:
         raise ValueError(f"engine must be one of {ENGINES}, got {engine!r}")
-    config = Config(**params)  # validated when made
-    run = runs.run_continuum if engine == "continuum" else runs.run_particles
-    run(config, Path(folder), progress=False)
+    if engine == "particles":
+        params.setdefault("threads", 1)
+    engine = runs.ENGINES[engine]
+    config = engine.config(**params)  # validated when made
+    engine.run(config, Path(folder), progress=False)
 
 
 run_engine.stages_itself = True
