@@ -43,11 +43,15 @@ def _sha256(path: Path) -> str:
 
 
 def checkpoint_size(path: Path) -> tuple[int, int]:
-    """(cells, step) of a checkpoint (either engine's: its arrays x or its ``meta``)."""
+    """(cells, step) of a checkpoint: particles (array x) or mesh nodes (array points).
+
+    The step is in the particle engine's ``meta`` or the continuum's ``meta["colony"]``.
+    """
     with np.load(path, allow_pickle=False) as arrays:
         meta = json.loads(str(arrays["meta"]))
-        cells = len(arrays["x"]) if "x" in arrays.files else int(meta.get("n_nodes", 0))
-    return cells, int(meta.get("step", -1))
+        cells = len(arrays["x" if "x" in arrays.files else "points"])
+    step = meta["step"] if "step" in meta else meta.get("colony", {}).get("step", -1)
+    return cells, int(step)
 
 
 def pack(stage: str | os.PathLike, folder: str | os.PathLike) -> dict:

@@ -315,7 +315,8 @@ class RunOutput:
     def resume(self, frames: list[int]) -> None:
         """A run resumed from a checkpoint: keep the trajectory's first ``frames[0]`` frames."""
         self.frames = list(frames)
-        truncate_trajectory(self.trajectory, *self.frames[0:1], *self.frames[2:3])
+        size = self.frames[2] if len(self.frames) > 2 else None  # older checkpoints: none
+        truncate_trajectory(self.trajectory, self.frames[0], size)
 
     def frame(self, state: ParticleState) -> None:
         """Append the frame of ``state`` (step ``state.step``, time ``state.t``)."""

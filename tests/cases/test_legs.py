@@ -288,3 +288,13 @@ def test_case_max_hours_must_be_positive(colony, tmp_path):
     status, err = colony("case", "fig2", "--out", str(tmp_path / "c"), "--max-hours", "-1")
     assert status == 2 and "--max-hours must be positive and finite" in err
     assert not (tmp_path / "c").exists()
+
+
+def test_carry_counts_a_continuum_checkpoints_nodes(colony, tmp_path):
+    from cases import carry
+
+    out = tmp_path / "run"
+    assert colony(*RUNS["continuum"], "--out", str(out), "--max-hours", "1e-9")[0] == \
+        rundir.PAUSED_STATUS
+    record = carry.pack(rundir.partial_of(out), tmp_path / "resume")
+    assert record["cells"] > 100 and record["step"] == 1
