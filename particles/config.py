@@ -22,7 +22,7 @@ __all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "R
            "SOLVERS", "STEP_CONTROLS", "STEP_POLICY_FIELDS"]
 
 #: Names of the contact solvers (``Config.solver``; the solvers by name: ``solvers.BY_NAME``).
-SOLVERS = ("bbpgd", "apgd")
+SOLVERS = ("bbpgd", "apgd", "bbpgd-cuda")
 #: Solvers that were measured and removed (issue 43), with why: a configuration or checkpoint
 #: that names one is refused with this note (the code is in git history, docs/benchmarks.md).
 REMOVED_SOLVERS = {"twolevel": "measured, no gain over bbpgd; docs/benchmarks.md"}
@@ -102,7 +102,8 @@ class Config:
         Lengths of the rods of ``shape``: "stable" (density ~ l^-2 on [1, 2], default),
         "uniform" on [1, 2] or "birth" (all 1) (packings.sample_lengths).
     solver : str
-        Contact solver name, one of SOLVERS.
+        Contact solver name, one of SOLVERS: "bbpgd" (the default), "apgd", or "bbpgd-cuda"
+        (BBPGD on a CUDA GPU: the ``gpu`` extra; the same iterates as "bbpgd" to round-off).
     output_every : int
         Trajectory frame every this many steps (and the final state).
     checkpoint_seconds : float

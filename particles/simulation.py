@@ -50,6 +50,7 @@ from .config import STEP_POLICY_FIELDS, Config
 from .division import divide_in_order
 from .output import RunOutput, strain_columns, write_config, write_history
 from .packings import from_csv, single_cell
+from .solvers import check_device
 from .state import ParticleState, StepRecord
 from .stepping import Detections, detect, next_dt, robust_step
 from .strains import STRAIN_SEED, draw_strains
@@ -146,6 +147,7 @@ def check_initial(config: Config, require_stop: bool = True,
     """
     if require_stop:
         require_goal(config)
+    check_device(config.solver)  # a GPU solver on a machine without one
     config.check_budget()  # before any work: a time goal, a radius goal from one cell
     state = initial_state(config) if state is None else state
     c = detect(state, 0.0)
@@ -250,6 +252,7 @@ class Simulation:
     def __init__(self, config: Config, state: ParticleState | None = None,
                  out: str | Path | None = None, *, change_step_policy: bool = False,
                  layout=None):
+        check_device(config.solver)
         self.config = config
         self.history: list[dict] = []
         self.finished, self.paused = True, False

@@ -4,7 +4,14 @@ Each is made once per session into a temporary folder; a test that changes a run
 them back.
 """
 
-import pytest
+import os
+
+# The CUDA contact solver's kernels (particles/solvers/bbpgd_cuda.py) run in numba-cuda's
+# simulator, which numba reads when it is first imported: set here, before any test imports it.
+# NUMBA_ENABLE_CUDASIM=0 runs them on a GPU instead.
+os.environ.setdefault("NUMBA_ENABLE_CUDASIM", "1")
+
+import pytest  # noqa: E402
 
 
 @pytest.fixture(scope="session")
