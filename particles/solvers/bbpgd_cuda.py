@@ -27,8 +27,10 @@ convergence the remaining launches of a batch return at once.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
-from numba import cuda, float64
+from numba import config, cuda, float64, types
 
 from ..geometry import Contacts
 from .problem import _gap, _move, finish, incidence, prepare
@@ -45,6 +47,22 @@ CHECK = 32
 # the solver's scalar state on the device: scal[ALPHA], scal[PARITY], scal[DONE] (iteration
 # that reached tol, -1 before), scal[AMAX] (max a_kk, the safeguard's step)
 ALPHA, PARITY, DONE, AMAX = range(4)
+
+if not config.ENABLE_CUDASIM:  # the simulator runs NumPy itself
+    from numba.cuda.extending import overload
+
+    @overload(np.exp, target="cuda")
+    def _exp(x):
+        """np.exp of a float on the device (the growth law's; numba-cuda lowers math.exp)."""
+        if isinstance(x, types.Float):
+            return lambda x: math.exp(x)
+
+    @overload(np.expm1, target="cuda")
+    def _expm1(x):
+        """np.expm1 of a float on the device, as math.expm1."""
+        if isinstance(x, types.Float):
+            return lambda x: math.expm1(x)
+
 
 # the CPU kernels' particle row and contact gap, compiled for the device from their Python
 _move_row = cuda.jit(device=True)(_move.py_func)

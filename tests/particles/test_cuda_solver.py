@@ -112,3 +112,42 @@ def test_a_machine_without_a_gpu_is_refused_before_any_work(monkeypatch, tmp_pat
         particles.Simulation(particles.Config(lam=1e-2, radius=3, solver="bbpgd-cuda"),
                              out=tmp_path)
     assert list(tmp_path.iterdir()) == []
+
+
+PTX = """
+import types
+import numba.cuda.dispatcher as d
+from numba import boolean, cuda, float64, int64
+d.get_current_device = lambda: types.SimpleNamespace(compute_capability=(9, 0))  # no device
+try:  # CUDA's compiler (NVVM, NVRTC) installed?
+    cuda.compile_ptx(lambda a: None, (float64[::1],), cc=(9, 0))
+except Exception as e:
+    raise SystemExit(f"no toolkit: {e}")
+from particles.solvers import bbpgd_cuda as B
+A1, A2, I1 = float64[::1], float64[:, ::1], int64[::1]
+sigs = {"project": (A1,) * 4, "moves": (A1, I1, I1, A2, A1, A1, A1, boolean, A2, A1, A2),
+        "gradient": (A1,) * 4 + (I1, I1) + (A1,) * 7 + (float64, A2, A1, A1, A2),
+        "update": (A2, int64, int64, float64, A1, A1), "largest": (A1, A1, A2)}
+for name, sig in sigs.items():
+    cuda.compile_ptx(getattr(B, name).py_func, sig, cc=(9, 0))
+print("compiled", len(sigs))
+"""
+
+
+def test_kernels_compile_for_a_gpu():
+    """The kernels as NVVM compiles them for a GPU (sm_90), where CUDA's compiler is installed.
+
+    The simulator runs them as Python, so it cannot see what the device compiler refuses (it
+    found NumPy's exp, which numba-cuda does not lower: bbpgd_cuda's overloads).  Needs the
+    ``gpu`` extra's toolkit (NVVM), not a GPU; skipped without it.
+    """
+    import os
+    import subprocess
+    import sys
+
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "0"}
+    done = subprocess.run([sys.executable, "-c", PTX], env=env, capture_output=True, text=True)
+    if done.stderr.startswith("no toolkit"):
+        pytest.skip(f"CUDA's compiler is not installed (the gpu extra): {done.stderr[:200]}")
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "compiled 5" in done.stdout
