@@ -9,7 +9,8 @@ the length is updated exactly:
 
 so at lam = 0 the total length is exactly exp(t) times its initial value (division keeps length).
 The contact solvers' kernels predict the same growth inside the solve, as the exact increment
-l_n (exp(dt exp(-lam sigma_n)) - 1) (:func:`length_increment`; solvers/problem.py).
+l_n (exp(dt exp(-lam sigma_n)) - 1) (:func:`length_increment`; solvers/problem.py), and
+its largest slope in the stress bounds the solvers' step (:func:`largest_increment_slope`).
 
 :func:`growth_rate` is a Numba function (the kernels call it per particle); :func:`grow`
 evaluates the same expression with NumPy on arrays (``growth_rate.py_func``).  The division
@@ -50,6 +51,18 @@ def length_increment(length, lam, sigma, dt):
     :func:`grow` applies l + this (as l exp(dt exp(-lam sigma))).
     """
     return length * np.expm1(dt * growth_rate(lam, sigma))
+
+
+def largest_increment_slope(length, lam, adt):
+    """Largest slope of the step's increment in the stress: l lam a dt exp(a dt), at sigma = 0.
+
+    dl = l (exp(a dt exp(-lam sigma)) - 1) is the step's length increment
+    (:func:`length_increment` with growth factor a); its slope in the stress is
+    -l lam a dt exp(-lam sigma) exp(a dt exp(-lam sigma)), largest in size at sigma = 0.  The
+    curvature bound of the growth term of the contact problem (solvers/apgd.lipschitz_bound).
+    Arrays: ``length``, ``lam`` and ``adt`` = a dt of each cell (or numbers).
+    """
+    return length * lam * adt * np.exp(adt)
 
 
 def grow(length: np.ndarray, stress: np.ndarray, lam, dt: float, rate=1.0) -> np.ndarray:

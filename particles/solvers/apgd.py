@@ -56,6 +56,7 @@ import numpy as np
 from numba import njit
 
 from ..geometry import Contacts
+from ..growth import largest_increment_slope
 from .problem import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - G^T dl
 from .problem import _residual as residual  # max_k |min(a_kk gam_k, q_k)|
 from .problem import finish, incidence, particle_sums, prepare, problem_arrays
@@ -241,7 +242,7 @@ def lipschitz_bound(c: Contacts, length: np.ndarray, dt: float, law: np.ndarray,
     """
     length = np.ascontiguousarray(length, dtype=np.float64)
     mt, mr, ti, tj, akk = problem_arrays(c, length, dt)
-    cmax = (length * law[:, 0] * law[:, 1] * np.exp(law[:, 1]) if growth
+    cmax = (largest_increment_slope(length, law[:, 0], law[:, 1]) if growth
             else np.zeros_like(length))
     start, idx, coef = incidence(c, ti, tj, length.shape[0])
     return float(lipschitz_kernel(start, idx, coef, c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj,
