@@ -47,8 +47,8 @@ from typing import Any
 from cases import runs
 
 __all__ = ["SweepError", "run_name", "initial_config", "is_done", "run_one", "sweep", "DONE",
-           "run_engine", "engine_runs", "finished_runs", "case_runs", "engine_pairs", "select_lams",
-           "ENGINES", "SCALES", "scale_config"]
+           "run_engine", "engine_runs", "finished_runs", "case_runs", "compute_case",
+           "engine_pairs", "select_lams", "ENGINES", "SCALES", "scale_config"]
 
 DONE = "DONE"
 
@@ -556,3 +556,25 @@ def case_runs(  # noqa: PLR0913 (the run options of every figure case, as the CL
     started = engine_runs([r for r in needed if r[0] not in finished_only], scale, root,
                           scheduler=scheduler, n_workers=n_workers)
     return started | reused
+
+
+def compute_case(  # noqa: PLR0913 (case_runs' options and the case's two steps)
+    case: str, runs_needed: Callable, reduce: Callable, scale: str = "smoke",
+    out: str | Path | None = None, scheduler: str | None = None, n_workers: int = 2,
+    runs: str | Path | None = None, engines: Sequence[str] = ENGINES,
+    finished_only: Sequence[str] = (), lams: Sequence[float] | None = None,
+    needs_continuum: bool = True,
+) -> Path:
+    """The ``compute`` of every figure case: run (or reuse) its engine runs, reduce to out/data.
+
+    ``runs_needed(scale, engines)`` gives the case's (lam values, (engine, lam) runs);
+    :func:`case_runs` runs or reuses them under ``runs`` (default ``out/runs``; ``engines``,
+    ``needs_continuum``, ``finished_only`` and ``lams`` as there); ``reduce(folders, data)``
+    writes the case's CSVs into ``data = out/data`` and returns it. ``out`` defaults to
+    ``runs/case-CASE-SCALE``, as on the command line.
+    """
+    out = Path(out) if out is not None else Path(f"runs/case-{case}-{scale}")
+    needed = runs_needed(scale, tuple(engines))[1]
+    folders = case_runs(case, needed, scale, out, runs, scheduler, n_workers, engines,
+                        needs_continuum=needs_continuum, finished_only=finished_only, lams=lams)
+    return reduce(folders, out / "data")

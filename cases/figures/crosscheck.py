@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
+from cases.sweep import ENGINES, compute_case, engine_pairs, scale_config
 from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "radius_difference", "markdown_table"]
@@ -85,20 +85,12 @@ def radius_difference(t_c: np.ndarray, R_c: np.ndarray, t_p: np.ndarray, R_p: np
             "rel_diff": (Rp - R_c[keep]) / R_c[keep]}
 
 
-def compute(scale: str = "smoke", out: str | Path = "runs/case-crosscheck-smoke",
-            scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES,
-            finished_only: tuple[str, ...] = (), lams: list[float] | None = None) -> Path:
-    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
+def compute(scale: str = "smoke", out: str | Path | None = None, **options) -> Path:
+    """Run (or reuse) the cross-check's engine runs and reduce them to ``out/data``.
 
-    ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
-    ``finished_only``: engines whose runs are only reused where finished; ``lams``: only
-    these lam of the figure (default all; sweep.case_runs).
+    :func:`cases.sweep.compute_case` with ``options`` as there.
     """
-    _, needed = runs_needed(scale, engines)
-    folders = case_runs("crosscheck", needed, scale, out, runs, scheduler, n_workers, engines,
-                        needs_continuum=True, finished_only=finished_only, lams=lams)
-    return reduce(folders, Path(out) / "data")
+    return compute_case("crosscheck", runs_needed, reduce, scale, out, **options)
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:

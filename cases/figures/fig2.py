@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
+from cases.sweep import ENGINES, compute_case, engine_pairs, scale_config
 from particles import enclosing_radius
 
 __all__ = ["compute", "reduce", "plot", "runs_needed", "snapshot_indices", "N_SNAPSHOTS"]
@@ -56,20 +56,13 @@ def snapshot_indices(times: np.ndarray, n: int = N_SNAPSHOTS) -> list[int]:
     return [int(np.argmin(np.abs(times - (t0 + k * (tf - t0) / n)))) for k in range(1, n + 1)]
 
 
-def compute(scale: str = "smoke", out: str | Path = "runs/case-fig2-smoke",
-            scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES,
-            finished_only: tuple[str, ...] = (), lams: list[float] | None = None) -> Path:
-    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
+def compute(scale: str = "smoke", out: str | Path | None = None, **options) -> Path:
+    """Run (or reuse) Fig 2's engine runs and reduce them to ``out/data``.
 
-    ``engines``: the engines whose rows are made (a subset of ENGINES).
-    ``finished_only``: engines whose runs are only reused where finished; ``lams``: only
-    these lam of the figure (default all; sweep.case_runs).
+    :func:`cases.sweep.compute_case` with ``options`` as there; ``engines``: the engines whose
+    rows are made (a subset of ENGINES, the continuum not required).
     """
-    _, needed = runs_needed(scale, engines)
-    folders = case_runs("fig2", needed, scale, out, runs, scheduler, n_workers, engines,
-                        needs_continuum=False, finished_only=finished_only, lams=lams)
-    return reduce(folders, Path(out) / "data")
+    return compute_case("fig2", runs_needed, reduce, scale, out, needs_continuum=False, **options)
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path) -> Path:

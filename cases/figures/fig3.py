@@ -24,13 +24,14 @@ particle runs only; data in cases/data/fig3 (radius 40) and fig3_paper (radius 1
 from __future__ import annotations
 
 import math
+from functools import partial
 from pathlib import Path
 
 import numpy as np
 
 from cases import analysis as A
 from cases.datasets import ensemble_data
-from cases.sweep import ENGINES, case_runs, engine_pairs, scale_config
+from cases.sweep import ENGINES, compute_case, engine_pairs, scale_config
 from continuum import radial
 
 __all__ = ["compute", "reduce", "plot", "runs_needed"]
@@ -46,22 +47,15 @@ def runs_needed(scale: str, engines: tuple[str, ...] = ENGINES
     return lams, engine_pairs(lams, engines)
 
 
-def compute(scale: str = "smoke", out: str | Path = "runs/case-fig3-smoke",
-            scheduler: str | None = None, n_workers: int = 2,
-            runs: str | Path | None = None, engines: tuple[str, ...] = ENGINES,
-            finished_only: tuple[str, ...] = (), lams: list[float] | None = None) -> Path:
-    """Run (or reuse) the engine runs under ``runs`` (default ``out/runs``), reduce to out/data.
+def compute(scale: str = "smoke", out: str | Path | None = None, **options) -> Path:
+    """Run (or reuse) Fig 3's engine runs and reduce them to ``out/data``.
 
-    ``engines``: a subset of ENGINES; the continuum is needed (its radius is the reference).
-    ``finished_only``: engines whose runs are only reused where finished; ``lams``: only
-    these lam of the figure (default all; sweep.case_runs).
+    :func:`cases.sweep.compute_case` with ``options`` as there; the profiles are written for
+    lam = 0 and the lam of Fig 2.
     """
-    _, needed = runs_needed(scale, engines)
-    folders = case_runs("fig3", needed, scale, out, runs, scheduler, n_workers, engines,
-                        needs_continuum=True, finished_only=finished_only, lams=lams)
-    cfg = scale_config(scale)
-    profile_lams = sorted({0.0, *cfg["lams"]})
-    return reduce(folders, Path(out) / "data", profile_lams)
+    profile_lams = sorted({0.0, *scale_config(scale)["lams"]})
+    return compute_case("fig3", runs_needed, partial(reduce, profile_lams=profile_lams), scale,
+                        out, **options)
 
 
 def reduce(folders: dict[tuple[str, float], Path], data: Path,

@@ -10,9 +10,9 @@
    the cases share one runs folder, so the eight smoke runs are computed once (about a minute
    on 2 cores). Asserted: the physics the smoke colonies must already show (continuum max
    pressure = analytic p(0) at the final radius, late speeds below the disc speed 4cR and
-   ordered in lam, max stress decreasing with lam) and the stored numbers of SMOKE below
-   (measured with the engines of 2026-11-21 23:36 UTC by `fig3.compute("smoke", ...)`; the
-   engines' defaults may still change: rerun and update them then).
+   ordered in lam, max stress decreasing with lam) and, to the digits written, the smoke
+   tables stored in tests/cases/smoke_data (its README says how they were made and when to
+   update them: the runs are deterministic, so any change of an engine's results shows).
 """
 
 from __future__ import annotations
@@ -251,17 +251,15 @@ def test_crosscheck_reduce_and_table(fake_runs, tmp_path):
 
 # ------------------------------------------------------------------ smoke scale, real engines
 
-#: Stored smoke numbers (see module docstring): case -> column -> values in lam order.
-#: Continuum: deterministic, 3 %. Particles: 25 %, because the chaotic particle dynamics moves
-#: with any change of the engine's defaults (dt 0.005 -> 0.01 moved them by up to 17 %).
-SMOKE = {
-    "fig3": {"lam": [0.0, 0.03, 0.1, 0.3],
-             "max_pressure_continuum": [56.25051, 29.047736, 16.227092, 8.2567921],
-             "slope_continuum": [5.3805097, 4.2159162, 3.1190749, 2.1178726],
-             "max_stress_particles": [49.896952, 26.814807, 13.69706, 7.8802539],
-             "slope_particles": [4.6801642, 3.5490631, 3.0684346, 1.8837051]},
-}
-RTOL = {"continuum": 0.03, "particles": 0.25}
+#: The stored smoke tables (tests/cases/smoke_data/README.md): case -> (stored file, the file
+#: of the case's data it equals).
+SMOKE = {"fig3": ("fig3_summary.csv", "summary.csv"),
+         "fig4": ("fig4_summary.csv", "summary.csv"),
+         "crosscheck": ("crosscheck_table.csv", "table.csv")}
+SMOKE_DATA = Path(__file__).parent / "smoke_data"
+#: The tables are written with 8 significant digits: equal runs agree in every digit; a few
+#: units of the last digit are allowed for a platform's last-bit differences in the continuum.
+SMOKE_RTOL = 1e-6
 
 
 @pytest.fixture(scope="module")
@@ -311,11 +309,13 @@ def test_smoke_case(case, smoke_runs, tmp_path):
                 np.testing.assert_allclose(A.read_csv(merged / p.name)[k], v, rtol=1e-6)
             continue
         assert (merged / p.name).read_bytes() == p.read_bytes(), p.name
-    for col, expected in SMOKE.get(name, {}).items():
-        s = A.read_csv(data / "summary.csv")
-        rtol = RTOL["particles" if col.endswith("particles") else "continuum"]
-        np.testing.assert_allclose(s[col], expected, rtol=0 if col == "lam" else rtol,
-                                   err_msg=f"{name}: {col}")
+    if name in SMOKE:
+        stored, written = SMOKE[name]
+        expected, got = A.read_csv(SMOKE_DATA / stored), A.read_csv(data / written)
+        assert list(got) == list(expected)
+        for col in expected:
+            np.testing.assert_allclose(got[col], expected[col], rtol=SMOKE_RTOL, atol=0,
+                                       err_msg=f"{name}: {col} (tests/cases/smoke_data)")
 
 
 @pytest.mark.parametrize("case", [fig2, fig3, fig4, crosscheck],

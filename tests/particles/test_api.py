@@ -1,9 +1,11 @@
 """The public API of the particle engine (issue 15).
 
-Names, the step record, advance = run bit for bit, save/load continuing bit for bit, and the
-README example.
+Names (``particles.__all__`` exactly, each public function called on a small input whose answer
+is known in closed form), the step record, advance = run bit for bit, save/load continuing bit
+for bit, and the README example.
 """
 
+import math
 from dataclasses import FrozenInstanceError, replace
 
 import numpy as np
@@ -24,14 +26,117 @@ def assert_same_state(a, b):
     np.testing.assert_array_equal(a.warm_gamma, b.warm_gamma)
 
 
-def test_all_names_exist_and_version():
+#: The public names, each exercised in this file: a new name gets a test here.
+PUBLIC = {"B", "Config", "ContactSolveError", "OverlapError", "ParticleLimitError",
+          "ParticleState", "Simulation", "StepRecord", "__version__", "axial_stress", "divide",
+          "enclosing_radius", "fill_outline", "from_csv", "grow", "hull_radius", "line",
+          "read_trajectory", "ring_packing", "run", "single_cell"}
+
+
+def test_public_names_and_version():
+    assert set(particles.__all__) == PUBLIC
     for name in particles.__all__:
-        assert hasattr(particles, name), name
+        assert getattr(particles, name) is not None, name
     assert isinstance(particles.__version__, str) and particles.__version__
-    for name in ("Config", "Simulation", "StepRecord", "ParticleState", "run", "OverlapError",
-                 "ContactSolveError", "ParticleLimitError", "single_cell", "from_csv",
-                 "ring_packing"):
-        assert name in particles.__all__
+    assert particles.B == 0.5  # the rods' diameter b, in birth lengths
+    for error in (particles.OverlapError, particles.ContactSolveError,
+                  particles.ParticleLimitError):
+        assert issubclass(error, RuntimeError)
+
+
+def test_grow_is_the_exact_growth_law():
+    """l(t + dt) = l exp(a dt exp(-lam sigma)); at lam = 0 every length grows by exp(a dt)."""
+    length, stress = np.array([1.0, 1.5]), np.array([0.0, 2.0])
+    np.testing.assert_allclose(particles.grow(length, stress, 0.5, 0.1, rate=2.0),
+                               [math.exp(0.2), 1.5 * math.exp(0.2 * math.exp(-1.0))], rtol=1e-15)
+    np.testing.assert_allclose(particles.grow(length, stress, 0.0, 0.3), length * math.exp(0.3),
+                               rtol=1e-15)
+
+
+def test_radii_of_rods_in_closed_form():
+    """Enclosing radius: farthest segment end from the centroid + b/2; hull radius: sqrt(A/pi).
+
+    Two rods of length 2 side by side, touching (y = -b/2, b/2): their hull is a rectangle
+    1.5 x 1 with two half-stadium caps, area A = 1.5 + b (0.5 + pi b / 4) = 1.75 + pi/16.
+    """
+    b = particles.B
+    x, theta, length = np.array([-1.0, 1.0]), np.zeros(2), np.full(2, 2.0)
+    assert particles.enclosing_radius(x, np.zeros(2), theta, length) == 2.0
+    assert particles.enclosing_radius(np.zeros(1), np.zeros(1), np.array([0.7]),
+                                      np.array([2.0])) == pytest.approx(1.0, rel=1e-15)
+    area = 1.75 + math.pi / 16
+    assert particles.hull_radius(np.zeros(2), np.array([-b / 2, b / 2]), theta, length) == \
+        pytest.approx(math.sqrt(area / math.pi), rel=1e-14)
+    one = (1.5 * b + math.pi * b * b / 4) / math.pi  # a single rod's own area
+    assert particles.hull_radius(np.zeros(1), np.zeros(1), np.zeros(1), np.array([2.0])) == \
+        pytest.approx(math.sqrt(one), rel=1e-14)
+
+
+def test_axial_stress_of_a_straight_chain():
+    """line(3): two tip-to-tip contacts with G = 1/2 on each side, so sigma = G gamma exactly."""
+    from particles.geometry import detect_contacts
+
+    chain = particles.line(3)
+    np.testing.assert_array_equal(chain.x, [-1.0, 0.0, 1.0])
+    np.testing.assert_array_equal(chain.length, 1.0)
+    assert particles.line(2, length=1.5).x.tolist() == [-0.75, 0.75]
+    c = detect_contacts(chain.x, chain.y, chain.theta, chain.length, 0.1)
+    np.testing.assert_array_equal(c.gap, 0.0)
+    np.testing.assert_array_equal(particles.axial_stress(c, np.array([2.0, 4.0]), 3),
+                                  [1.0, 3.0, 2.0])
+
+
+def test_divide_splits_at_the_division_length():
+    """A rod of length 2 at x = 1 becomes daughters of length 1 at x = 1 +- 1/2, new ids."""
+    state = particles.ParticleState.from_arrays(np.array([1.0, 5.0]), np.zeros(2), np.zeros(2),
+                                                np.array([2.0, 1.9]))
+    assert particles.divide(state, np.random.default_rng(0), noise=0.0) == 1
+    np.testing.assert_array_equal(state.x, [1.5, 5.0, 0.5])
+    np.testing.assert_array_equal(state.length, [1.0, 1.9, 1.0])
+    np.testing.assert_array_equal(state.theta, 0.0)
+    np.testing.assert_array_equal(state.ids, [2, 1, 3])
+    np.testing.assert_array_equal(state.parent, [0, -1, 0])
+    np.testing.assert_array_equal(state.generation, [1, 0, 1])
+    assert state.next_id == 4
+    assert particles.divide(state, np.random.default_rng(0), noise=0.0) == 0
+
+
+def test_packings_fill_without_overlap():
+    """fill_outline and ring_packing: rods inside the outline, apart by at least the gap."""
+    from particles.geometry import detect_contacts
+    from particles.measures import tips
+
+    b = particles.B
+    square = np.array([[0.0, 0.0], [6.0, 0.0], [6.0, 6.0], [0.0, 6.0]])
+    fill = particles.fill_outline(square, seed=2, orientation="rows", gap=1e-3)
+    ex, ey = tips(fill.x, fill.y, fill.theta, fill.length)
+    assert fill.n > 30 and 1.0 <= fill.length.min() and fill.length.max() <= 2.0
+    assert min(ex.min(), ey.min()) - b / 2 >= 1e-3 - 1e-12
+    assert 6.0 - max(ex.max(), ey.max()) - b / 2 >= 1e-3 - 1e-12
+    c = detect_contacts(fill.x, fill.y, fill.theta, fill.length, 0.1)
+    assert c.gap.min() >= 0.5e-3 - 1e-12
+    x, y, theta, length = particles.ring_packing(100, seed=1)
+    assert x.size >= 100 and 1.0 <= length.min() and length.max() <= 1.9
+    c = detect_contacts(x, y, theta, length, 0.1)
+    assert c.gap.min() >= 0.5e-3 - 1e-12
+
+
+def test_read_trajectory_gives_the_final_state(tmp_path):
+    """The last frame of a run's trajectory.gsd is its final state (float32 positions)."""
+    done = run(Config(lam=1e-2, seed=1, radius=2.0), tmp_path)
+    frames = list(particles.read_trajectory(tmp_path / "trajectory.gsd"))
+    last = frames[-1]
+    assert (last.step, last.t) == (done.state.step, done.state.t)
+    assert frames[0].step == 0 and frames[0].n == 1
+    for k in ("x", "y", "length", "stress"):
+        np.testing.assert_allclose(getattr(last, k), getattr(done.state, k), rtol=1e-6,
+                                   atol=1e-6, err_msg=k)
+    np.testing.assert_array_equal(last.ids, done.state.ids)
+
+
+def test_particle_limit_is_refused():
+    with pytest.raises(particles.ParticleLimitError, match="max_particles 4"):
+        run(Config(lam=0.0, time=3.0, max_particles=4))
 
 
 def test_step_returns_a_frozen_record_and_divides_inside():
@@ -150,11 +255,13 @@ def test_a_removed_solver_is_refused_with_a_note(tmp_path):
     ValueError from Config's validation, naming the solvers there are and why it went.
     """
     import json
+    import re
 
     from particles.checkpoint import read_arrays
+    from particles.config import SOLVERS
 
-    with pytest.raises(ValueError, match=r"unknown solver 'twolevel'; choose from "
-                                         r"\['apgd', 'bbpgd'\] \(twolevel was removed"):
+    with pytest.raises(ValueError, match=re.escape(f"unknown solver 'twolevel'; choose from "
+                                                   f"{sorted(SOLVERS)} (twolevel was removed")):
         Config(lam=1e-2, solver="twolevel")
     sim = Simulation(Config(lam=1e-2, seed=1))
     sim.step()
