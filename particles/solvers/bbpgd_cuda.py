@@ -35,11 +35,13 @@ from numba import config, cuda, float64, types
 from ..geometry import Contacts
 from .problem import _gap, _move, finish, incidence, prepare
 
-TPB = 128
+TPB = 256
 """Threads per block of every kernel."""
 
-NBLOCKS = 512
-"""Largest number of blocks of the contact kernels (a grid-stride loop covers the rest)."""
+NBLOCKS = 1024
+"""Largest number of blocks of the contact kernels (a grid-stride loop covers the rest):
+262,144 threads, as many as an H100/H200 keeps resident (132 SMs x 2048), so that the loads of
+a solve at 3e5 contacts are all in flight at once."""
 
 CHECK = 32
 """Iterations launched between two reads of the solver's state by the host."""
