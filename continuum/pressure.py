@@ -382,7 +382,7 @@ SKFEM_P1 = "P1-skfem"
 
 The same discrete problem as the hand-written "P1" to round-off (tests/continuum/
 test_elements.py) but 1.9-2.2x its seconds per solve at 1.6e3-1.5e5 nodes and 2.1x its
-whole run to radius 60 (docs/benchmarks.md, ``python -m cases.bench.elements``): the
+whole run to radius 60 (docs/benchmarks.md, ``python docs/measurements/elements.py``): the
 reference of the hand-written (Numba) assembly, not a ``Config.element``."""
 
 

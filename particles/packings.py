@@ -8,7 +8,7 @@
   given number of rods is refused);
 - :func:`line`: N cells of length 1 end to end on the x axis;
 - :func:`ring_packing`: a dense, jammed, non-overlapping disc of rods on concentric rings: the
-  synthetic states of ``python -m cases.bench.contact_solvers`` and of the solver tests, where
+  synthetic states of docs/measurements/contact_solvers.py and of the solver tests, where
   growth along each ring pushes on the next ring out (a 2D-coupled, pressure-like load path);
 - :func:`warm_problem`: from a solved packing, the warm-started problem of the next step.
 """
@@ -183,7 +183,7 @@ def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 
 
 
 # The state's four arrays, the solved contacts and forces, and the step: positional callers
-# (cases/bench, tests) pass all nine.
+# (docs/measurements/contact_solvers.py, tests) pass all nine.
 def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):  # noqa: PLR0913
     """The warm-started problem of the next step: a contact solver's test problem.
 

@@ -65,3 +65,38 @@ def test_an_installed_package_knows_its_commit(tmp_path):
     installed = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(installed)
     assert installed.git_commit() == "abc123"
+
+
+def test_the_wheel_ships_the_library_not_the_measurements():
+    """The wheel holds the benches users run on their machine, not the one-off measurements.
+
+    Those behind docs/benchmarks.md and docs/validation.md are scripts in docs/measurements/,
+    outside pyproject's package patterns and in no package, and nothing in the package imports
+    one.
+    """
+    from fnmatch import fnmatch
+
+    find = tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+    include = find["packages"]["find"]["include"]
+    assert any(fnmatch("cases.bench", pattern) for pattern in include)
+    assert not any(fnmatch(name, pattern) for name in ("docs", "docs.measurements")
+                   for pattern in include)
+    kept = {"__init__", "continuum", "particles", "cost_growth"}
+    assert {p.stem for p in (ROOT / "cases" / "bench").glob("*.py")} == kept
+    measurements = ROOT / "docs" / "measurements"
+    assert {"contact_solvers", "timestep", "elements", "handoff"} <= {
+        p.stem for p in measurements.glob("*.py")}
+    assert not (measurements / "__init__.py").exists()
+    for package in ("continuum", "particles", "cases"):
+        for path in (ROOT / package).rglob("*.py"):
+            for node in ast.walk(ast.parse(path.read_text(), str(path))):
+                if isinstance(node, ast.ImportFrom) and node.module == "cases.bench":
+                    modules = [f"cases.bench.{a.name}" for a in node.names]
+                elif isinstance(node, ast.ImportFrom):
+                    modules = [node.module or ""]
+                elif isinstance(node, ast.Import):
+                    modules = [a.name for a in node.names]
+                else:
+                    continue
+                names = {m.split(".")[2] for m in modules if m.startswith("cases.bench.")}
+                assert names <= kept, (path, names - kept)

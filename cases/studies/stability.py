@@ -147,7 +147,7 @@ def measure_rate(K: int, lam: float, n_nodes: int, t_end: float, samples: int,  
     the continuum Config (default: node count ``n_nodes``, h_max = 1e3 so that the mesh is
     sized by the node count alone, no fields written). ``remesh``: rebuild the mesh after every
     sample (boundary resampled to equal spacing; a controlled experiment of
-    cases.bench.boundary_modes).
+    docs/measurements/boundary_modes.py).
 
     Returns
     -------

@@ -17,9 +17,9 @@ switches one ingredient of the continuum solver:
 The variants of the flux and of the recovery replace the module functions of continuum.velocity
 for the duration of a run (:func:`solver_variant`); the solver itself has only the default.
 
-Command line::
+Command line (from the repository root, the package installed)::
 
-    python -m cases.bench.boundary_modes [--modes 6 8]
+    python docs/measurements/boundary_modes.py [--modes 6 8]
 """
 
 from __future__ import annotations

@@ -87,6 +87,11 @@ Prints a table of medians over ``--repeat`` runs (iterations, gradient evaluatio
 final residual, max ``|sigma - sigma_ref|``) and the fitted exponents of iterations and seconds in
 N, and writes the rows to ``--out`` (CSV).  Record ``uptime`` beside the timings: the machine
 may be shared.
+
+Command line (from the repository root, the package installed)::
+
+    python docs/measurements/contact_solvers.py [--sizes 1000 10000] [--tol 1e-3 1e-4]
+        [--solvers bbpgd apgd] [--grown FILE.npz ...] [--repeat 3] [--out CSV]
 """
 
 from __future__ import annotations

@@ -26,7 +26,7 @@ part 2 the simulation's solver class is swapped for one that assembles P1 by sci
 round-off (tests/continuum/test_elements.py), so only its seconds differ (and, through
 round-off, remeshing decisions late in a run).
 
-Run: ``python -m cases.bench.elements [--sizes 1000 10000 100000] [--repeats 5]
+Run: ``python docs/measurements/elements.py [--sizes 1000 10000 100000] [--repeats 5]
 [--elements P1 P1-skfem P2] [--modes 2 4 6 8] [--radius 40] [--runs SPEC ...]
 [--target [SPEC ...]]``, a SPEC being ``NAME[:KEY=VALUE,...]`` with continuum.Config
 overrides (default runs: each element on the default mesh, and

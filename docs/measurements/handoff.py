@@ -14,9 +14,9 @@ the lengths there (that of the field under the kernel, 0.02 h); with a step, len
 x < 15 and 1.2 beyond (a ring), the 10-90 % width of the mean length's drop along the middle
 row (2.56 h for a Gaussian).
 
-Command line::
+Command line (from the repository root, the package installed)::
 
-    python -m cases.bench.handoff [--alphas 0.5 1 2] [--bandwidths 1 2 3]
+    python docs/measurements/handoff.py [--alphas 0.5 1 2] [--bandwidths 1 2 3]
 """
 
 from __future__ import annotations

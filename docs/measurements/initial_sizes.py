@@ -13,9 +13,9 @@ Psi0 = delta(l - 1), lbar = 2^frac(G / ln 2) (continuum.growth.mean_length):
 
 The two runs have the same mesh, pressure and G bit for bit (Psi does not act on the flow).
 
-Command line::
+Command line (from the repository root, the package installed)::
 
-    python -m cases.bench.initial_sizes [--radius 40] [--lam 1e-2] [--initial bump delta]
+    python docs/measurements/initial_sizes.py [--radius 40] [--lam 1e-2] [--initial bump delta]
 """
 
 from __future__ import annotations

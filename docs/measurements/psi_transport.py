@@ -2,7 +2,7 @@
 
 For each transport of ``--transports`` (``continuum.Config.psi_transport``) one colony at
 ``--lam`` from the bump Psi0 (``initial_sizes = "bump"``; the default delta is carried exactly
-whatever the transport, cases.bench.initial_sizes) is grown from the initial disc to
+whatever the transport, docs/measurements/initial_sizes.py) is grown from the initial disc to
 ``--radius``, and the mean length of the transported
 Psi, ``mean_length_psi``, is compared at every node with the exact answer: the initial bump
 shifted by G / ln 2 along its characteristic (``CharacteristicSizes.bump`` advanced by the
@@ -11,9 +11,9 @@ frac(G / ln 2 + w), w the bump's centre, is more than 2 w from a division), wher
 shows as an error of order one, and over all nodes; with the spread of the total length per
 area (constant for the exact solution) and the CPU seconds of the run and of its transport.
 
-Command line::
+Command line (from the repository root, the package installed)::
 
-    python -m cases.bench.psi_transport [--radius 40] [--lam 1e-2]
+    python docs/measurements/psi_transport.py [--radius 40] [--lam 1e-2]
         [--transports characteristics-labels characteristics finite-volume]
 """
 

@@ -21,15 +21,15 @@ iterations per unit time (main, passes, failed attempts), the halved steps and t
 the particles in one step (largest and 99.9 % quantile: beyond ~0.1 rad the linearised contacts
 no longer hold and the passes meet crossed rods).
 
-Command line::
+Command line (from the repository root, the package installed)::
 
-    python -m cases.bench.timestep [--radius 40] [--lams 1e-2 1e-3 1e-4 0]
-                                   [--policies fixed:0.005 fixed:0.01 fixed:0.02 overlap:0.01]
-                                   [--uncapped] [--out runs/bench_timestep.csv]
-    python -m cases.bench.timestep --checkpoint RUN/checkpoint.npz [--duration 0.02]
-                                   [--policies fixed:0.005 fixed:0.0025]
-    python -m cases.bench.timestep --history RUN [RUN ...] [--min-particles 6e4]
-                                   [--sizes 1e4 2e4 4e4 6e4] [--logs LOG [LOG ...]]
+    python docs/measurements/timestep.py [--radius 40] [--lams 1e-2 1e-3 1e-4 0]
+        [--policies fixed:0.005 fixed:0.01 fixed:0.02 overlap:0.01]
+        [--uncapped] [--out runs/bench_timestep.csv]
+    python docs/measurements/timestep.py --checkpoint RUN/checkpoint.npz [--duration 0.02]
+        [--policies fixed:0.005 fixed:0.0025]
+    python docs/measurements/timestep.py --history RUN [RUN ...] [--min-particles 6e4]
+        [--sizes 1e4 2e4 4e4 6e4] [--logs LOG [LOG ...]]
 
 ``--history`` reads what whole runs did instead (no computation): per step-policy segment of
 each run folder (config.json's ``step_policy_changes``), restricted to N >= ``--min-particles``,

@@ -40,7 +40,7 @@ as BBPGD: the residual is tested at the extrapolated point y_k, whose gradient t
 anyway, and y_k is accepted only when it is feasible (y_k >= 0; else its projection
 max(0, y_k) is tested, at the price of one extra gradient).
 
-Measured (cases/bench/contact_solvers.py, 2026-11-22, 2-core machine shared, load 1.5-4;
+Measured (docs/measurements/contact_solvers.py, 2026-11-22, 2-core machine shared, load 1.5-4;
 jammed states: ring packings grown by the engine for t = 0.2, N = 1.2e3, 1.1e4, 1.0e5, cold
 start): iterations BBPGD / APGD at tol 1e-4: 281 / 329, 3019 / 1367, 9582 / 4182 (fitted
 N^0.80 / N^0.58); at tol 5e-4 (the engine's default b/1000): 152 / 232, 878 / 602, 2420 / 3612;

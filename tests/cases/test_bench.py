@@ -1,10 +1,15 @@
-"""The benchmark scripts of cases/bench/, run small (``python -m cases.bench.NAME``).
+"""The benchmark scripts run small, the package's and the measurements of docs/measurements/.
+
+The package's run as ``python -m cases.bench.NAME``, the measurements (not in the package) as
+``python docs/measurements/NAME.py``: the tests load them from their files.
 
 The continuum target run to radius 150 is marked slow; the others run a few steps of small
 colonies and check that the scripts' numbers add up.
 """
 
+import importlib.util
 import shutil
+import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -14,6 +19,19 @@ import pytest
 
 import particles
 from particles import Config, run
+
+MEASUREMENTS = Path(__file__).resolve().parents[2] / "docs" / "measurements"
+
+
+def measurement(name: str):
+    """The script docs/measurements/NAME.py as a module (what ``python`` runs of it, less main)."""
+    key = f"measurements_{name}"
+    if key not in sys.modules:
+        spec = importlib.util.spec_from_file_location(key, MEASUREMENTS / f"{name}.py")
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[key] = module  # before running it: dataclasses look their module up
+        spec.loader.exec_module(module)
+    return sys.modules[key]
 
 
 @pytest.mark.slow
@@ -62,12 +80,12 @@ def test_bench_particles_both_solvers_same_states(tmp_path):
 
 
 def test_bench_timestep_small(tmp_path, capsys):
-    """The step-policy benchmark cases.bench.timestep (issue 4).
+    """The step-policy benchmark docs/measurements/timestep.py (issue 4).
 
     Every run reaches the radius, the work adds up, the uncapped variant runs, a bad policy is
     a usage error.
     """
-    from cases.bench import timestep as bench_timestep
+    bench_timestep = measurement("timestep")
 
     out = tmp_path / "b.csv"
     rows = bench_timestep.main(["--radius", "4", "--lams", "1e-2", "--policies", "fixed:0.02",
@@ -94,13 +112,13 @@ def _whole_and_stopped(cfg, tmp_path, steps: int):
 
 
 def test_bench_timestep_from_checkpoint(tmp_path, capsys):
-    """The step-policy benchmark from a checkpoint (cases.bench.timestep --checkpoint).
+    """The step-policy benchmark from a checkpoint (docs/measurements/timestep.py --checkpoint).
 
     With the run's own step it continues the run exactly (same iterations and particles as the
     uninterrupted run's next steps); a policy with half the step takes twice the steps; a
     missing checkpoint is a usage error.
     """
-    from cases.bench import timestep as bench_timestep
+    bench_timestep = measurement("timestep")
 
     cfg = Config(lam=1e-2, time=3.6, dt=0.02, seed=3, step_control="fixed")
     a, part = _whole_and_stopped(cfg, tmp_path, 150)
@@ -151,7 +169,7 @@ def test_bench_psi_transport_labels_exact(capsys):
     At a radius before the first remesh; the remeshes are tested in
     tests/continuum/test_psi_characteristics.py.
     """
-    from cases.bench.psi_transport import main
+    main = measurement("psi_transport").main
 
     rows = main(["--radius", "8", "--transports", "characteristics-labels", "finite-volume"])
     labels, fv = rows
@@ -161,11 +179,11 @@ def test_bench_psi_transport_labels_exact(capsys):
 
 
 def test_bench_elements_small(capsys):
-    """cases.bench.elements: a row per element and a mode rate near the exact K / 2.
+    """docs/measurements/elements.py: a row per element and a mode rate near the exact K / 2.
 
     The two P1 assemblies print equal errors, P2 a smaller pressure error.
     """
-    from cases.bench.elements import main
+    main = measurement("elements").main
 
     main(["--sizes", "300", "--repeats", "1", "--radius", "0", "--modes", "2",
           "--mode-runs", "P1"])
@@ -181,7 +199,7 @@ def test_bench_elements_small(capsys):
 
 def test_bench_handoff_table(capsys):
     """The hand-off's accuracy table (docs/validation.md) at the default alpha and bandwidth."""
-    from cases.bench.handoff import main
+    main = measurement("handoff").main
 
     outline, psi0 = main(["--alphas", "1", "--bandwidths", "2"])
     assert all(abs(r["area_error"]) < 0.01 for r in outline)
@@ -202,7 +220,7 @@ def test_history_stretches_of_size_with_wall_times(tmp_path, capsys):
     between the lines) to that of step 299 (259 s), 199.6 s for 2000 iterations.
     """
     from cases import analysis as A
-    from cases.bench import timestep as bench_timestep
+    bench_timestep = measurement("timestep")
     run = tmp_path / "run"
     run.mkdir()
     (run / "config.json").write_text("{}")
@@ -235,13 +253,13 @@ def test_history_stretches_of_size_with_wall_times(tmp_path, capsys):
 
 
 def test_bench_contact_solvers_small(tmp_path):
-    """cases.bench.contact_solvers (issue 4): both kept solvers, cold and warm, meet the tol.
+    """docs/measurements/contact_solvers.py (issue 4): both solvers, cold and warm, meet the tol.
 
     The removed two-level solver (issue 43) is no longer a choice: a usage error.
     """
     import csv
 
-    from cases.bench import contact_solvers
+    contact_solvers = measurement("contact_solvers")
 
     out = tmp_path / "solvers.csv"
     contact_solvers.main(["--sizes", "400", "--tol", "1e-3", "--repeat", "1", "--out", str(out)])

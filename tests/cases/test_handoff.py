@@ -14,12 +14,24 @@ import numpy as np
 import pytest
 
 from cases import handoff
-from cases.bench.handoff import rod_lattice
 from continuum import Config
 from continuum.initial import state_from
 from continuum.mesh import check_polygon, polygon_area
 from continuum.sizes import LengthGrid
 from particles import B, ring_packing
+
+
+def rod_lattice(n_cols: int, n_rows: int, length) -> tuple[np.ndarray, ...]:
+    """Horizontal rods on a lattice, columns 1.5 apart, rows b apart: (x, y, theta, length).
+
+    The outline is the n_cols 1.5 x n_rows b rectangle with its corner x >= 0, y >= 0 (rods
+    1.5 long touch end to end); ``length`` a number or a function of x. (The same lattice as
+    docs/measurements/handoff.py's.)
+    """
+    i, j = np.meshgrid(np.arange(n_cols), np.arange(n_rows))
+    x, y = (1.5 * i + 0.75).ravel(), (B * j + 0.5 * B).ravel()
+    lengths = np.asarray(length(x) if callable(length) else length, dtype=float)
+    return x, y, np.zeros(x.size), np.broadcast_to(lengths, x.shape).copy()
 
 
 def test_outline_of_a_disc_packing():
