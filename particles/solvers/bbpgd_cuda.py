@@ -33,7 +33,7 @@ import numpy as np
 from numba import config, cuda, float64, types
 
 from ..geometry import Contacts
-from .problem import _gap, _move, finish, incidence, prepare
+from .problem import _gap, _move, finish, gather_row, incidence, prepare
 
 TPB = 256
 """Threads per block of every kernel."""
@@ -67,13 +67,21 @@ if not config.ENABLE_CUDASIM:  # the simulator runs NumPy itself
 
 
 # the CPU kernels' particle row and contact gap, compiled for the device from their Python
+_gather_row = cuda.jit(device=True)(gather_row.py_func)
 _move_row = cuda.jit(device=True)(_move.py_func)
 _contact_gap = cuda.jit(device=True)(_gap.py_func)
 
 
 @cuda.jit(device=True)
-def _tree(sh, t):
-    """Rows 0-2 of sh summed and row 3 maximised over the block, by a fixed tree."""
+def _tree(sh, t, ss, sy, yy, r):
+    """Block sums of (ss, sy, yy) and max of r over the threads, by a fixed tree.
+
+    Thread t writes its values into column t of sh; the result is column 0.
+    """
+    sh[0, t] = ss
+    sh[1, t] = sy
+    sh[2, t] = yy
+    sh[3, t] = r
     cuda.syncthreads()
     h = TPB // 2
     while h > 0:
@@ -84,6 +92,14 @@ def _tree(sh, t):
             sh[3, t] = max(sh[3, t], sh[3, t + h])
         cuda.syncthreads()
         h //= 2
+
+
+@cuda.jit(device=True)
+def _block_out(sh, part):
+    """Column 0 of sh (the block's reduction) into the block's row of part."""
+    for c in range(4):
+        part[cuda.blockIdx.x, c] = sh[c, 0]
+
 
 @cuda.jit
 def project(x0, g0, scal, x1):
@@ -103,22 +119,7 @@ def moves(gam, start, idx, coef, mt, mr, length, growth, law, scal, pw):
     p = cuda.grid(1)
     if p >= pw.shape[0]:
         return
-    fx = 0.0
-    fy = 0.0
-    tq = 0.0
-    s = 0.0
-    for e in range(start[p], start[p + 1]):
-        g = gam[idx[e]]
-        if g == 0.0:
-            continue
-        fx += g * coef[e, 0]
-        fy += g * coef[e, 1]
-        tq += g * coef[e, 2]
-        s += coef[e, 3] * g
-    pw[p, 0] = fx
-    pw[p, 1] = fy
-    pw[p, 2] = tq
-    pw[p, 3] = s
+    _gather_row(p, gam, start, idx, coef, pw)
     q = 0 if law.shape[0] == 1 else p
     _move_row(p, mt, mr, length, growth, law[q, 0], law[q, 1], law[q, 2], pw)
 
@@ -143,14 +144,9 @@ def gradient(x1, x0, g0, g1, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw, akk, s
         ss += s * s
         sy += s * y
         yy += y * y
-    sh[0, t] = ss
-    sh[1, t] = sy
-    sh[2, t] = yy
-    sh[3, t] = r
-    _tree(sh, t)
+    _tree(sh, t, ss, sy, yy, r)
     if t == 0:
-        for c in range(4):
-            part[cuda.blockIdx.x, c] = sh[c, 0]
+        _block_out(sh, part)
 
 @cuda.jit
 def update(part, nb, it, tol, scal, hist):
@@ -171,11 +167,7 @@ def update(part, nb, it, tol, scal, hist):
         sy += part[b, 1]
         yy += part[b, 2]
         r = max(r, part[b, 3])
-    sh[0, t] = ss
-    sh[1, t] = sy
-    sh[2, t] = yy
-    sh[3, t] = r
-    _tree(sh, t)
+    _tree(sh, t, ss, sy, yy, r)
     if t != 0:
         return
     ss, sy, yy, r = sh[0, 0], sh[1, 0], sh[2, 0], sh[3, 0]
@@ -208,13 +200,9 @@ def largest(gam, g, part):
         v = gam[k] - g[k]
         v = v if v > 0.0 else 0.0
         r = max(r, abs(gam[k] - v))
-    for c in range(3):
-        sh[c, t] = 0.0
-    sh[3, t] = r
-    _tree(sh, t)
+    _tree(sh, t, 0.0, 0.0, 0.0, r)
     if t == 0:
-        for c in range(4):
-            part[cuda.blockIdx.x, c] = sh[c, 0]
+        _block_out(sh, part)
 
 
 def solve_contacts_cuda(

@@ -143,22 +143,28 @@ def gather(gam, start, idx, coef, pw):
     sums equal those of :func:`scatter` bit for bit (x - y = x + (-y) exactly).
     """
     for p in prange(pw.shape[0]):
-        fx = 0.0
-        fy = 0.0
-        tq = 0.0
-        s = 0.0
-        for e in range(start[p], start[p + 1]):
-            g = gam[idx[e]]
-            if g == 0.0:
-                continue
-            fx += g * coef[e, 0]
-            fy += g * coef[e, 1]
-            tq += g * coef[e, 2]
-            s += coef[e, 3] * g
-        pw[p, 0] = fx
-        pw[p, 1] = fy
-        pw[p, 2] = tq
-        pw[p, 3] = s
+        gather_row(p, gam, start, idx, coef, pw)
+
+
+@njit(inline="always")
+def gather_row(p, gam, start, idx, coef, pw):
+    """Row p of :func:`gather`: particle p's force, torque and load, its contacts in order."""
+    fx = 0.0
+    fy = 0.0
+    tq = 0.0
+    s = 0.0
+    for e in range(start[p], start[p + 1]):
+        g = gam[idx[e]]
+        if g == 0.0:
+            continue
+        fx += g * coef[e, 0]
+        fy += g * coef[e, 1]
+        tq += g * coef[e, 2]
+        s += coef[e, 3] * g
+    pw[p, 0] = fx
+    pw[p, 1] = fy
+    pw[p, 2] = tq
+    pw[p, 3] = s
 
 
 @njit(cache=True)
