@@ -75,16 +75,43 @@ class OverlapError(RuntimeError):
 
 
 def warm_start(keys: np.ndarray, prev_keys: np.ndarray, prev_gamma: np.ndarray) -> np.ndarray:
-    """Previous forces of the contacts whose identity persists, 0 for new contacts."""
-    g0 = np.zeros(keys.shape[0])
+    """Previous forces of the contacts whose identity persists, 0 for new contacts.
+
+    The previous keys sorted (NumPy's argsort, serial: 0.25 % of a one-thread step at 1e5
+    particles), then each key looked up in them by bisection, contact by contact in parallel
+    (:func:`_lookup`; the same for any number of threads).
+    """
     if prev_keys.size == 0 or keys.size == 0:
-        return g0
-    order = np.argsort(prev_keys)
-    sk = prev_keys[order]
-    pos = np.clip(np.searchsorted(sk, keys), 0, sk.size - 1)
-    hit = sk[pos] == keys
-    g0[hit] = prev_gamma[order[pos[hit]]]
-    return g0
+        return np.zeros(keys.shape[0])
+    prev_keys = np.ascontiguousarray(prev_keys, dtype=np.int64)
+    return _lookup(np.ascontiguousarray(keys, dtype=np.int64), prev_keys, np.argsort(prev_keys),
+                   np.ascontiguousarray(prev_gamma, dtype=np.float64))
+
+
+@numba.njit(cache=True, parallel=True)
+def _lookup(keys, prev_keys, order, values):
+    """values[order[p]] where prev_keys[order[p]] == keys[k] (the first such p), else 0, per k.
+
+    ``order``: the permutation that sorts ``prev_keys``.
+    """
+    n = prev_keys.shape[0]
+    sorted_keys = np.empty(n, dtype=np.int64)
+    for p in numba.prange(n):
+        sorted_keys[p] = prev_keys[order[p]]
+    out = np.zeros(keys.shape[0])
+    for k in numba.prange(keys.shape[0]):
+        key = keys[k]
+        lo = 0
+        hi = n
+        while lo < hi:  # the first p with sorted_keys[p] >= key (np.searchsorted, left)
+            mid = (lo + hi) >> 1
+            if sorted_keys[mid] < key:
+                lo = mid + 1
+            else:
+                hi = mid
+        if lo < n and sorted_keys[lo] == key:
+            out[k] = values[order[lo]]
+    return out
 
 
 class Detections:

@@ -41,7 +41,7 @@ import numba
 import numpy as np
 from numba import njit, prange
 
-from ..geometry import Contacts
+from ..geometry import Contacts, by_particle
 from ..growth import length_increment
 
 
@@ -63,34 +63,28 @@ class ContactSolveError(RuntimeError):
         self.residuals = np.asarray(residuals)
 
 
-@njit(cache=True)
-def _incidence(ci, cj, nx, ny, ti, tj, gi, gj, n):
-    start = np.zeros(n + 1, dtype=np.int64)
-    m = ci.shape[0]
-    for k in range(m):
-        start[ci[k] + 1] += 1
-        start[cj[k] + 1] += 1
-    for p in range(n):
-        start[p + 1] += start[p]
-    fill = start[:-1].copy()
-    idx = np.empty(2 * m, dtype=np.int64)
-    coef = np.empty((2 * m, 4))
-    for k in range(m):
-        e = fill[ci[k]]
-        idx[e] = k
-        coef[e, 0] = -nx[k]
-        coef[e, 1] = -ny[k]
-        coef[e, 2] = -ti[k]
-        coef[e, 3] = gi[k]
-        fill[ci[k]] += 1
-        e = fill[cj[k]]
-        idx[e] = k
-        coef[e, 0] = nx[k]
-        coef[e, 1] = ny[k]
-        coef[e, 2] = tj[k]
-        coef[e, 3] = gj[k]
-        fill[cj[k]] += 1
-    return start, idx, coef
+@njit(cache=True, parallel=True)
+def _coefficients(start, idx, ci, nx, ny, ti, tj, gi, gj):
+    """The coefficients of the incidence lists, particle by particle in parallel.
+
+    Row e, contact k = idx[e] listed under particle p: (-n, -t_i, G_i) if p is its i, else
+    (n, t_j, G_j).
+    """
+    coef = np.empty((idx.shape[0], 4))
+    for p in prange(start.shape[0] - 1):
+        for e in range(start[p], start[p + 1]):
+            k = idx[e]
+            if ci[k] == p:
+                coef[e, 0] = -nx[k]
+                coef[e, 1] = -ny[k]
+                coef[e, 2] = -ti[k]
+                coef[e, 3] = gi[k]
+            else:
+                coef[e, 0] = nx[k]
+                coef[e, 1] = ny[k]
+                coef[e, 2] = tj[k]
+                coef[e, 3] = gj[k]
+    return coef
 
 
 def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int | None = None):
@@ -107,7 +101,8 @@ def incidence(c: Contacts, ti: np.ndarray, tj: np.ndarray, n: int, threads: int 
     """
     if (numba.get_num_threads() if threads is None else threads) == 1:
         return np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros((0, 4))
-    return _incidence(c.i, c.j, c.nx, c.ny, ti, tj, c.gi, c.gj, n)
+    start, idx = by_particle(c.i, c.j, n)
+    return start, idx, _coefficients(start, idx, c.i, c.nx, c.ny, ti, tj, c.gi, c.gj)
 
 
 @njit(cache=True)

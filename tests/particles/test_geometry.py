@@ -207,3 +207,89 @@ def test_contact_keys_do_not_depend_on_the_particle_order():
     raw = ids[c.i] * (1 << 31) + ids[c.j] * 4 + c.code  # (id_i, id_j, code) in index order
     assert np.array_equal(canonical_keys(raw), c.keys(ids))
     assert np.array_equal(canonical_keys(c.keys(ids)), c.keys(ids))
+
+
+def test_contact_keys_and_warm_start_are_the_same_on_every_number_of_threads():
+    """Contact identities and the warm start (parallel kernels) equal NumPy's on 1 and 2 threads.
+
+    The reference is the engine's former NumPy code (canonical_keys of the raw keys; argsort and
+    searchsorted), against previous keys that miss some contacts, add others below and above
+    every key, and come in another order.
+    """
+    import numba
+
+    from particles.geometry import canonical_keys
+    from particles.packings import ring_packing
+    from particles.stepping import warm_start
+
+    x, y, th, l = ring_packing(3000, seed=5)[:4]
+    ids = np.random.default_rng(1).permutation(x.size) * 2 + 5
+    c = find_contacts(x, y, th, l, candidate_pairs(x, y, l, 0.1), 0.1, ids=ids)
+    raw = canonical_keys(ids[c.i] * (1 << 31) + ids[c.j] * 4 + c.code)
+    rng = np.random.default_rng(2)
+    keep = rng.random(raw.size) < 0.8
+    prev_keys = np.concatenate([raw[keep], [0, 1 << 62], raw[~keep][:5] + 1])
+    order = rng.permutation(prev_keys.size)
+    prev_keys, prev_gamma = prev_keys[order], rng.random(prev_keys.size)
+    sk = np.sort(prev_keys)
+    pos = np.clip(np.searchsorted(sk, raw), 0, sk.size - 1)
+    hit = sk[pos] == raw
+    expected = np.zeros(raw.size)
+    expected[hit] = prev_gamma[np.argsort(prev_keys)[pos[hit]]]
+    assert hit.sum() == keep.sum() > 3000
+    saved = numba.get_num_threads()
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            keys = c.keys(ids)
+            assert keys.dtype == np.int64 and keys.tobytes() == raw.tobytes()
+            assert warm_start(keys, prev_keys, prev_gamma).tobytes() == expected.tobytes()
+    finally:
+        numba.set_num_threads(saved)
+    assert not warm_start(keys, prev_keys[:0], prev_gamma[:0]).any()
+
+
+def test_contact_search_refuses_short_particles_in_pairs_only():
+    """A particle no longer than b is refused when it is in a candidate pair, not otherwise."""
+    x, y, th = np.array([0.0, 0.7, 9.0]), np.zeros(3), np.zeros(3)
+    l = np.array([1.0, 1.0, 0.4])
+    assert len(find_contacts(x, y, th, l, candidate_pairs(x, y, l, 0.1), 0.1)) == 1
+    l[1] = 0.5
+    with pytest.raises(ValueError, match="exceed the diameter"):
+        find_contacts(x, y, th, l, candidate_pairs(x, y, l, 0.1), 0.1)
+
+
+def test_forces_and_contact_lists_are_the_same_on_every_number_of_threads():
+    """D gamma has NumPy's bits, and by_particle gives the solver's lists, on 1 and 2 threads.
+
+    generalised_forces against its np.bincount formula; by_particle (each particle's contacts
+    in increasing order) against a stable sort of the contacts' two ends.
+    """
+    import numba
+
+    from particles.geometry import by_particle, generalised_forces
+    from particles.packings import ring_packing
+
+    x, y, th, l = ring_packing(3000, seed=6)[:4]
+    c = find_contacts(x, y, th, l, candidate_pairs(x, y, l, 0.1), 0.1)
+    n = x.size
+    gamma = np.random.default_rng(3).random(len(c)) * (np.arange(len(c)) % 3 > 0)
+    tj = c.rjx * c.ny - c.rjy * c.nx
+    ti = c.rix * c.ny - c.riy * c.nx
+    expected = (np.bincount(c.j, gamma * c.nx, n) - np.bincount(c.i, gamma * c.nx, n),
+                np.bincount(c.j, gamma * c.ny, n) - np.bincount(c.i, gamma * c.ny, n),
+                np.bincount(c.j, gamma * tj, n) - np.bincount(c.i, gamma * ti, n))
+    ends, ks = np.concatenate([c.i, c.j]), np.tile(np.arange(len(c)), 2)
+    idx = ks[np.lexsort((ks, ends))]
+    start = np.concatenate([[0], np.cumsum(np.bincount(ends, minlength=n))])
+    saved = numba.get_num_threads()
+    try:
+        for threads in (1, 2):
+            numba.set_num_threads(min(threads, numba.config.NUMBA_NUM_THREADS))
+            got = generalised_forces(c, gamma, n)
+            assert all(a.tobytes() == b.tobytes() for a, b in zip(got, expected, strict=True))
+            s2, i2 = by_particle(c.i, c.j, n)
+            assert np.array_equal(s2, start) and np.array_equal(i2, idx)
+    finally:
+        numba.set_num_threads(saved)
+    assert len(c) > 3000  # a dense packing: every chunk of by_particle holds contacts
