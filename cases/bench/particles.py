@@ -192,6 +192,7 @@ def alternate(argv: list[str], threads: list[int], repeats: int, folder: Path) -
 
 
 PARALLEL = ("BBPGD kernel", "neighbour kernel", "contact kernel", "keys, warm start: kernels",
+            "solve: incidence lists: kernels",
             "forces D gamma: kernels")
 """Phases of :func:`phases` that run in parallel (Numba prange) on more than one thread; the
 rest is serial there (NumPy is single-threaded, the serial Numba kernels, the Python)."""
@@ -280,7 +281,7 @@ def _instrument(ph: _Phases, gather: bool) -> None:
             (stepping, "grow", "stress, move, grow (NumPy)"),
             (stepping, "motion", "stress, move, grow (NumPy)"),
             (bbpgd, "prepare", "solve: prepare (NumPy)"),
-            (bbpgd, "incidence", "solve: incidence (serial)"),
+            (bbpgd, "incidence", "solve: incidence lists: kernels"),
             (bbpgd, "_bbpgd", "BBPGD kernel"),
             (bbpgd, "finish", "solve: prepare (NumPy)"),
             (geometry, "_canonical_keys_of", "keys, warm start: kernels"),
