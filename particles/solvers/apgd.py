@@ -59,7 +59,7 @@ from ..geometry import Contacts
 from ..growth import largest_increment_slope
 from .problem import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - G^T dl
 from .problem import _residual as residual  # max_k |min(a_kk gam_k, q_k)|
-from .problem import finish, incidence, particle_sums, prepare, problem_arrays
+from .problem import finish, incidence, particle_sums, prepare, problem_arrays, residual_term
 
 NAME = "apgd"
 """Name under which the engine may register this solver (Config.solver)."""
@@ -160,10 +160,7 @@ def apgd_kernel(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, 
         num = 0.0
         den = 0.0
         for k in range(m):
-            a = akk[k] * y[k]
-            v = qy[k] if qy[k] < a else a
-            if abs(v) > res:
-                res = abs(v)
+            res = max(res, residual_term(qy[k], akk[k] * y[k]))
             if y[k] < 0.0:
                 feasible = False
             if it > 0:

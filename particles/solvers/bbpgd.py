@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit, prange
 
 from ..geometry import Contacts
-from .problem import _gap, finish, incidence, particle_moves, prepare
+from .problem import _gap, finish, incidence, magnitude, particle_moves, prepare, residual_term
 
 BLOCK = 4096
 """Block length of the solver's sums: each block is summed in order, then the blocks in order,
@@ -47,7 +47,7 @@ def _bb_gradient(x1, gam, g0, g1, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, 
             q = _gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw)
             g1[k] = q
             a = akk[k] * x1[k]
-            r = max(r, abs(q if q < a else a))
+            r = max(r, residual_term(q, a))
             s = x1[k] - gam[k]
             y = q - g0[k]
             ss += s * s
@@ -80,7 +80,7 @@ def _projected_step(gam, g, alpha, out):
         v = gam[k] - alpha * g[k]
         v = v if v > 0.0 else 0.0
         out[k] = v
-        r = max(r, abs(gam[k] - v))
+        r = max(r, magnitude(gam[k] - v))
     return r
 
 

@@ -33,7 +33,16 @@ import numpy as np
 from numba import config, cuda, float64, types
 
 from ..geometry import Contacts
-from .problem import _gap, _move, finish, gather_row, incidence, prepare
+from .problem import (
+    _gap,
+    _move,
+    finish,
+    gather_row,
+    incidence,
+    magnitude,
+    prepare,
+    residual_term,
+)
 
 TPB = 256
 """Threads per block of every kernel."""
@@ -70,6 +79,8 @@ if not config.ENABLE_CUDASIM:  # the simulator runs NumPy itself
 _gather_row = cuda.jit(device=True)(gather_row.py_func)
 _move_row = cuda.jit(device=True)(_move.py_func)
 _contact_gap = cuda.jit(device=True)(_gap.py_func)
+_magnitude = cuda.jit(device=True)(magnitude.py_func)
+_residual_term = cuda.jit(device=True)(residual_term.py_func)
 
 
 @cuda.jit(device=True)
@@ -138,7 +149,7 @@ def gradient(x1, x0, g0, g1, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw, akk, s
         q = _contact_gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw)
         g1[k] = q
         a = akk[k] * x1[k]
-        r = max(r, abs(q if q < a else a))
+        r = max(r, _residual_term(q, a))
         s = x1[k] - x0[k]
         y = q - g0[k]
         ss += s * s
@@ -199,7 +210,7 @@ def largest(gam, g, part):
     for k in range(cuda.grid(1), gam.shape[0], cuda.gridsize(1)):
         v = gam[k] - g[k]
         v = v if v > 0.0 else 0.0
-        r = max(r, abs(gam[k] - v))
+        r = max(r, _magnitude(gam[k] - v))
     _tree(sh, t, 0.0, 0.0, 0.0, r)
     if t == 0:
         _block_out(sh, part)

@@ -256,14 +256,34 @@ def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
         out[k] = _gap(k, ci, cj, nx, ny, ti, tj, gi, gj, phi, dt, pw)
 
 
+@njit(inline="always")
+def magnitude(v):
+    """|v| for the solvers' maxima, NaN as inf: a NaN never passes a test ``res <= tol``.
+
+    (max(r, NaN) is r, and max(0, NaN) in a projection is 0, so a NaN gap or iterate would
+    otherwise look converged.)
+    """
+    a = abs(v)
+    return a if a == a else np.inf
+
+
+@njit(inline="always")
+def residual_term(q, a):
+    """Contact k's term of the residual, |min(a, q)| (a = a_kk gam_k, q = grad_k), NaN as inf."""
+    if q != q or a != a:
+        return np.inf
+    return abs(q if q < a else a)
+
+
 @njit(cache=True, parallel=True)
 def _residual(gam, grad, akk):
-    """Residual ``max_k |min(a_kk gam_k, grad_k)|`` (a max: independent of the order, threads)."""
+    """Residual ``max_k |min(a_kk gam_k, grad_k)|``, NaN as inf (:func:`residual_term`).
+
+    A max: independent of the order, so of the threads.
+    """
     r = 0.0
     for k in prange(gam.shape[0]):
-        a = akk[k] * gam[k]
-        v = grad[k] if grad[k] < a else a
-        r = max(r, abs(v))
+        r = max(r, residual_term(grad[k], akk[k] * gam[k]))
     return r
 
 

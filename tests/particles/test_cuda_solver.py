@@ -151,3 +151,14 @@ def test_kernels_compile_for_a_gpu():
         pytest.skip(f"CUDA's compiler is not installed (the gpu extra): {done.stderr[:200]}")
     assert done.returncode == 0, done.stderr[-2000:]
     assert "compiled 5" in done.stdout
+
+
+def test_a_nan_gap_is_never_converged(gpu, jammed):
+    c, length = jammed
+    gap = c.gap.copy()
+    c.gap[3] = np.nan
+    try:
+        with pytest.raises(P.ContactSolveError, match="last residual inf"):
+            gpu.solve_contacts_cuda(c, length, 0.005, 1e-2, tol=1e-6, maxiter=8)
+    finally:
+        c.gap[:] = gap

@@ -276,3 +276,17 @@ def test_gradient_at_lam_zero_is_the_general_formula_bit_for_bit(grown):
     gam = np.random.default_rng(2).uniform(0.0, 1.0, len(c))
     np.testing.assert_array_equal(linearised_gap(c, length, 0.01, 0.0, gam),
                                   linearised_gap(c, length, 0.01, 1e-300, gam))
+
+
+@pytest.mark.parametrize("solve", [solve_contacts, solve_contacts_apgd])
+def test_a_nan_gap_is_never_converged(grown, solve):
+    """A NaN in the problem fails the solve (residual inf), never passes as converged.
+
+    max(r, NaN) is r and a projection max(0, NaN) is 0, so without problem.residual_term a NaN
+    gap left its contact out of the residual and the solve 'converged' around it.
+    """
+    x, y, th, length = grown
+    c = detect_contacts(x, y, th, length, 0.1)
+    c.gap[3] = np.nan
+    with pytest.raises(ContactSolveError, match="last residual inf"):
+        solve(c, length, 0.005, 1e-2, tol=1e-6, maxiter=50)
