@@ -175,9 +175,13 @@ def test_engine_run_with_apgd_keeps_overlap_and_matches_bbpgd():
 
 
 @pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2, reason="needs two Numba threads")
-@pytest.mark.parametrize("name", sorted(particles.solvers.BY_NAME))
+@pytest.mark.parametrize("name", sorted(set(particles.solvers.BY_NAME) - {"bbpgd-cuda"}))
 def test_solvers_give_the_same_iterates_on_any_number_of_threads(name):
-    """More contacts than solvers.bbpgd.BLOCK, so the blocked sums have several blocks."""
+    """More contacts than solvers.bbpgd.BLOCK, so the blocked sums have several blocks.
+
+    The CPU solvers (bbpgd-cuda's threads are the card's: test_cuda_solver.py, same bits on
+    every solve).
+    """
     x, y, th, length = ring_packing(2500, seed=7)
     c = detect_contacts(x, y, th, length, 0.1)
     assert len(c) > 2 * BLOCK
