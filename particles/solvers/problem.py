@@ -258,7 +258,7 @@ def _gradient(gam, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, phi, mt, mr
 
 @njit(inline="always")
 def magnitude(v):
-    """|v| for the solvers' maxima, NaN as inf: a NaN never passes a test ``res <= tol``.
+    """``abs(v)`` for the solvers' maxima, NaN as inf: a NaN never passes ``res <= tol``.
 
     (max(r, NaN) is r, and max(0, NaN) in a projection is 0, so a NaN gap or iterate would
     otherwise look converged.)
@@ -269,7 +269,7 @@ def magnitude(v):
 
 @njit(inline="always")
 def residual_term(q, a):
-    """Contact k's term of the residual, |min(a, q)| (a = a_kk gam_k, q = grad_k), NaN as inf."""
+    """Contact k's residual term ``abs(min(a, q))``, a = a_kk gam_k, q = grad_k; NaN as inf."""
     if q != q or a != a:
         return np.inf
     return abs(q if q < a else a)
