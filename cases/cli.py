@@ -244,7 +244,7 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
 # --------------------------------------------------------------------------- parser
 
 
-def _common(p: argparse.ArgumentParser, default_out: str) -> None:
+def _common(p: argparse.ArgumentParser, default_out: str, output_every: str) -> None:
     p.add_argument("--lam", type=float,
                    help="stress sensitivity lambda >= 0, in inverse stress units (required; "
                    "or lam in --config / --set)")
@@ -257,6 +257,9 @@ def _common(p: argparse.ArgumentParser, default_out: str) -> None:
     p.add_argument("--out", default=default_out, help=f"output folder (default {default_out})")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing output folder (default: refuse)")
+    p.add_argument("--output-every", type=float, metavar="T",
+                   help=f"time between output frames, in growth times (default {output_every}; "
+                   "0: the first and last only)")
     p.add_argument("--max-hours", type=float, metavar="H",
                    help="pause before H hours of wall have passed: write a checkpoint and exit "
                    f"with status {PAUSED_STATUS}; the same command resumes (a batch job's "
@@ -287,7 +290,7 @@ def parser() -> argparse.ArgumentParser:
     sub = top.add_subparsers(dest="command", required=True)
 
     c = sub.add_parser("continuum", help="2D moving-boundary continuum colony")
-    _common(c, "runs/continuum")
+    _common(c, "runs/continuum", "1")
     c.add_argument("--shape", default=None,
                    help="initial shape, sizes in birth lengths: circle (default, radius "
                    "sqrt(b/pi) = 0.40: one cell's area), "
@@ -305,12 +308,10 @@ def parser() -> argparse.ArgumentParser:
                    help="largest boundary mesh spacing (default 0.55; sets the resolution)")
     c.add_argument("--n-nodes", type=int,
                    help="node count while the colony is small (default 2000)")
-    c.add_argument("--output-every", type=float,
-                   help="time between VTU outputs, in growth times (default 1; 0: final only)")
     c.add_argument("--element", help="pressure element: P1 (default) or P2")
 
     p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
-    _common(p, "runs/particles")
+    _common(p, "runs/particles", "0.2")
     p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length "
                    "(default: one cell of length 1 at the origin)")
     p.add_argument("--shape", help="initial shape filled with rods, sizes in birth lengths: "
@@ -525,7 +526,8 @@ def _dispatch(args) -> int:
                  "dt": _finite("dt", args.dt), "step_control": args.step_control,
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads, "strains": args.strains,
-                 "layout": args.layout, "max_hours": _finite("max-hours", args.max_hours)}
+                 "layout": args.layout, "max_hours": _finite("max-hours", args.max_hours),
+                 "output_every": _finite("output-every", args.output_every)}
         config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
         _check_layout(config)
         ENGINES[args.command].run(config, Path(args.out), args.overwrite, progress,

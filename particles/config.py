@@ -104,8 +104,12 @@ class Config:
     solver : str
         Contact solver name, one of SOLVERS: "bbpgd" (the default), "apgd", or "bbpgd-cuda"
         (BBPGD on a CUDA GPU: the ``gpu`` extra; the same iterates as "bbpgd" to round-off).
-    output_every : int
-        Trajectory frame every this many steps (and the final state).
+    output_every : float
+        Time between trajectory frames, in growth times, as in the continuum engine: a frame
+        after each step that crosses a multiple of it (output.frame_count), the first and the
+        final state always; 0: those two only.  Default 0.2 (10 steps of the largest dt).
+        Until issue 43 a step count: older configurations' integers are read as that many
+        steps of their ``dt`` (:func:`upgrade`).
     checkpoint_seconds : float
         Wall time between checkpoints when writing to a folder (like ``threads`` an execution
         setting: a run may resume with another value).
@@ -166,7 +170,7 @@ class Config:
     fill_orientation: str = "tangent"
     fill_lengths: str = "stable"
     solver: str = "bbpgd"
-    output_every: int = 10
+    output_every: float = 0.2
     checkpoint_seconds: float = 300.0
     max_hours: float | None = None
     max_particles: int = 500_000
@@ -184,6 +188,8 @@ class Config:
         if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
             object.__setattr__(self, "strains", as_strains(self.strains))
         self.validate()
+        # a time: saved as a float, never as the integer step count of older configurations
+        object.__setattr__(self, "output_every", float(self.output_every))
 
     def validate(self) -> None:
         """Raise ValueError with a one-line message on an inconsistent configuration.
@@ -315,8 +321,8 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
     ("solver", lambda v: v in SOLVERS,
      lambda v: f"unknown solver {v!r}; choose from {sorted(SOLVERS)}"
                + (f" ({v} was removed: {REMOVED_SOLVERS[v]})" if v in REMOVED_SOLVERS else "")),
-    ("output_every", lambda v: v >= 1,
-     lambda v: f"output_every must be an integer >= 1, got {v}"),
+    ("output_every", lambda v: v >= 0,
+     lambda v: f"output_every must be a time >= 0 (0: the first and last frames only), got {v}"),
     ("checkpoint_seconds", lambda v: v >= 0,
      lambda v: f"checkpoint_seconds must be >= 0, got {v}"),
     ("max_hours", lambda v: v is None or 0 < v < math.inf,
@@ -391,11 +397,19 @@ RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}
 
 
 def upgrade(saved: dict) -> dict:
-    """An older run's configuration fields in today's names (RENAMED) and defaults (LEGACY)."""
+    """An older run's configuration fields in today's names (RENAMED) and defaults (LEGACY).
+
+    An integer ``output_every`` is the step count of a configuration from before issue 43:
+    N steps become the time N dt (the frames of a run at fixed steps; with an adaptive step
+    control the frames came at least that far apart).
+    """
     out = dict(LEGACY_CONFIG)
     for k, v in saved.items():
         name, values = RENAMED.get(k, (k, None))
         out[name] = v if values is None else values[v]
+    every = out.get("output_every")
+    if isinstance(every, int) and not isinstance(every, bool):
+        out["output_every"] = every * out.get("dt", Config.dt)
     return out
 
 EXECUTION_FIELDS = ("threads", "checkpoint_seconds", "max_hours")

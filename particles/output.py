@@ -1,7 +1,8 @@
 """Run outputs: config.json, history.csv, particles.csv, trajectory.gsd; the run's writer.
 
 :class:`RunOutput` is what ``particles.run`` hands each step to: a trajectory frame every
-``output_every`` steps, the history and the particles at the end, the free-space checks.
+``output_every`` of time (:func:`frame_count`), the history and the particles at the end, the
+free-space checks.
 
 trajectory.gsd follows the HOOMD schema (gsd.hoomd) and is laid out so that OVITO (3.x, File >
 Load File or ``ovito.io.import_file``) draws every particle as the sphero-cylinder it is, with no
@@ -41,6 +42,7 @@ from __future__ import annotations
 import csv
 import errno
 import json
+import math
 import os
 import shutil
 from collections.abc import Iterable, Iterator
@@ -290,6 +292,23 @@ def truncate_trajectory(path: Path, n_frames: int, size: int | None = None) -> N
     os.replace(tmp, path)
 
 
+FRAME_SLACK = 1e-9
+"""Fraction of ``output_every`` by which t may fall short of a multiple and count as on it: t
+summed over fixed steps (10 steps of 0.01 give 0.09999999999999999) lands on the multiples."""
+
+
+def frame_count(t: float, output_every: float) -> int:
+    """The multiples of ``output_every`` that t has reached: floor(t / output_every + slack).
+
+    A frame is due after each step that raises it (:meth:`RunOutput.after_step`); it depends on
+    t alone, so a resumed run writes the frames of an uninterrupted one.  0 when
+    ``output_every`` is 0 (no frames between the first and the last).
+    """
+    if output_every <= 0:
+        return 0
+    return math.floor(t / output_every + FRAME_SLACK)
+
+
 class RunOutput:
     """The writers of a run folder: trajectory frames, history.csv, particles.csv, config.json.
 
@@ -298,23 +317,26 @@ class RunOutput:
     checkpoint; checkpoints written before the bytes were kept have the first two).
     """
 
-    def __init__(self, out: Path, output_every: int):
+    def __init__(self, out: Path, output_every: float):
         self.out = Path(out)
         self.output_every = output_every
         self.trajectory = self.out / "trajectory.gsd"
         self.checkpoint = self.out / "checkpoint.npz"
         self.frames = [0, -1]
+        self.reached = 0  # frame_count of the last step
 
     def start(self, config, state: ParticleState) -> None:
         """A new run: config.json, and the trajectory restarted with the frame of step 0."""
         write_config(self.out, config)
         if self.trajectory.exists():
             self.trajectory.unlink()
+        self.reached = frame_count(state.t, self.output_every)
         self.frame(state)
 
-    def resume(self, frames: list[int]) -> None:
-        """A run resumed from a checkpoint: keep the trajectory's first ``frames[0]`` frames."""
+    def resume(self, frames: list[int], t: float) -> None:
+        """A run resumed from a checkpoint at time ``t``: the first ``frames[0]`` frames kept."""
         self.frames = list(frames)
+        self.reached = frame_count(t, self.output_every)
         size = self.frames[2] if len(self.frames) > 2 else None  # older checkpoints: none
         truncate_trajectory(self.trajectory, self.frames[0], size)
 
@@ -328,8 +350,10 @@ class RunOutput:
         ensure_space(self.out, state.n, self.checkpoint)
 
     def after_step(self, state: ParticleState) -> None:
-        """A frame every ``output_every`` steps."""
-        if state.step % self.output_every == 0:
+        """A frame when the step crossed a multiple of ``output_every`` (:func:`frame_count`)."""
+        reached = frame_count(state.t, self.output_every)
+        if reached > self.reached:
+            self.reached = reached
             self.ensure_space(state)
             self.frame(state)
 

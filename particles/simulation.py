@@ -223,7 +223,7 @@ class Simulation:
         ``STEP_POLICY_FIELDS`` with ``change_step_policy``; ``checkpoint.prev.npz`` when that
         one is damaged: checkpoint.resume_checkpoint), else writes config.json and the
         trajectory's first frame; :meth:`step` then writes a frame every
-        ``config.output_every`` steps and :meth:`save` defaults to ``out/checkpoint.npz``.
+        ``config.output_every`` of time and :meth:`save` defaults to ``out/checkpoint.npz``.
         The final files (history.csv, particles.csv, the last frame) are :func:`run`'s.
     change_step_policy : bool
         See ``out``; config.json then records the change (output.write_config).  (Particles
@@ -267,7 +267,7 @@ class Simulation:
         if out is not None and checkpoint_files(out):
             path, saved = resume_checkpoint(out, config, change_step_policy=change_step_policy)
             self.state, self.history = saved.state, saved.history
-            self.output.resume(saved.frames)
+            self.output.resume(saved.frames, self.state.t)
             log.info("resuming from %s at t = %.6g (step %d, %d particles)", path,
                      self.state.t, self.state.step, self.state.n)
             if change_step_policy:
@@ -373,7 +373,7 @@ class Simulation:
         The step has length ``state.dt_next`` (``Config.dt``, or adapted by
         ``Config.step_control``: stepping.next_dt), shortened to land on ``time`` when that is
         nearer.  With an output folder, a trajectory frame every ``Config.output_every``
-        steps.
+        of time (output.frame_count).
 
         Parameters
         ----------

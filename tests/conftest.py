@@ -16,11 +16,11 @@ import pytest  # noqa: E402
 
 @pytest.fixture(scope="session")
 def particle_run(tmp_path_factory):
-    """Folder of a particle run: lam = 1e-2 to radius 4 (16 particles), a frame every 20 steps."""
+    """Folder of a particle run: lam = 1e-2 to radius 4 (16 particles), a frame every 0.4."""
     from particles import Config, run
 
     out = tmp_path_factory.mktemp("particles")
-    run(Config(lam=1e-2, radius=4, output_every=20, threads=1), out=out)
+    run(Config(lam=1e-2, radius=4, output_every=0.4, threads=1), out=out)
     return out
 
 

@@ -69,10 +69,14 @@ ENGINE_ONLY = {
 CONFIG_COMMON = ("lam", "radius", "time", "checkpoint_seconds", "max_hours", "strains")
 """Config fields of the same name and meaning: the same annotation and default in both."""
 
+CONFIG_OWN_DEFAULT = {"output_every": (1.0, 0.2)}
+"""Config fields of the same name, meaning and annotation, with each engine's default
+(continuum, particles): the time between output frames (until issue 43 the particles' was a
+step count)."""
+
 CONFIG_DIFFERENT = {
     "shape": "continuum: a spec it parses, default 'circle'; particles: the spec of a state "
              "built outside the engine (cases.shapes), default None",
-    "output_every": "continuum: time between VTU frames; particles: steps between frames",
     "layout": "continuum: a layout spec it parses; particles: the spec the cells' strains were "
               "drawn from outside the engine (cases.shapes.initial_state)",
 }
@@ -149,10 +153,13 @@ def test_the_same_modules_and_names():
 
 def test_config_common_fields():
     c, p = ({f.name: f for f in dataclasses.fields(e.module.Config)} for e in ENGINES.values())
-    assert set(c) & set(p) == set(CONFIG_COMMON) | set(CONFIG_DIFFERENT)
-    for name in CONFIG_COMMON:
+    assert set(c) & set(p) == set(CONFIG_COMMON) | set(CONFIG_OWN_DEFAULT) | set(CONFIG_DIFFERENT)
+    for name in (*CONFIG_COMMON, *CONFIG_OWN_DEFAULT):
         assert annotation(c[name].type) == annotation(p[name].type), name
+    for name in CONFIG_COMMON:
         assert c[name].default == p[name].default, name
+    for name, defaults in CONFIG_OWN_DEFAULT.items():
+        assert (c[name].default, p[name].default) == defaults, name
     for e in ENGINES.values():
         assert e.module.Config.__dataclass_params__.frozen
         assert list(dataclasses.fields(e.module.Config))[0].name == "lam"  # Config(lam) works

@@ -246,10 +246,9 @@ def particle_params(cfg: dict[str, Any], parameter: str | None = None, value=Non
     settings = dict(PARTICLE_BASE)
     if parameter is not None:
         settings[parameter] = value
-    every = max(1, round(PARTICLE_FRAME_TIME / settings["dt"]))
     return {"engine": "particles", "lam": float(cfg["particle_lam"]),
-            "radius": float(cfg["particle_radius"]), "seed": int(seed), "output_every": every,
-            **settings}
+            "radius": float(cfg["particle_radius"]), "seed": int(seed),
+            "output_every": PARTICLE_FRAME_TIME, **settings}
 
 
 def _all_params(scale: str, engines: tuple[str, ...]) -> dict[str, dict]:

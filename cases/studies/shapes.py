@@ -88,7 +88,7 @@ SCALES = {
 }
 DT = 0.01
 """Particle time step, the largest one (the default "overlap" control may shorten steps): a
-particle frame every frame_dt / DT steps, at most frame_dt apart; the reductions interpolate the
+particle frame every frame_dt; the reductions interpolate the
 particle series at the continuum's frame times.  The committed data were made with it."""
 
 
@@ -114,7 +114,7 @@ def _continuum(cfg: dict, **extra) -> dict:
 
 def _particles(cfg: dict, **extra) -> dict:
     return {"engine": "particles", "lam": LAM, "time": cfg["t_end"],
-            "output_every": round(cfg["frame_dt"] / DT), "dt": DT, **extra}
+            "output_every": cfg["frame_dt"], "dt": DT, **extra}
 
 
 def run_params(cfg: dict) -> tuple[dict[str, tuple[dict, dict]], dict]:
@@ -129,7 +129,7 @@ def run_params(cfg: dict) -> tuple[dict[str, tuple[dict, dict]], dict]:
         extra = {"fill_lengths": "birth"} if not pspec.startswith("line") else {}
         pairs[name] = (_continuum(cfg, shape=cspec), _particles(cfg, shape=pspec, **extra))
     seed = {"engine": "particles", "lam": LAM, "radius": cfg["handoff_radius"],
-            "output_every": round(cfg["frame_dt"] / DT), "dt": DT}
+            "output_every": cfg["frame_dt"], "dt": DT}
     source = run_name(seed)
     pairs["handoff"] = (_continuum(cfg, from_run=source), _particles(cfg, from_run=source))
     return pairs, seed

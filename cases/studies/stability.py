@@ -77,16 +77,16 @@ SCALES = {
 }
 PARTICLE_SCALES = {
     "smoke": dict(modes=(3,), lams=(0.0,), seeds=(1, 2), radius=5.0, eps=0.2, t_end=0.5,
-                  output_every=10, continuum_nodes=300, orientations=("tangent",)),
+                  output_every=0.2, continuum_nodes=300, orientations=("tangent",)),
     "medium": dict(modes=(2, 3, 4, 5, 6, 8), lams=(0.0, 1e-2), seeds=(1, 2, 3), radius=8.0,
-                   eps=0.15, t_end=1.0, output_every=10, continuum_nodes=600,
+                   eps=0.15, t_end=1.0, output_every=0.2, continuum_nodes=600,
                    orientations=("tangent", "rows")),
     "paper": dict(modes=tuple(range(2, 9)), lams=(0.0, 1e-3, 1e-2), seeds=tuple(range(1, 9)),
-                  radius=10.0, eps=0.15, t_end=1.0, output_every=10, continuum_nodes=2000,
+                  radius=10.0, eps=0.15, t_end=1.0, output_every=0.2, continuum_nodes=2000,
                   orientations=("tangent", "rows")),
 }
 """The particle stage per scale: modes K, lams, seeds, the star's R and EPS, t_end, frames every
-``output_every`` steps, the node count of the continuum run from the same star, and the rods'
+``output_every`` of time, the node count of the continuum run from the same star, and the rods'
 orientations of the fill (particles.packings.FILL_ORIENTATIONS; in the CSVs the column
 ``orientation`` is the index in it: 0 tangent, 1 rows)."""
 RADIUS = 10.0

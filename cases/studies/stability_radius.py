@@ -49,12 +49,12 @@ __all__ = ["RADIUS_SCALES", "boundary_rods", "outline", "mode_series", "run_and_
 
 RADIUS_SCALES = {
     "smoke": dict(radii=(4.0, 5.0), ks=(3,), seeds=(1,), fills=("tangent",), eps=0.2,
-                  t_end=0.5, output_every=5),
+                  t_end=0.5, output_every=0.1),
     "medium": dict(radii=(8.0, 16.0, 32.0), ks=(2, 4, 6), seeds=(1, 2, 3),
-                   fills=("tangent", "rows"), eps=0.15, t_end=1.0, output_every=10),
+                   fills=("tangent", "rows"), eps=0.15, t_end=1.0, output_every=0.2),
 }
 """Radii, modes K, seeds, fill orientations, the star's EPS, t_end and frames every
-``output_every`` steps of :func:`radius_study` per scale (lam = 0)."""
+``output_every`` of time of :func:`radius_study` per scale (lam = 0)."""
 WITHIN = 0.1
 """The fitted ratio is "within" theory when abs(ratio - 1) <= WITHIN."""
 
@@ -155,7 +155,7 @@ def radius_study(  # noqa: PLR0913
     radii: Sequence[float], ks: Sequence[int], seeds: Sequence[int],
                  fills: Sequence[str], out: str | Path, runs: str | Path | None = None,
                  eps: float = 0.15, lam: float = 0.0, t_end: float = 1.0,
-                 output_every: int = 10, scheduler: str | None = None,
+                 output_every: float = 0.2, scheduler: str | None = None,
                  n_workers: int = 1, finished_only: bool = False) -> Path:
     """Grow and measure every (fill, K, R, seed); the CSVs in ``out/data``, returned.
 
@@ -177,7 +177,7 @@ def radius_study(  # noqa: PLR0913
     runs = Path(runs) if runs is not None else out / "runs"
     params = [dict(engine="particles", lam=float(lam), time=float(t_end), seed=int(seed),
                    shape=f"star:{int(K)},{eps:g},{float(R):g}", fill_lengths="stable",
-                   fill_orientation=fill, output_every=int(output_every))
+                   fill_orientation=fill, output_every=float(output_every))
               for R in sorted(radii) for seed in seeds for fill in fills for K in ks]
     if finished_only:
         params = [p for p in params if is_done(runs / run_name(p), p)]

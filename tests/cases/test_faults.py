@@ -193,7 +193,7 @@ def test_no_space_during_the_run_keeps_the_last_checkpoint(colony, tmp_path, mon
         return real(path)._replace(free=2**40 if calls["n"] < 12 else 100 * 1024)
 
     monkeypatch.setattr(sim.shutil, "disk_usage", filling)
-    args = (*SMALL_PARTICLES, "--set", "checkpoint_seconds=0", "--set", "output_every=1")
+    args = (*SMALL_PARTICLES, "--set", "checkpoint_seconds=0", "--set", "output_every=0.02")
     status, err = colony(*args, "--out", str(out))
     one_line_error(status, err, "no space left on")
     partial = rundir.partial_of(out)

@@ -22,7 +22,7 @@ RUNS = {  # a checkpoint after every step, frames often: every kind of write, ma
     "continuum": ("continuum", "--lam", "1e-2", "--radius", "3", "--quiet",
                   "--set", "n_nodes=200", "--set", "checkpoint_seconds=0"),
     "particles": ("particles", "--lam", "1e-2", "--time", "0.4", "--quiet",
-                  "--set", "checkpoint_seconds=0", "--set", "output_every=3"),
+                  "--set", "checkpoint_seconds=0", "--set", "output_every=0.06"),
 }
 
 
@@ -243,7 +243,7 @@ def test_a_paused_run_carried_without_its_trajectory_resumes(colony, tmp_path):
     """
     from cases import carry
 
-    args = ["particles", "--lam", "1e-2", "--time", "0.3", "--quiet", "--set", "output_every=3"]
+    args = ["particles", "--lam", "1e-2", "--time", "0.3", "--quiet", "--set", "output_every=0.06"]
     assert colony(*args, "--out", str(tmp_path / "one"))[0] == 0
     here = tmp_path / "here" / "run"
     while colony(*args, "--out", str(here), "--max-hours", "1e-9")[0] == rundir.PAUSED_STATUS:

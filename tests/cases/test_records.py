@@ -16,7 +16,7 @@ from cases.sweep import finished_runs, initial_config, is_done, run_name
 def fake_run(folder, **config):
     """A finished particle run folder (run.json, config.json, history, profile) of ``config``."""
     folder.mkdir(parents=True)
-    config = {"lam": 0.1, "radius": 15.0, "dt": 0.01, "output_every": 20, **config}
+    config = {"lam": 0.1, "radius": 15.0, "dt": 0.01, "output_every": 0.4, **config}
     (folder / "config.json").write_text(json.dumps(config))
     (folder / "run.json").write_text(json.dumps({"engine": "particles", "config": config,
                                                  "status": "finished"}))
@@ -39,7 +39,7 @@ def test_a_run_grown_into_the_sweeps_folder_is_the_sweeps(tmp_path):
     The name and command are ``colony case NAME --print-runs``; a run there whose configuration
     differs is refused with the difference named, and not touched.
     """
-    params = {"engine": "particles", "lam": 0.1, "radius": 15.0, "output_every": 20}
+    params = {"engine": "particles", "lam": 0.1, "radius": 15.0, "output_every": 0.4}
     run = fake_run(tmp_path / "runs" / run_name(params))
     assert is_done(run, params) and is_done(run)
     assert finished_runs([("particles", 0.1)], "smoke", tmp_path / "runs") == {
@@ -59,8 +59,8 @@ def test_print_runs_gives_the_sweeps_folders_and_commands(tmp_path, capsys):
     assert cli.main(["case", "fig2", "--scale", "smoke", "--print-runs", "--runs",
                      str(tmp_path / "runs"), "--lams", "0.1"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    params = {"engine": "particles", "lam": 0.1, "radius": 15.0, "output_every": 20}
-    assert (f"colony particles --lam 0.1 --radius 15 --set output_every=20 --out "
+    params = {"engine": "particles", "lam": 0.1, "radius": 15.0, "output_every": 0.4}
+    assert (f"colony particles --lam 0.1 --radius 15 --set output_every=0.4 --out "
             f"{tmp_path / 'runs' / run_name(params)}") in lines
     assert len(lines) == 2 and not (tmp_path / "runs").exists()
 

@@ -86,11 +86,11 @@ def test_case_runs_finished_only_reuses_and_never_starts(tmp_path):
     from cases.sweep import case_runs, finished_runs, run_name
 
     done = tmp_path / run_name({"engine": "particles", "lam": 0.1, "radius": 15.0,
-                                "output_every": 20})
+                                "output_every": 0.4})
     done.mkdir()
     (done / DONE).write_text("")
     (tmp_path / run_name({"engine": "particles", "lam": 0.3, "radius": 15.0,
-                          "output_every": 20})).mkdir()  # unfinished: not taken
+                          "output_every": 0.4})).mkdir()  # unfinished: not taken
     needed = [("particles", 0.03), ("particles", 0.1), ("particles", 0.3)]
     assert finished_runs(needed, "smoke", tmp_path) == {("particles", 0.1): done}
     got = case_runs("fig2", needed, "smoke", tmp_path / "out", runs=tmp_path,
@@ -111,7 +111,7 @@ def test_paper_scale_particles_take_the_default_step_at_every_lam():
     cfg = scale_config("paper")
     for lam in (0.0, 1e-4, 1e-3, 1e-2):
         assert _engine_params("particles", lam, cfg) == {
-            "engine": "particles", "lam": lam, "radius": 150.0, "output_every": 50}
+            "engine": "particles", "lam": lam, "radius": 150.0, "output_every": 0.2}
     assert _engine_params("continuum", 1e-3, cfg)["output_every"] == 0.5
 
 

@@ -26,7 +26,7 @@ from particles.checkpoint import (
     load_checkpoint,
 )
 
-CFG = Config(lam=1e-2, time=1.2, dt=0.02, seed=3, output_every=2)
+CFG = Config(lam=1e-2, time=1.2, dt=0.02, seed=3, output_every=0.04)
 """A small colony: 60 steps, a frame every 2 steps, well under a second."""
 
 NOT_SHOWN = ("allow_pickle", "Traceback", "EOFError", "BadZipFile", "Bad CRC-32", "KeyError")

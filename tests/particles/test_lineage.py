@@ -20,7 +20,7 @@ from particles.state import ParticleState
 def grown(tmp_path_factory):
     """One cell grown to radius 6 (lam = 1e-2, a frame every 5 steps): (folder, Simulation)."""
     out = tmp_path_factory.mktemp("lineage")
-    colony = run(Config(lam=1e-2, radius=6, seed=3, output_every=5), out)
+    colony = run(Config(lam=1e-2, radius=6, seed=3, output_every=0.1), out)
     return out, colony
 
 
@@ -96,7 +96,7 @@ def test_every_frame_carries_the_time_of_its_step(grown):
 
 
 def test_resumed_run_has_the_lineage_of_an_uninterrupted_one(tmp_path):
-    cfg = Config(lam=1e-2, time=2.2, dt=0.01, seed=2, output_every=7)
+    cfg = Config(lam=1e-2, time=2.2, dt=0.01, seed=2, output_every=0.07)
     full, part = tmp_path / "full", tmp_path / "part"
     full.mkdir()
     part.mkdir()

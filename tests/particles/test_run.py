@@ -1,7 +1,9 @@
 """Whole runs: invariants, determinism, outputs, checkpoint-resume equality."""
 
 import json
+import math
 from dataclasses import replace
+from pathlib import Path
 
 import gsd.hoomd
 import numba
@@ -10,8 +12,10 @@ import pytest
 
 import particles.stepping as stepping
 from particles import Config, Simulation, run
+from particles.config import upgrade
 from particles.division import divide
 from particles.geometry import generalised_forces, max_overlap
+from particles.output import frame_count
 from particles.simulation import initial_state
 from particles.solvers import ContactSolveError, solve_contacts
 from particles.stepping import MAX_HALVINGS, next_dt, step
@@ -71,7 +75,7 @@ def test_radius_stop():
 @pytest.mark.parametrize("control,dt,stop", [("fixed", 0.01, 123), ("cost", 0.08, 30),
                                              ("overlap", 0.04, 60)])
 def test_outputs_and_checkpoint_resume(tmp_path, control, dt, stop):
-    cfg = Config(lam=1e-2, time=3.5, dt=dt, output_every=7, seed=2, step_control=control)
+    cfg = Config(lam=1e-2, time=3.5, dt=dt, output_every=0.5, seed=2, step_control=control)
     full = tmp_path / "full"
     part = tmp_path / "part"
     full.mkdir()
@@ -89,8 +93,11 @@ def test_outputs_and_checkpoint_resume(tmp_path, control, dt, stop):
         gsd.hoomd.open(str(full / "trajectory.gsd")) as ta,
         gsd.hoomd.open(str(part / "trajectory.gsd")) as tb,
     ):
-        nh = len(a.history)
-        assert len(ta) == len(tb) == 1 + nh // 7 + (nh % 7 != 0)
+        # a frame at t = 0 and after each step that crosses a multiple of 0.5, the last at 3.5
+        t = np.array([0.0] + [r["t"] for r in a.history])
+        crossed = np.flatnonzero(np.diff(np.floor(t / 0.5 + 1e-9)) > 0) + 1
+        assert [f.configuration.step for f in ta] == [0, *crossed] and len(crossed) == 7
+        assert [f.configuration.step for f in tb] == [0, *crossed]
         fa, fb = ta[-1], tb[-1]
         np.testing.assert_array_equal(fa.particles.position, fb.particles.position)
         np.testing.assert_allclose(fa.log["particles/length"],
@@ -110,7 +117,7 @@ def test_outputs_and_checkpoint_resume(tmp_path, control, dt, stop):
     np.testing.assert_array_equal(parts["length"], a.state.length)
     # a different configuration refuses the checkpoint
     with pytest.raises(ValueError, match="different configuration"):
-        run(Config(lam=1e-3, time=3.5, dt=0.01, output_every=7, seed=2), part)
+        run(Config(lam=1e-3, time=3.5, dt=0.01, output_every=0.5, seed=2), part)
     if control == "cost":  # the step was adapted, and the resumed run continued with it
         dts = np.array([r["dt"] for r in a.history])
         assert dts[:-1].max() <= cfg.dt and dts[stop:-1].min() < dts[stop - 1] < cfg.dt
@@ -280,7 +287,8 @@ def test_init_file(tmp_path):
         dict(lam=0.0, time=1.0, threads="two"),
         dict(lam=0.0, time=1.0, threads=True),
         dict(lam=float("nan"), time=1.0),
-        dict(lam=0.0, time=1.0, output_every=0),
+        dict(lam=0.0, time=1.0, output_every=-0.1),
+        dict(lam=0.0, time=1.0, output_every=math.inf),
     ],
 )
 def test_validate(kw):
@@ -435,3 +443,33 @@ def test_a_first_run_says_it_compiles(tmp_path, monkeypatch, caplog):
         S.run(Config(lam=1e-2, time=0.04), tmp_path, progress=True)
     assert sum("compiling the engine's kernels (first run only" in r.message
                for r in caplog.records) == 1
+
+
+def test_frames_every_output_every_of_time(tmp_path):
+    """Fixed steps of 0.01 and frames every 0.05: a frame every 5 steps.
+
+    t summed over the steps falls short of the multiples (0.1 + 0.2 != 0.3); 0: the first and
+    the last frames only.
+    """
+    assert frame_count(sum([0.01] * 10), 0.1) == 1 > math.floor(sum([0.01] * 10) / 0.1)
+    assert frame_count(0.35, 0.1) == 3 and frame_count(5.0, 0.0) == 0
+    for every, steps in ((0.05, [0, 5, 10, 15, 20, 25, 30]), (0.0, [0, 30])):
+        out = tmp_path / f"every{every}"
+        out.mkdir()
+        run(Config(lam=1e-2, time=0.3, dt=0.01, step_control="fixed", output_every=every), out)
+        with gsd.hoomd.open(str(out / "trajectory.gsd")) as traj:
+            assert [f.configuration.step for f in traj] == steps
+
+
+def test_older_step_counts_read_as_times():
+    """Before issue 43 output_every counted steps: N steps of dt are read as the time N dt."""
+    assert upgrade({"lam": 0.0, "dt": 0.01, "output_every": 50})["output_every"] == 0.5
+    assert upgrade({"lam": 0.0, "dt": 0.01, "output_every": 0.5})["output_every"] == 0.5
+    assert Config(lam=0.0, output_every=2).output_every == 2.0  # saved as a time
+    assert isinstance(Config(lam=0.0, output_every=2).output_every, float)
+    data = Path(__file__).parents[2] / "cases" / "data"  # the committed particle runs
+    saved = [json.loads(p.read_text()) for p in sorted(data.glob("**/config.json"))]
+    older = [c for c in saved if "division_noise" in c and isinstance(c["output_every"], int)]
+    assert len(older) >= 3
+    for c in older:
+        assert Config(**upgrade(c)).output_every == c["output_every"] * c["dt"]
