@@ -117,7 +117,44 @@ class Operators:
         return self.space.matrix(self.M_data) @ g
 
 
-class LagrangeSpace:
+class Pattern:
+    """The CSR pattern of an assembled operator on ``n`` dofs, and its Dirichlet rows.
+
+    :meth:`set_pattern` takes the (row, column) of every entry of every element matrix, in the
+    element layout of the assembly, and the boundary dofs (a mask); then ``indptr``,
+    ``indices``, ``rows`` (the row of each stored entry), ``nnz``, ``diag`` (the positions of
+    the diagonal) and ``scatter`` (entry -> position: the CSR data of a sum of element
+    matrices is ``np.bincount(scatter, entries, minlength=nnz)``).
+    """
+
+    n: int
+
+    def set_pattern(self, rows: np.ndarray, cols: np.ndarray, boundary: np.ndarray) -> None:
+        """The pattern of the entries (``rows``, ``cols``) with the dofs ``boundary`` Dirichlet."""
+        uniq, self.scatter = np.unique(rows * self.n + cols, return_inverse=True)
+        r, c = np.divmod(uniq, self.n)
+        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=self.n))])
+        self.indices = c
+        self.rows = r
+        self.nnz = len(uniq)
+        bnd_entry = boundary[r] | boundary[c]
+        self.zero_mask = bnd_entry & (r != c)
+        self.bnd_diag = np.flatnonzero(bnd_entry & (r == c))
+        self.diag = np.flatnonzero(r == c)
+
+    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
+        """CSR matrix with this pattern and the given data."""
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+    def dirichlet(self, data: np.ndarray) -> np.ndarray:
+        """Copy of the CSR data with boundary rows and columns replaced by identity."""
+        d = data.copy()
+        d[self.zero_mask] = 0.0
+        d[self.bnd_diag] = 1.0
+        return d
+
+
+class LagrangeSpace(Pattern):
     """P1 or P2 Lagrange space on a fixed triangle topology, reassembled as the vertices move.
 
     Parameters
@@ -173,19 +210,9 @@ class LagrangeSpace:
         nbf = ed.shape[0]
         self._rows = np.concatenate([ed[i] for j in range(nbf) for i in range(nbf)])
         self._cols = np.concatenate([ed[j] for j in range(nbf) for i in range(nbf)])
-        key = self._rows * self.n + self._cols
-        uniq, self.scatter = np.unique(key, return_inverse=True)
-        r, c = np.divmod(uniq, self.n)
-        self.indptr = np.concatenate([[0], np.cumsum(np.bincount(r, minlength=self.n))])
-        self.indices = c
-        self.rows = r
-        self.nnz = len(uniq)
         isb = np.zeros(self.n, dtype=bool)
         isb[self.boundary_dofs] = True
-        bnd_entry = isb[r] | isb[c]
-        self.zero_mask = bnd_entry & (r != c)
-        self.bnd_diag = np.flatnonzero(bnd_entry & (r == c))
-        self.diag = np.flatnonzero(r == c)
+        self.set_pattern(self._rows, self._cols, isb)
         self._checked = False
 
     # ------------------------------------------------------------------ geometry
@@ -237,17 +264,6 @@ class LagrangeSpace:
         K = self._csr_data(_stiffness.elemental(basis))
         M = self._csr_data(_mass.elemental(basis))
         return Operators(K, M, self, basis)
-
-    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
-        """CSR matrix with this pattern and the given data."""
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
-
-    def dirichlet(self, data: np.ndarray) -> np.ndarray:
-        """Copy of the CSR data with boundary rows and columns replaced by identity."""
-        d = data.copy()
-        d[self.zero_mask] = 0.0
-        d[self.bnd_diag] = 1.0
-        return d
 
     # ------------------------------------------------------------------ fields
     def extend(self, p_nodes: np.ndarray, points: np.ndarray, lam: float) -> np.ndarray:

@@ -52,7 +52,7 @@ import pyamg
 import scipy.sparse as sp
 from numba import njit
 
-from continuum.fem import LagrangeSpace, check_element
+from continuum.fem import LagrangeSpace, Pattern, check_element
 from continuum.growth import growth_rate
 from continuum.strains import mixed_growth, slope_scale
 
@@ -264,12 +264,13 @@ def _load(tris, area, g, n):  # pragma: no cover - compiled
     return b
 
 
-class P1Assembler:
+class P1Assembler(Pattern):
     """P1 stiffness, mass and consistent load on a fixed triangle topology.
 
     The CSR pattern of K and the scatter map from the 9 entries of each element matrix to
-    CSR data positions are computed once per topology; ``stiffness(points)`` then costs one
-    vectorised pass over the elements and one ``np.bincount``.
+    CSR data positions are computed once per topology (:class:`continuum.fem.Pattern`);
+    ``stiffness(points)`` then costs one vectorised pass over the elements and one
+    ``np.bincount``.
 
     Parameters
     ----------
@@ -287,20 +288,7 @@ class P1Assembler:
         self.nb = int(n_boundary)
         rows = np.repeat(self.tris, 3, axis=1).ravel()
         cols = np.tile(self.tris, (1, 3)).ravel()
-        key = rows * self.n + cols
-        uniq, self.scatter = np.unique(key, return_inverse=True)
-        r, c = np.divmod(uniq, self.n)
-        indptr = np.zeros(self.n + 1, dtype=np.int64)
-        np.add.at(indptr, r + 1, 1)
-        self.indptr = np.cumsum(indptr)
-        self.indices = c
-        self.rows = r
-        self.nnz = len(uniq)
-        # Dirichlet: rows/columns of boundary nodes become identity rows
-        bnd_entry = (r < self.nb) | (c < self.nb)
-        self.zero_mask = bnd_entry & (r != c)
-        self.bnd_diag = np.flatnonzero(bnd_entry & (r == c))
-        self.diag = np.flatnonzero(r == c)
+        self.set_pattern(rows, cols, np.arange(self.n) < self.nb)  # p = 0 on nodes < nb
 
     def geometry(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Element areas ``|T|`` and gradients of the barycentric coordinates, shape (M, 3, 2).
@@ -319,17 +307,6 @@ class P1Assembler:
     def load(self, area: np.ndarray, g: np.ndarray) -> np.ndarray:
         """Consistent load ``b_i = int (sum_j g_j phi_j) phi_i = sum_T |T|/12 (g_i + sum_T g)``."""
         return _load(self.tris, area, np.asarray(g, dtype=float), self.n)
-
-    def matrix(self, data: np.ndarray) -> sp.csr_matrix:
-        """CSR matrix with this pattern and the given data."""
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
-
-    def dirichlet(self, data: np.ndarray) -> np.ndarray:
-        """Copy of the CSR data with boundary rows and columns replaced by identity."""
-        d = data.copy()
-        d[self.zero_mask] = 0.0
-        d[self.bnd_diag] = 1.0
-        return d
 
     @property
     def boundary_dofs(self) -> np.ndarray:

@@ -58,11 +58,13 @@ __all__ = ["ENSEMBLES", "particle_params", "continuum_params", "compute", "reduc
 #: panel's) at radius 40, 8 seeds each (the lam of the figures' curves first); "numerics": one
 #: run per changed setting at the first seed of ``numerics_lam`` (dt and tol halved; medium:
 #: also the contact solver's residual tolerance doubled, from tol / 2 to tol). Engine settings
-#: of the figure scale ``scale`` (cases.sweep.SCALES) with the radius replaced.
+#: of the figure scale ``scale`` (cases.sweep.SCALES) with the radius replaced, and particle
+#: frames every ``frames`` of time: 20 and 50 of the ensemble's steps of 0.01 (STEP), the
+#: cadence its committed data were made with when output_every counted steps (until issue 43).
 ENSEMBLES: dict[str, dict[str, Any]] = {
-    "smoke": {"scale": "smoke", "radius": 8.0, "lams": (0.1,), "seeds": 2,
+    "smoke": {"scale": "smoke", "radius": 8.0, "lams": (0.1,), "seeds": 2, "frames": 0.2,
               "numerics_lam": 0.1, "numerics": ({"dt": 0.005}, {"tol": 5e-4})},
-    "medium": {"scale": "medium", "radius": 40.0,
+    "medium": {"scale": "medium", "radius": 40.0, "frames": 0.5,
                "lams": (0.0, 1e-3, 1e-2, 3e-2, 3e-3, 1e-1, 1e-4),
                "seeds": 8, "numerics_lam": 1e-3,
                "numerics": ({"dt": 0.005}, {"tol": 5e-4}, {"solver_tol": 1e-3})},
@@ -97,13 +99,13 @@ def _ensemble(scale: str) -> dict[str, Any]:
 def particle_params(lam: float, seed: int, scale: str, **settings: Any) -> dict[str, Any]:
     """Sweep parameters of one particle colony of the ensemble.
 
-    The figure scale's particle settings at the ensemble's radius with fixed steps (STEP), the
-    seed (left out for seed 0, the engine's default) and ``settings`` (e.g. dt=0.005 for the
+    The figure scale's particle settings at the ensemble's radius and frames with fixed steps
+    (STEP), the seed (left out for seed 0, the engine's default) and ``settings`` (e.g. dt=0.005 for the
     numerics runs).
     """
     ens = _ensemble(scale)
     params = _engine_params("particles", lam, scale_config(ens["scale"]))
-    params["radius"] = ens["radius"]
+    params["radius"], params["output_every"] = ens["radius"], ens["frames"]
     if seed:
         params["seed"] = int(seed)
     return params | STEP | settings
