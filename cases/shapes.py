@@ -7,12 +7,11 @@ the outline; :mod:`particles.packings` fills an outline with rods. ``continuum``
 ``Config.shape`` itself, and the particle engine takes the state built here::
 
     import particles
-    from cases.shapes import initial_particles
-    state = initial_particles("star:5,0.2,8", seed=1)
+    from cases.shapes import initial_state
     config = particles.Config(lam=1e-2, time=1.0, seed=1, shape="star:5,0.2,8")
-    sim = particles.run(config, state=state)
+    sim = particles.run(config, state=initial_state(config))
 
-(``initial_state(config)`` builds the same state from a configuration.)
+(``initial_particles("star:5,0.2,8", seed=1)`` builds the same state from the spec alone.)
 """
 
 from __future__ import annotations
