@@ -1,6 +1,7 @@
 #!/bin/bash
 # The GPU measurement of issue 44 (docs/benchmarks.md, "Contacts on a GPU"), one device call:
-# the CUDA solver's tests on the card, then gpu_solve.py at the committed 1e5-cell checkpoint.
+# the memory bandwidth on 1-16 cores (stream.py: B(16), the cap of the CPU's speed-up), the
+# CUDA solver's tests on the card, then gpu_solve.py at the committed 1e5-cell checkpoint.
 # Its machine (the workplace's H200) has numba, numba-cuda and CUDA's compiler, not the
 # package's other needs: carry them as wheels for Python 3.12 in .whl (gsd, scikit-fem, pyamg,
 # triangle, meshio; the device README says how), e.g.
@@ -13,6 +14,7 @@ mkdir -p "$OUT"
 nvidia-smi --query-gpu=name,memory.total,driver_version --format=csv | tee "$OUT/gpu.txt"
 python3 -c "import numba, numba_cuda; print('numba', numba.__version__, 'numba-cuda',
 numba_cuda.__version__)" | tee -a "$OUT/gpu.txt"
+timeout 60 python3 docs/measurements/stream.py --threads 1 2 4 8 16 2>&1 | tee "$OUT/stream.txt"
 timeout 150 python3 -m pytest -q -p no:cacheprovider tests/particles/test_cuda_solver.py 2>&1 \
     | tee "$OUT/tests.txt"
 timeout 300 python3 docs/measurements/gpu_solve.py \

@@ -312,3 +312,15 @@ def test_bench_particles_reads_a_run_checkpoint(tmp_path):
     np.testing.assert_array_equal(state.x, sim.state.x)
     assert state.next_id == sim.state.next_id and t == sim.state.t
     np.testing.assert_array_equal(warm[1], sim.state.warm_gamma)
+
+
+def test_stream_triad_counts_24_bytes_an_element(capsys):
+    """docs/measurements/stream.py: the triad's result, and B(1) = 1 in its table."""
+    stream = measurement("stream")
+    a, b, c = np.zeros(5), np.arange(5.0), np.ones(5)
+    stream.triad(a, b, c, 3.0)
+    np.testing.assert_array_equal(a, b + 3.0)
+    ((threads, bw),) = stream.main(["--threads", "1", "--mb", "1", "--repeats", "2"])
+    assert threads == 1 and bw > 0
+    row = capsys.readouterr().out.splitlines()[2]
+    assert row.startswith("| 1 | ") and row.endswith(" | 1.00 |")
