@@ -52,9 +52,14 @@ RADIUS_SCALES = {
                   t_end=0.5, output_every=0.1),
     "medium": dict(radii=(8.0, 16.0, 32.0), ks=(2, 4, 6), seeds=(1, 2, 3),
                    fills=("tangent", "rows"), eps=0.15, t_end=1.0, output_every=0.2),
+    "R64": dict(radii=(64.0,), ks=(2, 4, 6), seeds=(1, 2, 3), fills=("tangent",), eps=0.15,
+                t_end=1.0, output_every=0.05),
 }
 """Radii, modes K, seeds, fill orientations, the star's EPS, t_end and frames every
-``output_every`` of time of :func:`radius_study` per scale (lam = 0)."""
+``output_every`` of time of :func:`radius_study` per scale (lam = 0). "R64" (issue 42): the
+next radius, tangent fill only, about 25 min a run on one core (18,700 rods at the start, the
+step near 0.002 from the first steps); frames every 0.05, 21 of which MAX_FRAMES are outlined,
+as at R = 32 (where 10 steps were 0.02-0.04)."""
 WITHIN = 0.1
 """The fitted ratio is "within" theory when abs(ratio - 1) <= WITHIN."""
 
