@@ -100,8 +100,8 @@ def particle_params(lam: float, seed: int, scale: str, **settings: Any) -> dict[
     """Sweep parameters of one particle colony of the ensemble.
 
     The figure scale's particle settings at the ensemble's radius and frames with fixed steps
-    (STEP), the seed (left out for seed 0, the engine's default) and ``settings`` (e.g. dt=0.005 for the
-    numerics runs).
+    (STEP), the seed (left out for seed 0, the engine's default) and ``settings`` (e.g.
+    dt=0.005 for the numerics runs).
     """
     ens = _ensemble(scale)
     params = _engine_params("particles", lam, scale_config(ens["scale"]))
