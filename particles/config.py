@@ -300,6 +300,9 @@ MAX_CONTACT_MARGIN = 10.0
 """Largest contact margin (gap, in birth lengths) of the pairs a solve takes: 20 particle
 diameters, far beyond any pair a step can bring into contact (the default is 0.1)."""
 
+MIN_OUTPUT_EVERY = 1e-6
+"""Shortest time between frames (far below any step; t / output_every stays a finite float)."""
+
 _RULES = [  # (field, test, message of a failed test), checked in order by Config.validate
     # after the types (Config.type_mismatch): a test may compare its number
     ("radius", lambda v: v is None or v > 0,
@@ -321,8 +324,9 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
     ("solver", lambda v: v in SOLVERS,
      lambda v: f"unknown solver {v!r}; choose from {sorted(SOLVERS)}"
                + (f" ({v} was removed: {REMOVED_SOLVERS[v]})" if v in REMOVED_SOLVERS else "")),
-    ("output_every", lambda v: v >= 0,
-     lambda v: f"output_every must be a time >= 0 (0: the first and last frames only), got {v}"),
+    ("output_every", lambda v: v == 0 or v >= MIN_OUTPUT_EVERY,
+     lambda v: f"output_every must be a time >= {MIN_OUTPUT_EVERY:g}, or 0 (the first and "
+               f"last frames only), got {v}"),
     ("checkpoint_seconds", lambda v: v >= 0,
      lambda v: f"checkpoint_seconds must be >= 0, got {v}"),
     ("max_hours", lambda v: v is None or 0 < v < math.inf,

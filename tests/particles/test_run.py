@@ -289,6 +289,7 @@ def test_init_file(tmp_path):
         dict(lam=float("nan"), time=1.0),
         dict(lam=0.0, time=1.0, output_every=-0.1),
         dict(lam=0.0, time=1.0, output_every=math.inf),
+        dict(lam=0.0, time=1.0, output_every=1e-320),
     ],
 )
 def test_validate(kw):
