@@ -326,16 +326,16 @@ def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_po
             created = False
         except OSError as err:
             raise RunFolderError(f"cannot create {partial}: {err.strerror}") from None
-    try:
-        with hold(partial):
+    with hold(partial):  # a stage another run holds is never removed here
+        try:
             _check_stage(partial, overwrite, engine, config, resumable, step_policy,
                          other_engine)
             check_free_space(partial)
-            created = False  # from here on the stage is this run's, whatever happens
-            yield partial
-    finally:
-        if created and partial.is_dir() and not any(partial.iterdir()):
-            partial.rmdir()
+        except BaseException:
+            if created and not any(partial.iterdir()):
+                partial.rmdir()  # still held: no other run can have taken it up
+            raise
+        yield partial
 
 
 def _check_stage(partial: Path, overwrite: bool, engine: str, config, resumable,  # noqa: PLR0913
@@ -389,9 +389,22 @@ def hold(folder: Path, wait: bool = False):
         except BlockingIOError:
             raise FolderInUseError(f"{folder} is in use by {holder(folder)}; wait for it to end or "
                               "stop it (a stopped run resumes with its command)") from None
+        if not _same_folder(fd, folder):  # removed or replaced between the open and the lock
+            raise FolderInUseError(f"{folder} is in use by another run, which took it up just now; "
+                                   "wait for it to end or stop it")
         yield folder
     finally:
         os.close(fd)
+
+
+def _same_folder(fd: int, folder: Path) -> bool:
+    """Whether the open folder ``fd`` is still the one at the path ``folder`` (same inode)."""
+    try:
+        here = os.lstat(folder)
+    except OSError:
+        return False
+    there = os.fstat(fd)
+    return (here.st_dev, here.st_ino) == (there.st_dev, there.st_ino)
 
 
 def check_source(folder: Path) -> None:

@@ -102,6 +102,47 @@ def test_run_into_a_held_stage_is_refused(colony, tmp_path):
     assert not any(partial.iterdir()) and not out.exists()
 
 
+def test_a_stage_taken_by_another_run_before_the_lock_is_left_to_it(colony, tmp_path,
+                                                                   monkeypatch):
+    """A run creates ``DIR.partial``; another locks it first: refused, and the stage stays.
+
+    The race of ``test_two_runs_on_one_folder_one_is_refused`` made deterministic: the loser
+    used to remove the (empty) stage it had created from under the winner.
+    """
+    out = tmp_path / "run"
+    partial = rundir.partial_of(out)
+    real_hold, winner = rundir.hold, []
+
+    def contested(folder, wait=False):
+        if not winner:
+            winner.append(real_hold(folder))
+            winner[0].__enter__()  # the other run takes the lock first
+        return real_hold(folder, wait)
+
+    monkeypatch.setattr(rundir, "hold", contested)
+    status, err = colony(*SMALL_PARTICLES, "--out", str(out))
+    one_line_error(status, err, "is in use by")
+    assert partial.is_dir() and not out.exists()
+    winner[0].__exit__(None, None, None)
+
+
+def test_a_folder_replaced_before_the_lock_is_refused(tmp_path, monkeypatch):
+    """The folder at the path is no longer the one opened: the lock would guard nothing."""
+    folder = tmp_path / "run.partial"
+    folder.mkdir()
+    real_flock = rundir.fcntl.flock
+
+    def replace_then_lock(fd, how):
+        folder.rename(tmp_path / "published")
+        folder.mkdir()
+        return real_flock(fd, how)
+
+    monkeypatch.setattr(rundir.fcntl, "flock", replace_then_lock)
+    with pytest.raises(rundir.FolderInUseError, match="took it up just now"):
+        with rundir.hold(folder):
+            pass
+
+
 def test_info_tells_a_dead_run_from_a_live_one(capsys, tmp_path):
     out = tmp_path / "run"
     proc = _launch(out, radius="30")
