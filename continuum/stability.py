@@ -50,7 +50,6 @@ from continuum import radial
 
 __all__ = [
     "mode_rate",
-    "mode_rate_lam0",
     "shape_function",
     "amplitude_ratio",
     "small_lam_rate",
@@ -61,11 +60,6 @@ def _check_mode(K: int) -> int:
     if int(K) != K or K < 1:
         raise ValueError(f"mode number K must be an integer >= 1, got {K!r}")
     return int(K)
-
-
-def mode_rate_lam0(K: int) -> float:
-    """Closed form at lam = 0: sigma = -K/2 (relative amplitude of r = R(1 + eps cos K theta))."""
-    return -0.5 * _check_mode(K)
 
 
 def small_lam_rate(K: int, lam: float, R: float) -> float:

@@ -466,11 +466,6 @@ def detect_contacts(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.
     return find_contacts(x, y, theta, length, pairs, margin)
 
 
-def contact_points(c: Contacts, x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Contact points (cix, ciy, cjx, cjy) on the two segments."""
-    return x[c.i] + c.rix, y[c.i] + c.riy, x[c.j] + c.rjx, y[c.j] + c.rjy
-
-
 CSR_CHUNKS = 16
 """Fixed chunks of contacts of :func:`by_particle` (its tasks; not the number of threads)."""
 

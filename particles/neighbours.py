@@ -168,16 +168,3 @@ def spatial_order(x: np.ndarray, y: np.ndarray, h: float = ORDER_CELL) -> np.nda
     iy = np.floor((y - y.min()) / h).astype(np.uint64)
     key = _spread_bits(ix) | (_spread_bits(iy) << np.uint64(1))
     return np.argsort(key, kind="stable")
-
-
-def brute_force_pairs(
-    x: np.ndarray, y: np.ndarray, length: np.ndarray, margin: float
-) -> tuple[np.ndarray, np.ndarray]:
-    """Reference O(N^2) version of :func:`candidate_pairs` (same criterion, same order)."""
-    x = np.asarray(x, dtype=np.float64)
-    y = np.asarray(y, dtype=np.float64)
-    length = np.asarray(length, dtype=np.float64)
-    d2 = (x[:, None] - x[None, :]) ** 2 + (y[:, None] - y[None, :]) ** 2
-    cut = 0.5 * (length[:, None] + length[None, :]) + margin
-    i, j = np.nonzero(np.triu(d2 <= cut * cut, k=1))
-    return i.astype(np.int64), j.astype(np.int64)

@@ -207,16 +207,6 @@ def rod_quaternion(theta: np.ndarray) -> np.ndarray:
     return np.column_stack([c, -s, c, s]) / np.sqrt(2.0)
 
 
-def rod_axis(q: np.ndarray) -> np.ndarray:
-    """Image of the local z axis under unit quaternions (w, x, y, z), shape (n, 3).
-
-    R(q) e_z = (2 (x z + w y), 2 (y z - w x), 1 - 2 (x^2 + y^2)).
-    """
-    q = np.asarray(q, dtype=float)
-    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
-    return np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
-
-
 def box_edge(state: ParticleState) -> float:
     """Edge 2 (X + BOX_MARGIN) of the square box; X = max ``|coordinate|`` of any particle point."""
     h = 0.5 * (state.length - B)

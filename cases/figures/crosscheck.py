@@ -271,11 +271,3 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         ax.legend(fontsize=8)
     note_missing_engines(fig, {"continuum", *(["particles"] if files else [])})
     return [md, *save_figure(fig, out / "crosscheck")]
-
-
-if __name__ == "__main__":  # same options as `colony case crosscheck ...`
-    import sys
-
-    from cases.cli import main
-
-    sys.exit(main(["case", "crosscheck", *sys.argv[1:]]))

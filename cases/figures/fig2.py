@@ -178,11 +178,3 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         colorbar(fig, mappable, axes.ravel().tolist())
     note_missing_engines(fig, {ENGINES[e] for e in present})  # codes 0, 1 as in ENGINES
     return save_figure(fig, out / "fig2")
-
-
-if __name__ == "__main__":  # same options as `colony case fig2 ...`
-    import sys
-
-    from cases.cli import main
-
-    sys.exit(main(["case", "fig2", *sys.argv[1:]]))

@@ -250,11 +250,3 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     fig.tight_layout()
     note_missing_engines(fig, {e for e in ENGINES if np.isfinite(summary[f"slope_{e}"]).any()})
     return save_figure(fig, out / "fig3")
-
-
-if __name__ == "__main__":  # same options as `colony case fig3 ...`
-    import sys
-
-    from cases.cli import main
-
-    sys.exit(main(["case", "fig3", *sys.argv[1:]]))

@@ -233,11 +233,3 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     fig.tight_layout()
     note_missing_engines(fig, {e for e in ENGINES if np.isfinite(s[f"radius_{e}"]).any()})
     return save_figure(fig, out / "fig4")
-
-
-if __name__ == "__main__":  # same options as `colony case fig4 ...`
-    import sys
-
-    from cases.cli import main
-
-    sys.exit(main(["case", "fig4", *sys.argv[1:]]))

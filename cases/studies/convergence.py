@@ -698,11 +698,3 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
         paths += save_figure(fig, out / "convergence_particles")
     (out / "orders.md").write_text(order_tables(data))
     return [*paths, out / "orders.md"]
-
-
-if __name__ == "__main__":  # same options as `colony case convergence ...`
-    import sys
-
-    from cases.cli import main
-
-    sys.exit(main(["case", "convergence", *sys.argv[1:]]))

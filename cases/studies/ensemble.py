@@ -667,11 +667,3 @@ def markdown_tables(data: str | Path) -> str:
         out.append(A.markdown_rows(["lam", "quantity", *[f"R = {R:.3g}" for R in radii]],
                                    grows))
     return "\n\n".join(out) + "\n"
-
-
-if __name__ == "__main__":  # same options as `colony case ensemble ...`
-    import sys
-
-    from cases.cli import main
-
-    sys.exit(main(["case", "ensemble", *sys.argv[1:]]))

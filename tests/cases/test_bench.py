@@ -7,9 +7,7 @@ The continuum target run to radius 150 is marked slow; the others run a few step
 colonies and check that the scripts' numbers add up.
 """
 
-import importlib.util
 import shutil
-import sys
 from dataclasses import replace
 from pathlib import Path
 
@@ -19,19 +17,7 @@ import pytest
 
 import particles
 from particles import Config, run
-
-MEASUREMENTS = Path(__file__).resolve().parents[2] / "docs" / "measurements"
-
-
-def measurement(name: str):
-    """The script docs/measurements/NAME.py as a module (what ``python`` runs of it, less main)."""
-    key = f"measurements_{name}"
-    if key not in sys.modules:
-        spec = importlib.util.spec_from_file_location(key, MEASUREMENTS / f"{name}.py")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[key] = module  # before running it: dataclasses look their module up
-        spec.loader.exec_module(module)
-    return sys.modules[key]
+from tests.measurements import measurement
 
 
 @pytest.mark.slow
@@ -305,7 +291,6 @@ def test_bench_cost_growth_fits_a_power_law(tmp_path, capsys):
 def test_bench_particles_reads_a_run_checkpoint(tmp_path):
     """``--state checkpoint.npz``: a run's state, time and warm start, as the run resumes it."""
     from cases.bench.particles import load_state
-    from particles import Config, run
 
     sim = run(Config(lam=1e-2, time=1.0), tmp_path, max_steps=30)
     state, t, warm, _ = load_state(tmp_path / "checkpoint.npz")
@@ -324,3 +309,18 @@ def test_stream_triad_counts_24_bytes_an_element(capsys):
     assert threads == 1 and bw > 0
     row = capsys.readouterr().out.splitlines()[2]
     assert row.startswith("| 1 | ") and row.endswith(" | 1.00 |")
+
+
+def test_phases_split_a_step_and_add_up(tmp_path, capsys):
+    """docs/measurements/phases.py: exclusive phases whose sum is the step's CPU time."""
+    phases = measurement("phases")
+    run(Config(lam=1e-2, radius=5), tmp_path, progress=False)  # 32 cells in contact
+    for gather in (False, True):
+        med = phases.main(["--state", str(tmp_path / "checkpoint.npz"), "--steps", "1",
+                           *(["--gather"] if gather else [])])[str(tmp_path / "checkpoint.npz")]
+        timed = sum(v for k, v in med.items() if k not in (
+            "wall", "cpu", "iterations", "contacts", "N") and not k.startswith("cell sort"))
+        assert 0.5 * med["cpu"] < timed <= med["cpu"] * (1 + 1e-9) + 1e-6, med
+        assert med["BBPGD kernel"] > 0 and med["iterations"] > 0
+        text = capsys.readouterr().out
+        assert "serial fraction s = " in text and ("gather" if gather else "scatter") in text

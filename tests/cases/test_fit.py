@@ -20,6 +20,7 @@ from scipy import stats
 
 from cases import cli, fit
 from continuum import radial
+from tests.measurements import measurement
 from tests.pictures import assert_drawn
 
 TAU = 54.0  # minutes: the paper's E. coli growth time
@@ -476,14 +477,14 @@ def test_implausible_colony_is_a_one_line_warning(tmp_path, colony):
 
 
 def test_particle_table_row_reproduces_the_committed_csv(tmp_path):
-    """cases/data/fit/particles.csv (python -m cases.fit) holds what particle_table computes."""
+    """cases/data/fit/particles.csv (docs/measurements/fit_particles.py) holds what it computes."""
     data = os.path.join(os.path.dirname(fit.__file__), "data")
     with open(os.path.join(data, "fit", "particles.csv"), newline="") as fh:
         stored = list(csv.DictReader(fh))
     row = next(r for r in stored if r["lam_true"] == "0.01" and r["column"] == "radius"
                and float(r["min_radius"]) == 0)
     (tmp_path / "lam=0.01").symlink_to(os.path.join(data, "particles_paper", "lam=0.01"))
-    (new,) = fit.particle_table(tmp_path, fits=(("radius", 0.0),))
+    (new,) = measurement("fit_particles").particle_table(tmp_path, fits=(("radius", 0.0),))
     assert new["lam_true"] == 0.01 and new["covers"] is False
     for key in ("lam_fit", "lo", "hi", "sigma", "t0", "lag1"):  # to the optimisers' tolerances
         assert float(row[key]) == pytest.approx(new[key], rel=1e-4, abs=1e-5), key

@@ -99,7 +99,7 @@ def test_the_graph_is_read():
     """The walk sees known edges: function-level, relative, ``from pkg import module``."""
     edges = graph()
     assert "cases.analysis" in edges["cases.records"]  # from cases import analysis as A
-    assert "cases.cli" in edges["cases.figures.fig2"]  # inside main()
+    assert "cases.handoff" in edges["cases.cli"]  # inside a function: from cases import handoff
     assert "particles.geometry" in edges["particles.measures"]  # from .geometry import B
     assert "particles.solvers.bbpgd" in edges["particles.simulation"]  # from .solvers import
     assert not any(t.startswith("cases.analysis.") for t in edges["cases.analysis"])

@@ -18,11 +18,20 @@ from particles.output import (
     box_edge,
     count_frames,
     read_trajectory,
-    rod_axis,
     rod_quaternion,
     truncate_trajectory,
 )
 from particles.state import B, ParticleState
+
+
+def rod_axis(q: np.ndarray) -> np.ndarray:
+    """Image of the local z axis under unit quaternions (w, x, y, z), shape (n, 3).
+
+    R(q) e_z = (2 (x z + w y), 2 (y z - w x), 1 - 2 (x^2 + y^2)).
+    """
+    q = np.asarray(q, dtype=float)
+    w, x, y, z = q[:, 0], q[:, 1], q[:, 2], q[:, 3]
+    return np.column_stack([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
 
 
 def _states():

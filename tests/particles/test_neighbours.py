@@ -3,7 +3,20 @@
 import numpy as np
 import pytest
 
-from particles.neighbours import brute_force_pairs, candidate_pairs
+from particles.neighbours import candidate_pairs
+
+
+def brute_force_pairs(
+    x: np.ndarray, y: np.ndarray, length: np.ndarray, margin: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Reference O(N^2) version of :func:`candidate_pairs` (same criterion, same order)."""
+    x = np.asarray(x, dtype=np.float64)
+    y = np.asarray(y, dtype=np.float64)
+    length = np.asarray(length, dtype=np.float64)
+    d2 = (x[:, None] - x[None, :]) ** 2 + (y[:, None] - y[None, :]) ** 2
+    cut = 0.5 * (length[:, None] + length[None, :]) + margin
+    i, j = np.nonzero(np.triu(d2 <= cut * cut, k=1))
+    return i.astype(np.int64), j.astype(np.int64)
 
 
 @pytest.mark.parametrize("seed,n,side,margin", [(0, 500, 10.0, 0.0), (1, 2000, 20.0, 0.1),
