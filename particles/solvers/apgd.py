@@ -263,44 +263,16 @@ def solve_contacts_apgd(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Minimise E(gamma) over gamma >= 0 by Jacobi-scaled APGD with adaptive restart.
 
-    Same signature, problem, residual and stopping test as
-    :func:`particles.solvers.bbpgd.solve_contacts`.
+    Parameters, results and errors as :func:`particles.solvers.bbpgd.solve_contacts` (the same
+    problem, residual and stopping test), and:
 
     Parameters
     ----------
-    contacts : Contacts
-        Geometry of the current configuration (gaps Phi, normals, arms, G).
-    length : array (N,)
-        Lengths l_n at the start of the step.
-    dt : float
-        Time step.
-    lam, rate : float or array (N,)
-        Stress sensitivity lambda >= 0 and growth factor a > 0, of every cell or of each.
-    gamma0 : array (K,), optional
-        Warm start (projected onto gamma >= 0).
-    tol : float
-        Stop when ``res = max_k |min(a_kk gamma_k, q_k)| <= tol`` (a gap).
-    maxiter : int
-        Iteration cap (each iteration: one gradient evaluation).
-    growth : bool
-        False drops the growth term (overlap-removal re-solves).
     lipschitz_margin : float
-        Step t = 1 / (margin * power-iteration estimate of L), margin >= 1.
+        Step t = 1 / (margin * power-iteration estimate of L), margin >= 1 (ValueError
+        otherwise).
     power_iterations : int
-        Power iterations for L.
-
-    Returns
-    -------
-    gamma : array (K,)
-    residuals : array
-        Residual after each iteration (first entry: initial guess).
-
-    Raises
-    ------
-    ValueError
-        Bad dt, lam, gamma0 shape or margin.
-    ContactSolveError
-        When maxiter iterations do not reach tol (carries N, contacts, residual history).
+        Power iterations for L, at least 1.
     """
     if not lipschitz_margin >= 1.0 or power_iterations < 1:
         raise ValueError("lipschitz_margin must be >= 1 and power_iterations >= 1")

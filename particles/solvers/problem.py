@@ -342,10 +342,9 @@ def linearised_gap(
     c = contacts
     m = len(c)
     out = np.empty(m)
-    ti = c.rix * c.ny - c.riy * c.nx
-    tj = c.rjx * c.ny - c.rjy * c.nx
+    mt, mr, ti, tj, _ = problem_arrays(c, length, dt)
     start, idx, coef = incidence(c, ti, tj, n)
     _gradient(np.ascontiguousarray(gamma, dtype=np.float64), start, idx, coef, c.i, c.j, c.nx, c.ny,
-              ti, tj, c.gi, c.gj, c.gap, 1.0 / length, 12.0 / length**3, length, float(dt),
+              ti, tj, c.gi, c.gj, c.gap, mt, mr, length, float(dt),
               law_rows(lam, rate, dt, n), bool(growth), np.empty((n, 4)), out)
     return out
