@@ -231,7 +231,8 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     if ens is not None:
         _seed_bars(a, ens, "central_max", lam)
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel="max stress", title="(C)")
-    a.legend(fontsize=8)
+    if pos.any():  # lam = 0 alone leaves (C) empty
+        a.legend(fontsize=8)
 
     a = ax[1, 1]
     for key, style, label in (("slope_particles", "o", "particles"),
