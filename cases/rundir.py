@@ -59,7 +59,7 @@ import signal
 import subprocess
 import sys
 import time
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from dataclasses import asdict
 from datetime import UTC, datetime
 from importlib import metadata
@@ -326,7 +326,13 @@ def stage(out: Path, overwrite: bool, engine: str, config, resumable=(), step_po
             created = False
         except OSError as err:
             raise RunFolderError(f"cannot create {partial}: {err.strerror}") from None
-    with hold(partial):  # a stage another run holds is never removed here
+    with ExitStack() as held:
+        try:
+            held.enter_context(hold(partial))  # a stage another run holds is never removed
+        except RunFolderError:
+            if not os.path.lexists(partial):  # another run published it just now: say so
+                check_target(out, overwrite)
+            raise
         try:
             _check_stage(partial, overwrite, engine, config, resumable, step_policy,
                          other_engine)

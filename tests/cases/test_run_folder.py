@@ -126,6 +126,26 @@ def test_a_stage_taken_by_another_run_before_the_lock_is_left_to_it(colony, tmp_
     winner[0].__exit__(None, None, None)
 
 
+def test_a_stage_published_by_another_run_before_the_lock_says_it_exists(colony, tmp_path,
+                                                                       monkeypatch):
+    """Another run publishes ``DIR.partial`` as ``DIR`` between this run's checks and its lock."""
+    out = tmp_path / "run"
+    partial = rundir.partial_of(out)
+    partial.mkdir()
+    real_hold = rundir.hold
+
+    def published_first(folder, wait=False):
+        if folder == partial:
+            rundir.write_record(partial, {"sessions": []})
+            partial.rename(out)  # the other run's publish
+        return real_hold(folder, wait)
+
+    monkeypatch.setattr(rundir, "hold", published_first)
+    status, err = colony(*SMALL_PARTICLES, "--out", str(out))
+    one_line_error(status, err, "exists")
+    assert out.is_dir() and not partial.exists()
+
+
 def test_a_folder_replaced_before_the_lock_is_refused(tmp_path, monkeypatch):
     """The folder at the path is no longer the one opened: the lock would guard nothing."""
     folder = tmp_path / "run.partial"
