@@ -58,7 +58,7 @@ def ensemble_data(figure_data: str | Path, radius: float | None = None) -> Path 
 
 
 #: The tables with one row per lam (seeds.csv: per lam and seed) that :func:`merge` replaces
-#: lam by lam; numerics.csv and the files of cases.studies.stress_offset (estimators.csv,
+#: lam by lam; numerics.csv and the files of docs/measurements/stress_offset.py (estimators.csv,
 #: growth_paper.csv) are the earlier data set's.
 LAM_TABLES = ("seeds.csv", "summary.csv", "differences.csv", "growth_rates.csv")
 

@@ -19,6 +19,7 @@ from scipy.stats import t as student_t
 from cases import analysis as A
 from cases import datasets
 from cases.studies import ensemble
+from tests.measurements import measurement
 from tests.pictures import assert_figures
 
 
@@ -178,10 +179,10 @@ def test_trailing_rate():
 
 
 def test_plot_and_offset_tables_from_committed_data(tmp_path):
-    """`colony case ensemble --from-data` and `python -m cases.studies.stress_offset`."""
+    """`colony case ensemble --from-data` and `python docs/measurements/stress_offset.py`."""
     from pathlib import Path
 
-    from cases.studies import stress_offset
+    stress_offset = measurement("stress_offset")
 
     data = Path(ensemble.__file__).resolve().parents[1] / "data" / "ensemble"
     paths = ensemble.plot(data, tmp_path)

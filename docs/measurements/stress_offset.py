@@ -12,10 +12,10 @@ The paper-scale colonies as they grow (:func:`paper_growth`): the whole colony's
 against the continuum's mean pressure at the same radius and the time to reach each radius,
 from the committed histories (radius 10 to 150).
 
-Run ``python -m cases.studies.stress_offset`` (seconds): it reads cases/data/fig3 (radius 40),
+Run ``python docs/measurements/stress_offset.py`` (seconds): it reads cases/data/fig3 (radius 40),
 cases/data/fig3_paper and cases/data/particles_paper (radius 150), writes ``estimators.csv`` and
 ``growth_paper.csv`` into cases/data/ensemble (``--out`` to change) and prints the markdown
-tables of docs/results.md.
+tables of docs/results.md. (``cases.studies.stress_offset`` until issue 43 moved it here.)
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from cases import analysis as A
 
 __all__ = ["profile_estimators", "estimator_table", "paper_growth", "main"]
 
-DATA = Path(__file__).resolve().parents[1] / "data"
+DATA = Path(__file__).resolve().parents[2] / "cases" / "data"
 
 
 def profile_estimators(profile: dict[str, np.ndarray], radius: float, p0_exact: float,
@@ -143,7 +143,7 @@ def _markdown(table: dict[str, np.ndarray]) -> str:
 
 def main(argv: list[str] | None = None) -> int:
     """Write estimators.csv for the committed medium and paper Fig 3 profiles; print the table."""
-    p = argparse.ArgumentParser(prog="python -m cases.studies.stress_offset",
+    p = argparse.ArgumentParser(prog="python docs/measurements/stress_offset.py",
                                 description=__doc__.split("\n")[0])
     p.add_argument("--out", default=str(DATA / "ensemble"), help="folder of estimators.csv")
     args = p.parse_args(argv)
