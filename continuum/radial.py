@@ -62,7 +62,6 @@ __all__ = [
     "growth_phase",
     "mean_length_profile",
     "ring_radii",
-    "ring_radii_series",
     "mean_length_from_phase",
 ]
 
@@ -508,8 +507,3 @@ def ring_radii(
         r = np.clip(r - res / dG, 0.0, R_end)
     order = np.argsort(r)
     return (r[order], k[order]) if with_index else r[order]
-
-
-def ring_radii_series(lam: float, times: ArrayLike, *, R0: float = R0, **kwargs) -> list[NDArray]:
-    """Ring radii (:func:`ring_radii`) at each of ``times``: one array per time."""
-    return [ring_radii(lam, float(t), R0=R0, **kwargs) for t in np.asarray(times, dtype=float)]

@@ -10,7 +10,6 @@
 - :func:`ring_packing`: a dense, jammed, non-overlapping disc of rods on concentric rings: the
   synthetic states of docs/measurements/contact_solvers.py and of the solver tests, where
   growth along each ring pushes on the next ring out (a 2D-coupled, pressure-like load path);
-- :func:`warm_problem`: from a solved packing, the warm-started problem of the next step.
 """
 
 from __future__ import annotations
@@ -22,15 +21,12 @@ import numpy as np
 from numba import njit
 
 from .config import FILL_LENGTHS, FILL_ORIENTATIONS
-from .geometry import B, detect_contacts, generalised_forces, segments_cross
-from .growth import grow
+from .geometry import B, segments_cross
 from .output import read_init
 from .state import ParticleState
-from .stepping import warm_start
-from .stress import axial_stress
 
 __all__ = ["FILL_LENGTHS", "FILL_ORIENTATIONS", "fill_estimate", "fill_outline", "from_csv", "line",
-           "packing_fractions", "ring_packing", "sample_lengths", "single_cell", "warm_problem"]
+           "packing_fractions", "ring_packing", "sample_lengths", "single_cell"]
 
 #: Lengths waiting for a place in :func:`fill_outline` (the oldest that fits is placed).
 FILL_WINDOW = 8
@@ -180,33 +176,6 @@ def ring_packing(n_target: int, seed: int = 0, gap: float = 1e-3, lmin: float = 
         count += len(lengths)
         r += B + gap * rng.uniform(0.5, 1.5) + (lmax - B) ** 2 / (8.0 * r)
     return np.array(xs), np.array(ys), np.array(ts), np.array(ls)
-
-
-# The state's four arrays, the solved contacts and forces, and the step: positional callers
-# (docs/measurements/contact_solvers.py, tests) pass all nine.
-def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):  # noqa: PLR0913
-    """The warm-started problem of the next step: a contact solver's test problem.
-
-    One engine update with forces gamma (x += dt F / l, theta += dt 12 T / l^3, (F, T) =
-    D gamma; l <- l exp(dt exp(-lam sigma)), sigma = G gamma), the contacts of the new
-    configuration with gap <= margin, and their warm start (the forces gamma of the contacts
-    whose identity persists, 0 for new ones: stepping.warm_start), as the engine does
-    (stepping.step).
-
-    Returns
-    -------
-    (x2, y2, theta2, length2), contacts2, gamma0
-    """
-    n = x.shape[0]
-    ids = np.arange(n, dtype=np.int64)
-    fx, fy, tz = generalised_forces(c, gamma, n)
-    stress = axial_stress(c, gamma, n)
-    x2 = x + dt * fx / length
-    y2 = y + dt * fy / length
-    th2 = theta + dt * 12.0 * tz / length**3
-    l2 = grow(length, stress, lam, dt)
-    c2 = detect_contacts(x2, y2, th2, l2, margin)
-    return (x2, y2, th2, l2), c2, warm_start(c2.keys(ids), c.keys(ids), gamma)
 
 
 # ---------------------------------------------------------------------------- shapes

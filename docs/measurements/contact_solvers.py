@@ -105,12 +105,40 @@ from pathlib import Path
 
 import numpy as np
 
-from particles.geometry import detect_contacts
-from particles.packings import ring_packing, warm_problem
+from particles.geometry import detect_contacts, generalised_forces
+from particles.growth import grow
+from particles.packings import ring_packing
 from particles.solvers.apgd import solve_contacts_apgd
 from particles.solvers.bbpgd import solve_contacts
 from particles.solvers.problem import linearised_gap
+from particles.stepping import warm_start
 from particles.stress import axial_stress
+
+
+def warm_problem(x, y, theta, length, c, gamma, dt, lam, margin):  # noqa: PLR0913
+    """The warm-started problem of the next step: a contact solver's test problem.
+
+    One engine update with forces gamma (x += dt F / l, theta += dt 12 T / l^3, (F, T) =
+    D gamma; l <- l exp(dt exp(-lam sigma)), sigma = G gamma), the contacts of the new
+    configuration with gap <= margin, and their warm start (the forces gamma of the contacts
+    whose identity persists, 0 for new ones: stepping.warm_start), as the engine does
+    (stepping.step).
+
+    Returns
+    -------
+    (x2, y2, theta2, length2), contacts2, gamma0
+    """
+    n = x.shape[0]
+    ids = np.arange(n, dtype=np.int64)
+    fx, fy, tz = generalised_forces(c, gamma, n)
+    stress = axial_stress(c, gamma, n)
+    x2 = x + dt * fx / length
+    y2 = y + dt * fy / length
+    th2 = theta + dt * 12.0 * tz / length**3
+    l2 = grow(length, stress, lam, dt)
+    c2 = detect_contacts(x2, y2, th2, l2, margin)
+    return (x2, y2, th2, l2), c2, warm_start(c2.keys(ids), c.keys(ids), gamma)
+
 
 SOLVERS = {"bbpgd": (solve_contacts, 1), "apgd": (solve_contacts_apgd, 1)}
 """name -> (solver, gradient evaluations per iteration)."""

@@ -14,7 +14,7 @@ import pytest
 
 import particles
 from particles.geometry import detect_contacts, find_contacts, generalised_forces
-from particles.packings import ring_packing, warm_problem
+from particles.packings import ring_packing
 from particles.solvers.apgd import apgd_kernel, lipschitz_bound, solve_contacts_apgd
 from particles.solvers.bbpgd import BLOCK, solve_contacts
 from particles.solvers.problem import (
@@ -25,6 +25,7 @@ from particles.solvers.problem import (
     problem_arrays,
 )
 from particles.stress import axial_stress
+from tests.measurements import measurement
 
 
 def diagonal(c, length, dt):
@@ -79,6 +80,7 @@ def test_warm_start_overlap_removal_and_exact_restart(grown, packing):
     dt, lam, tol = 0.005, 1e-2, 1e-6
     c = detect_contacts(x, y, th, length, 0.1)
     g, _ = solve_contacts(c, length, dt, lam, tol=tol / 10)
+    warm_problem = measurement("contact_solvers").warm_problem
     (x2, y2, th2, l2), c2, g0 = warm_problem(x, y, th, length, c, g, dt, lam, 0.1)
     gw, hw = solve_contacts_apgd(c2, l2, dt, lam, g0, tol)
     assert_kkt(c2, l2, dt, lam, gw, tol)
