@@ -39,6 +39,10 @@ import json
 import math
 import os
 import shutil
+import signal
+import subprocess
+import sys
+import threading
 from collections.abc import Callable, Mapping, Sequence
 from contextlib import contextmanager
 from pathlib import Path
@@ -138,7 +142,10 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
     A ``run_fn`` with the attribute ``stages_itself`` (:func:`run_engine`) is given ``folder``
     itself and stages, records and publishes it (``cases.runs``); given ``max_hours`` (the
     engines' execution setting, not a parameter of the point) it may pause
-    (``cases.rundir.RunPaused``). Returns ``folder``, or None when the run paused.
+    (``cases.rundir.RunPaused``). Returns ``folder``, or None when the run paused. Off the
+    main thread (a dask worker's task) such a run runs in a process of its own
+    (:func:`_run_in_a_process`), so that a stop signal ends it after a whole step with a
+    checkpoint, as on the command line.
     """
     from cases.rundir import RunPaused
 
@@ -147,6 +154,8 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
         return folder
     if getattr(run_fn, "stages_itself", False):  # the engine runs: cases.runs
         extra = {} if max_hours is None else {"max_hours": max_hours}
+        if threading.current_thread() is not threading.main_thread():
+            return _run_in_a_process(run_fn, dict(params) | extra, folder)
         try:
             run_fn(dict(params) | extra, folder)
         except RunPaused:
@@ -162,6 +171,63 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
     stage.rename(folder)
     return folder
 
+
+def _run_in_a_process(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path
+                      ) -> Path | None:
+    """``run_fn(params, folder)`` in a child Python whose main thread can defer stop signals.
+
+    The engines defer SIGINT / SIGTERM / SIGHUP to the end of a step (their ``StopRequest``)
+    only in a main thread, and a dask worker runs its tasks in other threads. The child
+    (``python -m cases.sweep``, the task as JSON on stdin) stops as at SIGTERM when the worker
+    dies (Linux: PR_SET_PDEATHSIG), e.g. at a walltime or when a stopped sweep closes its
+    cluster, and writes its checkpoint before it exits. Returns ``folder``, None when the run
+    paused (exit status ``rundir.PAUSED_STATUS``); any other exit is a RuntimeError with the
+    child's last line of stderr (the error's type and message).
+    """
+    from cases.rundir import PAUSED_STATUS
+
+    task = {"run_fn": f"{run_fn.__module__}:{run_fn.__qualname__}", "params": params,
+            "folder": str(folder), "parent": os.getpid()}
+    child = subprocess.run([sys.executable, "-m", "cases.sweep"], input=json.dumps(task),
+                           capture_output=True, text=True, check=False)
+    if child.returncode == 0:
+        return folder
+    if child.returncode == PAUSED_STATUS:
+        return None
+    lines = child.stderr.strip().splitlines() or [f"exit status {child.returncode}"]
+    raise RuntimeError(f"{folder.name}: {lines[-1]}")
+
+
+def _task(stdin) -> int:
+    """The child of :func:`_run_in_a_process`: one task read from ``stdin``; its exit status."""
+    import ctypes
+    import importlib
+
+    from cases.rundir import PAUSED_STATUS, RunPaused
+
+    def worker_died(signum, frame):  # once: Linux may send it again as the worker's threads end
+        signal.signal(signal.SIGUSR2, signal.SIG_IGN)
+        os.kill(os.getpid(), signal.SIGTERM)
+
+    task = json.load(stdin)
+    if sys.platform.startswith("linux"):  # SIGUSR2 when the worker's thread dies
+        signal.signal(signal.SIGUSR2, worker_died)
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGUSR2)
+    if os.getppid() != task["parent"]:  # the worker died before prctl
+        return 128 + signal.SIGTERM
+    module, name = task["run_fn"].split(":")
+    try:
+        getattr(importlib.import_module(module), name)(task["params"], Path(task["folder"]))
+    except RunPaused:
+        return PAUSED_STATUS
+    except Exception as err:  # noqa: BLE001 (reported to the parent as its last line)
+        print(f"{type(err).__name__}: {err}", file=sys.stderr)
+        return 1
+    return 0
+
+
+PR_SET_PDEATHSIG = 1
+"""prctl(2)'s option: the signal a process gets when the thread that started it ends."""
 
 #: Seconds a scheduler given by address has to answer (:func:`check_scheduler`).
 CONNECT_TIMEOUT = 10.0
@@ -303,6 +369,20 @@ def _client(scheduler: str | None, n_workers: int):
     return Client(cluster), cluster
 
 
+def _exit_on_sigterm():
+    """In the main thread: SIGTERM raises SystemExit(143), so a sweep closes its cluster.
+
+    Returns the previous handler (None off the main thread, where nothing is installed).
+    """
+    if threading.current_thread() is not threading.main_thread():
+        return None
+
+    def stop(signum, frame):
+        raise SystemExit(128 + signum)
+
+    return signal.signal(signal.SIGTERM, stop)
+
+
 def sweep(
     run_fn: Callable[[dict, Path], Any],
     params: Sequence[Mapping[str, Any]],
@@ -352,6 +432,7 @@ def sweep(
     root.mkdir(parents=True, exist_ok=True)
     client, cluster = _client(scheduler, n_workers)
     failures: dict[str, str] = {}
+    previous = _exit_on_sigterm()
     try:
         max_hours = _LEG_HOURS[0] if max_hours is None else max_hours
         points = {f: p for p, f in todo}
@@ -379,7 +460,9 @@ def sweep(
     finally:
         client.close()
         if cluster is not None:
-            cluster.close()
+            cluster.close()  # its workers' engine runs end after a step (_run_in_a_process)
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     if failures:
         raise SweepError(failures)
     return folders
@@ -578,3 +661,7 @@ def compute_case(  # noqa: PLR0913 (case_runs' options and the case's two steps)
     folders = case_runs(case, needed, scale, out, runs, scheduler, n_workers, engines,
                         needs_continuum=needs_continuum, finished_only=finished_only, lams=lams)
     return reduce(folders, out / "data")
+
+
+if __name__ == "__main__":
+    sys.exit(_task(sys.stdin))

@@ -298,3 +298,45 @@ def test_carry_counts_a_continuum_checkpoints_nodes(colony, tmp_path):
         rundir.PAUSED_STATUS
     record = carry.pack(rundir.partial_of(out), tmp_path / "resume")
     assert record["cells"] > 100 and record["step"] == 1
+
+
+def test_a_stopped_sweep_ends_its_runs_after_a_step_with_a_checkpoint(tmp_path):
+    """SIGTERM to a sweep: its runs end after a step with a checkpoint.
+
+    Each run, in a process of its own on its worker, finishes its step, writes its checkpoint
+    and is recorded as stopped (no periodic checkpoint here).
+    """
+    import os
+    import signal
+    import time
+
+    from cases.sweep import run_name
+    from particles.checkpoint import load_checkpoint
+
+    point = {"engine": "particles", "lam": 1e-2, "time": 50.0, "checkpoint_seconds": 1e9,
+             "output_every": 0.02}
+    stage = tmp_path / (run_name(point) + ".partial")
+    script = ("import sys; from cases.sweep import run_engine, sweep; "
+              f"sweep(run_engine, [{point!r}], sys.argv[1], n_workers=1, progress=False)")
+    sweep = subprocess.Popen([sys.executable, "-c", script, str(tmp_path)],
+                             start_new_session=True, stderr=subprocess.PIPE, text=True)
+    try:
+        frames, sizes = stage / "trajectory.gsd", set()
+        while len(sizes) < 3:  # until the run has written frames after its first (steps made)
+            sizes.add(frames.stat().st_size if frames.is_file() else 0)
+            time.sleep(0.05)
+        sweep.send_signal(signal.SIGTERM)
+        assert sweep.wait(timeout=120) == 128 + signal.SIGTERM, sweep.stderr.read()
+        for _ in range(600):  # the run's own process ends after its step
+            record = rundir.read_record(stage)
+            if record is not None and record["status"] != "running":
+                break
+            time.sleep(0.2)
+        assert record["status"] == "stopped"
+        steps = (stage / "history.csv").read_text().count("\n") - 1
+        assert load_checkpoint(stage / "checkpoint.npz").state.step == steps > 0
+    finally:
+        try:
+            os.killpg(sweep.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
