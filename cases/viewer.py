@@ -508,29 +508,3 @@ def render_ovito(path: str | Path, png: str | Path, frame: int = -1,
         pipeline.remove_from_scene()
     return Path(png)
 
-
-def ovito_vs_draw(path: str | Path, png: str | Path, ovito_png: str | Path | None = None,
-                  frame: int = -1, size: int = 480) -> Path:
-    """OVITO's rendering of a trajectory frame beside cases.figures.draw's of the same frame.
-
-    ``ovito_png``: where OVITO's own picture goes (default: beside ``png``, suffix _ovito).
-    Returns ``png``.
-    """
-    from particles.output import count_frames, read_trajectory
-
-    png = Path(png)
-    ovito_png = Path(ovito_png) if ovito_png else png.with_name(png.stem + "_ovito.png")
-    k = frame % count_frames(path)
-    render_ovito(path, ovito_png, frame=k, size=(size, size))
-    (fr,) = read_trajectory(path, frames=[k])
-    fig, (a, b) = plt.subplots(1, 2, figsize=(10, 5.2))
-    a.imshow(plt.imread(ovito_png))
-    a.set_axis_off()
-    a.set_title("OVITO (import_file + colour coding, Tachyon)")
-    draw_particles(fr.x, fr.y, fr.theta, fr.length, ax=b)
-    b.set_title("cases.figures.draw.draw_particles")
-    t = f", t = {fr.t:.3g}" if math.isfinite(fr.t) else ""
-    fig.suptitle(f"same frame (step {fr.step}{t}, N = {fr.n}), coloured by length on [1, 2]")
-    fig.savefig(png, dpi=100, bbox_inches="tight")
-    plt.close(fig)
-    return png

@@ -111,3 +111,21 @@ def test_ovito_render_is_the_rod(tmp_path):
     w, v = np.linalg.eigh(np.cov(xy.T))
     angle = np.arctan2(v[1, -1], v[0, -1]) % np.pi
     assert angle == pytest.approx(theta, abs=0.02)
+
+
+def test_ovito_beside_the_drawing_of_one_frame(tmp_path):
+    """docs/measurements/ovito_vs_draw.py: OVITO's picture of the last frame and the pair."""
+    pytest.importorskip("ovito")
+    from particles.output import append_frame
+    from particles.state import ParticleState
+    from tests.measurements import measurement
+
+    path = tmp_path / "trajectory.gsd"
+    for step, x in enumerate((0.0, 0.5)):
+        colony = ParticleState.from_arrays([x, -x], [0.0, 1.0], [0.3, 1.2], [1.2, 1.9])
+        append_frame(path, colony, step, t=0.1 * step)
+    try:
+        png = measurement("ovito_vs_draw").ovito_vs_draw(path, tmp_path / "pair.png", size=120)
+    except RuntimeError as e:  # no Vulkan loader / driver on this machine
+        pytest.skip(f"OVITO cannot render here: {str(e).splitlines()[0]}")
+    assert _is_png(png) and _is_png(tmp_path / "pair_ovito.png")
