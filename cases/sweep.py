@@ -209,15 +209,20 @@ def _task(stdin) -> int:
         signal.signal(signal.SIGUSR2, signal.SIG_IGN)
         os.kill(os.getpid(), signal.SIGTERM)
 
-    task = json.load(stdin)
+    try:
+        task = json.load(stdin)
+        module, name = task["run_fn"].split(":")
+        parent, params, folder = int(task["parent"]), dict(task["params"]), Path(task["folder"])
+    except (ValueError, KeyError, TypeError, AttributeError) as err:
+        print(f"cases.sweep: not a task of a sweep's worker ({err})", file=sys.stderr)
+        return 2
     if sys.platform.startswith("linux"):  # SIGUSR2 when the worker's thread dies
         signal.signal(signal.SIGUSR2, worker_died)
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGUSR2)
-    if os.getppid() != task["parent"]:  # the worker died before prctl
+    if os.getppid() != parent:  # the worker died before prctl
         return 128 + signal.SIGTERM
-    module, name = task["run_fn"].split(":")
     try:
-        getattr(importlib.import_module(module), name)(task["params"], Path(task["folder"]))
+        getattr(importlib.import_module(module), name)(params, folder)
     except RunPaused:
         return PAUSED_STATUS
     except Exception as err:  # noqa: BLE001 (reported to the parent as its last line)
@@ -663,5 +668,8 @@ def compute_case(  # noqa: PLR0913 (case_runs' options and the case's two steps)
     return reduce(folders, out / "data")
 
 
-if __name__ == "__main__":
+if __name__ == "__main__":  # a sweep's worker starts one run (_run_in_a_process)
+    if sys.stdin.isatty():
+        sys.exit("python -m cases.sweep runs one task of a sweep, given as JSON on stdin by its "
+                 "worker; sweeps start from cases.sweep.sweep or colony case")
     sys.exit(_task(sys.stdin))

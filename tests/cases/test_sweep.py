@@ -50,6 +50,32 @@ def test_run_one_stages_resumes_and_skips(tmp_path):
     assert (folder / "result.json").stat().st_mtime_ns == stamp
 
 
+def test_a_workers_run_reports_its_error_in_one_line(tmp_path):
+    """Off the main thread an engine run is a child Python: its error comes back as one line."""
+    import subprocess
+    import sys
+    import threading
+
+    from cases.sweep import run_engine
+
+    errors = []
+
+    def worker():
+        try:
+            run_one(run_engine, {"engine": "particles", "lam": -1.0, "time": 1.0},
+                    tmp_path / "bad")
+        except RuntimeError as err:
+            errors.append(str(err))
+
+    thread = threading.Thread(target=worker)
+    thread.start()
+    thread.join()
+    assert errors == ["bad: ValueError: lam must be a finite number >= 0 for particles, got -1.0"]
+    child = subprocess.run([sys.executable, "-m", "cases.sweep"], input="{}", text=True,
+                           capture_output=True)
+    assert child.returncode == 2 and child.stderr.count("\n") == 1, child.stderr
+
+
 def test_sweep_local_cluster_then_resume_on_existing_scheduler(tmp_path):
     from dask.distributed import LocalCluster
 
