@@ -143,7 +143,7 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
     itself and stages, records and publishes it (``cases.runs``); given ``max_hours`` (the
     engines' execution setting, not a parameter of the point) it may pause
     (``cases.rundir.RunPaused``). Returns ``folder``, or None when the run paused. Off the
-    main thread (a dask worker's task) such a run runs in a process of its own
+    main thread (a dask worker's task) on Linux such a run runs in a process of its own
     (:func:`_run_in_a_process`), so that a stop signal ends it after a whole step with a
     checkpoint, as on the command line.
     """
@@ -154,7 +154,7 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
         return folder
     if getattr(run_fn, "stages_itself", False):  # the engine runs: cases.runs
         extra = {} if max_hours is None else {"max_hours": max_hours}
-        if threading.current_thread() is not threading.main_thread():
+        if LINUX and threading.current_thread() is not threading.main_thread():
             return _run_in_a_process(run_fn, dict(params) | extra, folder)
         try:
             run_fn(dict(params) | extra, folder)
@@ -216,9 +216,8 @@ def _task(stdin) -> int:
     except (ValueError, KeyError, TypeError, AttributeError) as err:
         print(f"cases.sweep: not a task of a sweep's worker ({err})", file=sys.stderr)
         return 2
-    if sys.platform.startswith("linux"):  # SIGUSR2 when the worker's thread dies
-        signal.signal(signal.SIGUSR2, worker_died)
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGUSR2)
+    signal.signal(signal.SIGUSR2, worker_died)  # when the worker's thread ends
+    ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGUSR2)
     if os.getppid() != parent:  # the worker died before prctl
         return 128 + signal.SIGTERM
     try:
@@ -233,6 +232,10 @@ def _task(stdin) -> int:
 
 PR_SET_PDEATHSIG = 1
 """prctl(2)'s option: the signal a process gets when the thread that started it ends."""
+
+LINUX = sys.platform.startswith("linux")
+"""Where a sweep's engine runs are child processes told of their worker's end (prctl(2)):
+elsewhere a child would outlive a killed worker, so the run stays in the worker's thread."""
 
 #: Seconds a scheduler given by address has to answer (:func:`check_scheduler`).
 CONNECT_TIMEOUT = 10.0
