@@ -143,7 +143,7 @@ def run_one(run_fn: Callable[[dict, Path], Any], params: dict, folder: Path,
     itself and stages, records and publishes it (``cases.runs``); given ``max_hours`` (the
     engines' execution setting, not a parameter of the point) it may pause
     (``cases.rundir.RunPaused``). Returns ``folder``, or None when the run paused. Off the
-    main thread (a dask worker's task) on Linux such a run runs in a process of its own
+    main thread (a dask worker's task) on Linux such a run runs in its thread's child Python
     (:func:`_run_in_a_process`), so that a stop signal ends it after a whole step with a
     checkpoint, as on the command line.
     """
@@ -177,56 +177,82 @@ def _run_in_a_process(run_fn: Callable[[dict, Path], Any], params: dict, folder:
     """``run_fn(params, folder)`` in a child Python whose main thread can defer stop signals.
 
     The engines defer SIGINT / SIGTERM / SIGHUP to the end of a step (their ``StopRequest``)
-    only in a main thread, and a dask worker runs its tasks in other threads. The child
-    (``python -m cases.sweep``, the task as JSON on stdin) stops as at SIGTERM when the worker
-    dies (Linux: PR_SET_PDEATHSIG), e.g. at a walltime or when a stopped sweep closes its
-    cluster, and writes its checkpoint before it exits. Returns ``folder``, None when the run
-    paused (exit status ``rundir.PAUSED_STATUS``); any other exit is a RuntimeError with the
-    child's last line of stderr (the error's type and message).
+    only in a main thread, and a dask worker runs its tasks in other threads. So each worker
+    thread keeps one child (``python -m cases.sweep``, started on its first task, its imports
+    paid once) that runs its tasks one at a time: each task a JSON line on the child's stdin,
+    its outcome a JSON line back on a pipe of its own. The child stops as at SIGTERM when its
+    worker thread ends (PR_SET_PDEATHSIG), e.g. at a walltime or when a stopped sweep closes its
+    cluster: a run finishes its step and writes its checkpoint. Returns ``folder``, None when
+    the run paused; a run's error is a RuntimeError with its type and message, in one line.
     """
-    from cases.rundir import PAUSED_STATUS
-
+    child = getattr(_CHILD, "process", None)
+    if child is None:
+        child = _CHILD.process = _start_child()
     task = {"run_fn": f"{run_fn.__module__}:{run_fn.__qualname__}", "params": params,
-            "folder": str(folder), "parent": os.getpid()}
-    child = subprocess.run([sys.executable, "-m", "cases.sweep"], input=json.dumps(task),
-                           capture_output=True, text=True, check=False)
-    if child.returncode == 0:
-        return folder
-    if child.returncode == PAUSED_STATUS:
-        return None
-    lines = child.stderr.strip().splitlines() or [f"exit status {child.returncode}"]
-    raise RuntimeError(f"{folder.name}: {lines[-1]}")
+            "folder": str(folder)}
+    try:
+        child.stdin.write(json.dumps(task) + "\n")
+        child.stdin.flush()
+        line = child.outcomes.readline()
+    except BrokenPipeError:
+        line = ""
+    if not line:  # the child ended: a stop signal, or a crash (the next task starts another)
+        _CHILD.process = None
+        child.outcomes.close()
+        raise RuntimeError(f"{folder.name}: its process ended with exit status {child.wait()}")
+    outcome = json.loads(line)
+    if outcome["error"] is not None:
+        raise RuntimeError(f"{folder.name}: {outcome['error']}")
+    return None if outcome["paused"] else folder
 
 
-def _task(stdin) -> int:
-    """The child of :func:`_run_in_a_process`: one task read from ``stdin``; its exit status."""
+_CHILD = threading.local()
+"""The child process of each worker thread (:func:`_run_in_a_process`)."""
+
+
+def _start_child() -> subprocess.Popen:
+    """``python -m cases.sweep FD PID``: a child that runs tasks, its outcomes on pipe ``FD``."""
+    read, write = os.pipe()
+    child = subprocess.Popen([sys.executable, "-m", "cases.sweep", str(write), str(os.getpid())],
+                             stdin=subprocess.PIPE, pass_fds=(write,), text=True)
+    os.close(write)
+    child.outcomes = os.fdopen(read)
+    return child
+
+
+def _serve(outcomes_fd: int, parent: int) -> int:
+    """The child of :func:`_run_in_a_process`: its tasks, one per line of stdin, in turn.
+
+    Returns its exit status when stdin ends; a stop signal during a run ends it after the
+    run's checkpoint (SystemExit from the engine), one while it waits ends it at once.
+    """
     import ctypes
     import importlib
 
-    from cases.rundir import PAUSED_STATUS, RunPaused
+    from cases.rundir import RunPaused
 
     def worker_died(signum, frame):  # once: Linux may send it again as the worker's threads end
         signal.signal(signal.SIGUSR2, signal.SIG_IGN)
         os.kill(os.getpid(), signal.SIGTERM)
 
-    try:
-        task = json.load(stdin)
-        module, name = task["run_fn"].split(":")
-        parent, params, folder = int(task["parent"]), dict(task["params"]), Path(task["folder"])
-    except (ValueError, KeyError, TypeError, AttributeError) as err:
-        print(f"cases.sweep: not a task of a sweep's worker ({err})", file=sys.stderr)
-        return 2
     signal.signal(signal.SIGUSR2, worker_died)  # when the worker's thread ends
     ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGUSR2)
     if os.getppid() != parent:  # the worker died before prctl
         return 128 + signal.SIGTERM
-    try:
-        getattr(importlib.import_module(module), name)(params, folder)
-    except RunPaused:
-        return PAUSED_STATUS
-    except Exception as err:  # noqa: BLE001 (reported to the parent as its last line)
-        print(f"{type(err).__name__}: {err}", file=sys.stderr)
-        return 1
+    with os.fdopen(outcomes_fd, "w") as outcomes:
+        for line in sys.stdin:
+            task = json.loads(line)
+            module, name = task["run_fn"].split(":")
+            paused, error = False, None
+            try:
+                getattr(importlib.import_module(module), name)(task["params"],
+                                                                Path(task["folder"]))
+            except RunPaused:
+                paused = True
+            except Exception as err:  # noqa: BLE001 (reported to the worker in one line)
+                error = f"{type(err).__name__}: {err}".splitlines()[0]
+            outcomes.write(json.dumps({"paused": paused, "error": error}) + "\n")
+            outcomes.flush()
     return 0
 
 
@@ -671,8 +697,11 @@ def compute_case(  # noqa: PLR0913 (case_runs' options and the case's two steps)
     return reduce(folders, out / "data")
 
 
-if __name__ == "__main__":  # a sweep's worker starts one run (_run_in_a_process)
-    if sys.stdin.isatty():
-        sys.exit("python -m cases.sweep runs one task of a sweep, given as JSON on stdin by its "
-                 "worker; sweeps start from cases.sweep.sweep or colony case")
-    sys.exit(_task(sys.stdin))
+if __name__ == "__main__":  # a sweep's worker thread starts its child (_run_in_a_process)
+    try:
+        fd, parent = (int(arg) for arg in sys.argv[1:])
+    except ValueError:
+        print("python -m cases.sweep FD PID is the child a sweep's worker starts for its runs; "
+              "sweeps start from cases.sweep.sweep or colony case", file=sys.stderr)
+        sys.exit(2)
+    sys.exit(_serve(fd, parent))

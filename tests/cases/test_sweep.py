@@ -50,29 +50,43 @@ def test_run_one_stages_resumes_and_skips(tmp_path):
     assert (folder / "result.json").stat().st_mtime_ns == stamp
 
 
-def test_a_workers_run_reports_its_error_in_one_line(tmp_path):
-    """Off the main thread an engine run is a child Python: its error comes back as one line."""
+def crashing_run(params, folder):
+    """A run whose process dies without a word."""
+    os._exit(3)
+
+
+crashing_run.stages_itself = True
+
+
+def test_a_workers_runs_report_in_one_line_and_a_crash_costs_one_run(tmp_path):
+    """Off the main thread engine runs go to the thread's child Python.
+
+    An error comes back as one line; a dead child fails its own run only and the thread's
+    next run starts another.
+    """
     import subprocess
     import sys
     import threading
 
     from cases.sweep import run_engine
 
+    bad = {"engine": "particles", "lam": -1.0, "time": 1.0}
     errors = []
 
     def worker():
-        try:
-            run_one(run_engine, {"engine": "particles", "lam": -1.0, "time": 1.0},
-                    tmp_path / "bad")
-        except RuntimeError as err:
-            errors.append(str(err))
+        for run_fn, name in ((run_engine, "bad"), (crashing_run, "crash"), (run_engine, "bad2")):
+            try:
+                run_one(run_fn, bad, tmp_path / name)
+            except RuntimeError as err:
+                errors.append(str(err))
 
     thread = threading.Thread(target=worker)
     thread.start()
     thread.join()
-    assert errors == ["bad: ValueError: lam must be a finite number >= 0 for particles, got -1.0"]
-    child = subprocess.run([sys.executable, "-m", "cases.sweep"], input="{}", text=True,
-                           capture_output=True)
+    error = "ValueError: lam must be a finite number >= 0 for particles, got -1.0"
+    assert errors == [f"bad: {error}", "crash: its process ended with exit status 3",
+                      f"bad2: {error}"]
+    child = subprocess.run([sys.executable, "-m", "cases.sweep"], text=True, capture_output=True)
     assert child.returncode == 2 and child.stderr.count("\n") == 1, child.stderr
 
 
