@@ -39,9 +39,7 @@ import importlib
 import logging
 import math
 import os
-import signal
 import sys
-import threading
 import time
 import tomllib
 from pathlib import Path
@@ -55,6 +53,7 @@ from cases.rundir import (
     is_no_space,
     no_space_message,
     partial_of,
+    stop_signals_exit,
 )
 from cases.runs import CHECKPOINTS, ENGINES
 from cases.sweep import check_scheduler, check_workers, legs, select_lams
@@ -630,15 +629,6 @@ def run_commands(module, scale: str, runs: Path, lams=None) -> str:
     return "".join(line + "\n" for line in lines)
 
 
-def _terminate(signum, frame):
-    raise SystemExit(128 + signum)
-
-
-#: Signals that stop a run like Ctrl-C: checkpoint, status stopped, exit 128 + signal number
-#: (SIGHUP: a closed terminal or ssh session).
-STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
-
-
 def _stage_of(args) -> Path | None:
     """The stage folder of a run command (None for other commands or unusable --out)."""
     out = getattr(args, "out", None)
@@ -673,14 +663,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser().parse_args(_joined(sys.argv[1:] if argv is None else list(argv)))
     args.started = started
     configure_logging(getattr(args, "quiet", False), getattr(args, "verbose", False))
-    main_thread = threading.current_thread() is threading.main_thread()
-    previous = ({sig: signal.signal(sig, _terminate) for sig in STOP_SIGNALS} if main_thread
-                else {})
-    try:
+    with stop_signals_exit():
         return _report(args)
-    finally:
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
 
 
 def _report(args) -> int:

@@ -58,6 +58,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from contextlib import ExitStack, contextmanager
 from dataclasses import asdict
@@ -87,6 +88,31 @@ class RunFolderError(ValueError):
 
 class FolderInUseError(RunFolderError):
     """A run folder another process holds (:func:`hold`)."""
+
+
+#: Signals that stop a run like Ctrl-C: checkpoint, status stopped, exit 128 + signal number
+#: (SIGHUP: a closed terminal or ssh session).
+STOP_SIGNALS = (signal.SIGTERM, signal.SIGHUP)
+
+
+@contextmanager
+def stop_signals_exit():
+    """In the main thread, STOP_SIGNALS raise SystemExit(128 + signal), as Ctrl-C does.
+
+    So ``finally`` blocks run (a run's record, a sweep's cluster); elsewhere nothing is
+    installed. The previous handlers come back on leaving.
+    """
+
+    def stop(signum, frame):
+        raise SystemExit(128 + signum)
+
+    previous = ({sig: signal.signal(sig, stop) for sig in STOP_SIGNALS}
+                if threading.current_thread() is threading.main_thread() else {})
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
 
 
 PAUSED_STATUS = 75

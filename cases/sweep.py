@@ -49,6 +49,7 @@ from pathlib import Path
 from typing import Any
 
 from cases import runs
+from cases.rundir import stop_signals_exit
 
 __all__ = ["SweepError", "run_name", "initial_config", "is_done", "run_one", "sweep", "DONE",
            "run_engine", "engine_runs", "finished_runs", "case_runs", "compute_case",
@@ -403,20 +404,6 @@ def _client(scheduler: str | None, n_workers: int):
     return Client(cluster), cluster
 
 
-def _exit_on_sigterm():
-    """In the main thread: SIGTERM raises SystemExit(143), so a sweep closes its cluster.
-
-    Returns the previous handler (None off the main thread, where nothing is installed).
-    """
-    if threading.current_thread() is not threading.main_thread():
-        return None
-
-    def stop(signum, frame):
-        raise SystemExit(128 + signum)
-
-    return signal.signal(signal.SIGTERM, stop)
-
-
 def sweep(
     run_fn: Callable[[dict, Path], Any],
     params: Sequence[Mapping[str, Any]],
@@ -466,37 +453,35 @@ def sweep(
     root.mkdir(parents=True, exist_ok=True)
     client, cluster = _client(scheduler, n_workers)
     failures: dict[str, str] = {}
-    previous = _exit_on_sigterm()
-    try:
-        max_hours = _LEG_HOURS[0] if max_hours is None else max_hours
-        points = {f: p for p, f in todo}
-        legs = dict.fromkeys(points, 1)
+    with stop_signals_exit():  # SIGTERM, SIGHUP: the finally below closes the cluster
+        try:
+            max_hours = _LEG_HOURS[0] if max_hours is None else max_hours
+            points = {f: p for p, f in todo}
+            legs = dict.fromkeys(points, 1)
 
-        def submit(folder):
-            return client.submit(run_one, run_fn, points[folder], folder, max_hours,
-                                 key=f"run-{folder.name}-leg{legs[folder]}", pure=False)
+            def submit(folder):
+                return client.submit(run_one, run_fn, points[folder], folder, max_hours,
+                                     key=f"run-{folder.name}-leg{legs[folder]}", pure=False)
 
-        futures = {submit(f): f for f in points}
-        bar = tqdm(total=len(folders), initial=len(folders) - len(todo), desc="sweep",
-                   disable=None if progress is None else not progress)
-        running = as_completed(futures)
-        for fut in running:
-            folder = futures.pop(fut)
-            if fut.status == "error":
-                failures[folder.name] = repr(fut.exception())
-            elif fut.result() is None:  # paused at max_hours: its next leg
-                legs[folder] += 1
-                futures[new := submit(folder)] = folder
-                running.add(new)
-                continue
-            bar.update(1)
-        bar.close()
-    finally:
-        client.close()
-        if cluster is not None:
-            cluster.close()  # its workers' engine runs end after a step (_run_in_a_process)
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+            futures = {submit(f): f for f in points}
+            bar = tqdm(total=len(folders), initial=len(folders) - len(todo), desc="sweep",
+                       disable=None if progress is None else not progress)
+            running = as_completed(futures)
+            for fut in running:
+                folder = futures.pop(fut)
+                if fut.status == "error":
+                    failures[folder.name] = repr(fut.exception())
+                elif fut.result() is None:  # paused at max_hours: its next leg
+                    legs[folder] += 1
+                    futures[new := submit(folder)] = folder
+                    running.add(new)
+                    continue
+                bar.update(1)
+            bar.close()
+        finally:
+            client.close()
+            if cluster is not None:
+                cluster.close()  # its workers' engine runs end after a step (_run_in_a_process)
     if failures:
         raise SweepError(failures)
     return folders
