@@ -10,9 +10,12 @@ checkpoint is verified when packed).
     python -m cases.carry unpack FOLDER DIR           # makes DIR.partial; then the run's command
 
 ``pack`` replaces FOLDER as a whole (written beside it, then renamed) and adds ``carry.json``:
-each file's bytes and sha256, the cells and step of the checkpoint, and its bytes per cell;
-``unpack`` checks those digests before it creates ``DIR.partial``, and refuses a ``DIR`` or
-``DIR.partial`` that exists.
+each file's bytes and sha256, the cells and step of the checkpoint, and its bytes per cell.
+The checkpoint is stored xz-compressed (``checkpoint.npz.xz``: 0.58 of its bytes at 243,629
+cells, against 0.66 for git's own zlib), since a colony's states stay in the repository's
+history. ``unpack`` restores each file, checks its digest before it creates ``DIR.partial``,
+and refuses a ``DIR`` or ``DIR.partial`` that exists; it also reads the folders of earlier
+versions, which stored the checkpoint as it is.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
+import lzma
 import os
 import shutil
 from pathlib import Path
@@ -32,6 +36,8 @@ from cases.rundir import partial_of
 RESUME_FILES = ("run.json", "config.json", "history.csv", "checkpoint.npz")
 #: The record ``pack`` adds to the folder.
 CARRY = "carry.json"
+#: The files ``pack`` stores compressed, under their name with this suffix.
+COMPRESSED = {"checkpoint.npz": ".xz"}
 
 
 def _sha256(path: Path) -> str:
@@ -67,11 +73,21 @@ def pack(stage: str | os.PathLike, folder: str | os.PathLike) -> dict:
     tmp.mkdir(parents=True)
     files = {}
     for name in RESUME_FILES:
-        shutil.copyfile(stage / name, tmp / name)
-        files[name] = {"bytes": (tmp / name).stat().st_size, "sha256": _sha256(tmp / name)}
+        files[name] = {"bytes": (stage / name).stat().st_size, "sha256": _sha256(stage / name)}
+        stored = name + COMPRESSED.get(name, "")
+        if stored == name:
+            shutil.copyfile(stage / name, tmp / name)
+        else:
+            with open(stage / name, "rb") as src, lzma.open(tmp / stored, "wb", preset=9) as dst:
+                shutil.copyfileobj(src, dst, 1 << 20)
+            files[name]["stored"] = stored
+            files[name]["stored_bytes"] = (tmp / stored).stat().st_size
+    if _sha256(stage / "checkpoint.npz") != files["checkpoint.npz"]["sha256"]:
+        raise ValueError(f"{stage / 'checkpoint.npz'} changed while packed: is its run going?")
+    checkpoint = files["checkpoint.npz"]
     record = {"cells": cells, "step": step, "files": files,
-              "checkpoint_bytes_per_cell": round(files["checkpoint.npz"]["bytes"]
-                                                 / max(cells, 1), 1)}
+              "checkpoint_bytes_per_cell": round(checkpoint["bytes"] / max(cells, 1), 1),
+              "stored_bytes_per_cell": round(checkpoint["stored_bytes"] / max(cells, 1), 1)}
     (tmp / CARRY).write_text(json.dumps(record, indent=2) + "\n")
     if folder.exists():
         shutil.rmtree(folder)
@@ -83,9 +99,6 @@ def unpack(folder: str | os.PathLike, out: str | os.PathLike) -> Path:
     """Make ``out.partial`` from a packed resume state (digests checked); returns it."""
     folder, out = Path(folder), Path(out)
     record = json.loads((folder / CARRY).read_text())
-    for name, expected in record["files"].items():
-        if _sha256(folder / name) != expected["sha256"]:
-            raise ValueError(f"{folder / name} differs from what {CARRY} recorded")
     partial = partial_of(out)
     for existing in (out, partial):
         if existing.exists():
@@ -93,8 +106,22 @@ def unpack(folder: str | os.PathLike, out: str | os.PathLike) -> Path:
     tmp = partial.with_name(partial.name + ".tmp")
     shutil.rmtree(tmp, ignore_errors=True)
     tmp.mkdir(parents=True)
-    for name in record["files"]:
-        shutil.copyfile(folder / name, tmp / name)
+    try:
+        for name, expected in record["files"].items():
+            stored = folder / expected.get("stored", name)
+            if stored.name == name:
+                shutil.copyfile(stored, tmp / name)
+            else:
+                with lzma.open(stored, "rb") as src, open(tmp / name, "wb") as dst:
+                    shutil.copyfileobj(src, dst, 1 << 20)
+            if _sha256(tmp / name) != expected["sha256"]:
+                raise ValueError(f"{stored} differs from what {CARRY} recorded")
+    except (lzma.LZMAError, EOFError) as error:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise ValueError(f"{folder}: a compressed file does not decompress ({error})") from None
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
     tmp.rename(partial)
     return partial
 
@@ -113,7 +140,8 @@ def main(argv: list[str] | None = None) -> None:
     if args.command == "pack":
         record = pack(args.stage, args.folder)
         print(f"{args.folder}: {record['cells']:,} cells at step {record['step']}, checkpoint "
-              f"{record['checkpoint_bytes_per_cell']} bytes per cell")
+              f"{record['checkpoint_bytes_per_cell']} bytes per cell "
+              f"({record['stored_bytes_per_cell']} stored)")
     else:
         print(f"{unpack(args.folder, args.out)}: give the run's command to resume it")
 

@@ -252,15 +252,52 @@ def test_a_paused_run_carried_without_its_trajectory_resumes(colony, tmp_path):
     record = carry.pack(rundir.partial_of(here), tmp_path / "repo" / "resume")
     assert record["cells"] >= 1 and record["step"] == 4
     assert sorted(p.name for p in (tmp_path / "repo" / "resume").iterdir()) == sorted(
-        [*carry.RESUME_FILES, carry.CARRY])
+        [*(name + carry.COMPRESSED.get(name, "") for name in carry.RESUME_FILES), carry.CARRY])
     there = tmp_path / "there" / "run"
     carry.unpack(tmp_path / "repo" / "resume", there)
+    for name in carry.RESUME_FILES:
+        assert (rundir.partial_of(there) / name).read_bytes() == \
+            (rundir.partial_of(here) / name).read_bytes(), name
     assert colony(*args, "--out", str(there))[0] == 0
     one, carried = files(tmp_path / "one"), files(there)
     for name in ("history.csv", "particles.csv", "profile.csv"):
         assert carried[Path(name)] == one[Path(name)], name
     with pytest.raises(ValueError, match="exists; move it away first"):
         carry.unpack(tmp_path / "repo" / "resume", there)
+
+
+def test_carry_reads_an_uncompressed_state_and_refuses_a_damaged_one(tmp_path):
+    """Old folders (the checkpoint stored as it is) unpack; a damaged one is refused.
+
+    The refusal is one line, and nothing is left behind.
+    """
+    from cases import carry
+
+    stage = tmp_path / "run.partial"
+    stage.mkdir()
+    np.savez(stage / "checkpoint.npz", meta=json.dumps({"step": 7}), x=np.arange(5.0))
+    for name in ("run.json", "config.json", "history.csv"):
+        (stage / name).write_text(name)
+    record = carry.pack(stage, tmp_path / "new")
+    assert (record["cells"], record["step"]) == (5, 7)
+    old = tmp_path / "old"  # the layout of earlier versions: every file as it is
+    old.mkdir()
+    for name in carry.RESUME_FILES:
+        (old / name).write_bytes((stage / name).read_bytes())
+        record["files"][name].pop("stored", None)
+    (old / carry.CARRY).write_text(json.dumps(record))
+    for folder in ("new", "old"):
+        out = carry.unpack(tmp_path / folder, tmp_path / f"{folder}-run")
+        assert (out / "checkpoint.npz").read_bytes() == (stage / "checkpoint.npz").read_bytes()
+    stored = tmp_path / "new" / "checkpoint.npz.xz"
+    stored.write_bytes(stored.read_bytes()[:-40])
+    with pytest.raises(ValueError, match="does not decompress"):
+        carry.unpack(tmp_path / "new", tmp_path / "again")
+    (old / "history.csv").write_text("edited")
+    with pytest.raises(ValueError, match="differs from what carry.json recorded"):
+        carry.unpack(old, tmp_path / "again")
+    assert not (tmp_path / "again.partial").exists()
+    assert not (tmp_path / "again.partial.tmp").exists()
 
 
 def test_a_stage_holding_only_a_torn_run_json_is_ours(tmp_path):
