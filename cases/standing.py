@@ -7,7 +7,7 @@ colony's wall as R^3.5-3.9). The projection takes that law from the run's own hi
   most of a step) or the mesh nodes (continuum), summed into C(x) over the steps, x the goal's
   variable (radius or t);
 - the exponent a of C ~ x^a, least squares on the steps with x >= x_now / 2
-  (:func:`cases.analysis.power_law_fit`, as ``cases.bench.cost_growth`` fits the wall);
+  (:func:`cases.analysis.power_law_fit`, as ``docs/measurements/cost_growth.py`` fits the wall);
 - the wall to the goal: W_spent (C(x_goal) / C(x_now) - 1), C(x_goal) = C(x_now)
   (x_goal / x_now)^a: the wall spent per unit of work so far, at the work still to do.
 

@@ -260,7 +260,7 @@ def test_bench_contact_solvers_small(tmp_path):
 
 def test_bench_cost_growth_fits_a_power_law(tmp_path, capsys):
     """Progress lines on W = 2 (R/10)^3.5, N = 4 R^2: the fitted exponents and the projection."""
-    from cases.bench import cost_growth
+    cost_growth = measurement("cost_growth")
     run = tmp_path / "run"
     data = Path(__file__).parents[2] / "cases" / "data" / "particles_paper"
     shutil.copytree(data / "lam=0.001", run)

@@ -1,4 +1,4 @@
-"""cases.studies.ensemble_paper: seed bands at radius 150 from recorded colonies."""
+"""docs/measurements/ensemble_paper.py: seed bands at radius 150 from recorded colonies."""
 
 from __future__ import annotations
 
@@ -10,8 +10,10 @@ import numpy as np
 import pytest
 
 from cases import analysis as A
-from cases.studies import ensemble_paper
 from continuum import radial
+from tests.measurements import measurement
+
+ensemble_paper = measurement("ensemble_paper")
 
 LAM = 0.01
 

@@ -1,4 +1,4 @@
-"""cases.records (the small data of big runs) and a hand-grown run taken by the sweep as its own."""
+"""docs/measurements/records.py (small data of big runs); a hand-grown run taken by a sweep."""
 
 from __future__ import annotations
 
@@ -9,8 +9,10 @@ import numpy as np
 import pytest
 
 from cases import analysis as A
-from cases import records
 from cases.sweep import finished_runs, initial_config, is_done, run_name
+from tests.measurements import measurement
+
+records = measurement("records")
 
 
 def fake_run(folder, **config):
@@ -143,8 +145,8 @@ def test_summary_and_table_of_recorded_runs(tmp_path):
 
 
 def test_packaged_readme_holds_the_table_of_its_recorded_runs():
-    """cases/data/particles_paper/README.md quotes `python -m cases.records --table`."""
-    data = Path(records.__file__).parent / "data" / "particles_paper"
+    """cases/data/particles_paper/README.md quotes `records.py --table`."""
+    data = Path(__file__).resolve().parents[2] / "cases" / "data" / "particles_paper"
     readme = (data / "README.md").read_text()
     rows = records.table(data).splitlines()[2:]
     assert rows

@@ -1,4 +1,4 @@
-"""cases.studies.stability_radius: the reduction and fits, the R sweep at smoke size.
+"""docs/measurements/stability_radius.py: the reduction and fits, the R sweep at smoke size.
 
 On constructed rates, at smoke size, and the committed data.
 """
@@ -11,8 +11,10 @@ import pytest
 
 import cases
 from cases import analysis as A
-from cases.studies import stability_radius as SR
+from tests.measurements import measurement
 from tests.pictures import assert_figures
+
+SR = measurement("stability_radius")
 
 DATA = Path(cases.__file__).parent / "data" / "stability"
 

@@ -2,10 +2,10 @@
 
 Issue 33 (goal 3) asks how the cost of a colony grows with R from 40 to 150 to 260, against the
 largest published run of the model (a C++/PETSc code: 24 h on 112 cores, wall time growing as
-R^5).  From recorded runs (folders of ``cases.records``: ``progress.log``, ``time.txt``,
-``config.json``) the script reads the once-a-minute progress lines (:func:`cases.analysis.
-progress_lines`: radius, particles, wall seconds, a resumed run's clock continued) and gives,
-per run:
+R^5). From recorded runs (folders of ``docs/measurements/records.py``: ``progress.log``,
+``time.txt``, ``config.json``) the script reads the once-a-minute progress lines
+(:func:`cases.analysis.progress_lines`: radius, particles, wall seconds, a resumed run's clock
+continued) and gives, per run:
 
 - the wall seconds at each of ``--radii`` (linear in R between the progress lines and the end:
   the history's last radius at the ``time -v`` reports' wall, when that is later than the last
@@ -20,7 +20,7 @@ A projection is not a measurement: the exponent is fitted where the run was meas
 assumed to hold beyond it.  Runs on a shared machine (the ensemble seeds beside other jobs) run
 slower and their exponents carry the load of the other jobs; compare the runs grown alone.
 
-    python -m cases.bench.cost_growth --runs cases/data/particles_paper/lam=*
+    python docs/measurements/cost_growth.py --runs cases/data/particles_paper/lam=*
            [--radii 50 75 100 150] [--fit 75 150] [--target 260]
 """
 
@@ -29,12 +29,15 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
 
 from cases import analysis as A
-from cases.records import summary
+
+sys.path.insert(0, str(Path(__file__).parent))
+from records import summary  # noqa: E402
 
 #: The largest published run of the model (issue 33): wall hours, cores, wall exponent in R.
 PUBLISHED = {"radius": 260, "wall_h": 24.0, "cores": 112, "exponent": 5.0}
@@ -103,7 +106,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
         ap.error(f"--target must be > 0, got {args.target:g}")
     for run in args.runs:
         if not (Path(run) / "progress.log").is_file():
-            ap.error(f"{run}: no progress.log (not a run recorded with cases.records)")
+            ap.error(f"{run}: no progress.log (not a run recorded with records.py)")
     try:
         rows = [growth(r, args.radii, tuple(args.fit), args.target) for r in args.runs]
     except ValueError as e:

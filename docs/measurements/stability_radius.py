@@ -28,7 +28,8 @@ EPS = 0.15; t_end = 1). Output in ``out/data``: ``radius_rates.csv`` (one row pe
 ``radius_ratios.csv`` (per fill, K, R), ``radius_fit.csv`` (per fill, K) and, from
 :func:`plot`, ``radius_study.png``.
 
-    python -m cases.studies.stability_radius --scale medium --out runs/stability-radius --workers 1
+    python docs/measurements/stability_radius.py --scale medium --out runs/stability-radius \
+        --workers 1
 """
 
 from __future__ import annotations
@@ -44,8 +45,8 @@ from cases import analysis as A
 from cases.studies.stability import _slope, theory_rate
 from particles.packings import FILL_ORIENTATIONS
 
-__all__ = ["RADIUS_SCALES", "boundary_rods", "outline", "mode_series", "run_and_measure",
-           "radius_study", "reduce_ratios", "fit_ratios", "plot", "main"]
+__all__ = ["RADIUS_SCALES", "boundary_rods", "outline", "mode_series", "radius_study",
+           "reduce_ratios", "fit_ratios", "plot", "main"]
 
 RADIUS_SCALES = {
     "smoke": dict(radii=(4.0, 5.0), ks=(3,), seeds=(1,), fills=("tangent",), eps=0.2,
@@ -145,17 +146,6 @@ def mode_series(folder: str | Path, K: int, max_frames: int = MAX_FRAMES) -> dic
     return series
 
 
-def run_and_measure(params: dict, folder: Path) -> None:
-    """cases.sweep.run_engine, then the run's mode series (:func:`mode_series`) in its folder."""
-    from cases.sweep import run_engine
-
-    run_engine(params, folder)
-    mode_series(folder, int(params["shape"].split(":")[1].split(",")[0]))
-
-
-run_and_measure.stages_itself = True  # cases.sweep.run_one: run_engine stages the folder
-
-
 def radius_study(  # noqa: PLR0913
     radii: Sequence[float], ks: Sequence[int], seeds: Sequence[int],
                  fills: Sequence[str], out: str | Path, runs: str | Path | None = None,
@@ -168,12 +158,12 @@ def radius_study(  # noqa: PLR0913
 
     The particle runs (cases.sweep.run_engine through cases.sweep.sweep, one folder each under
     ``runs``, default ``out/runs``; finished runs are reused) are those of the particle stage of
-    cases.studies.stability with the star's R varied, each followed by its mode series
-    (:func:`run_and_measure`). Runs are submitted smallest radius first and seed by seed within
-    a radius; ``finished_only`` reduces the runs already finished and runs nothing (a stopped
-    sweep's data).
+    cases.studies.stability with the star's R varied; each run's mode series
+    (:func:`mode_series`) is measured here and cached in its folder. Runs are submitted smallest
+    radius first and seed by seed within a radius; ``finished_only`` reduces the runs already
+    finished and runs nothing (a stopped sweep's data).
     """
-    from cases.sweep import is_done, run_name, sweep
+    from cases.sweep import is_done, run_engine, run_name, sweep
 
     bad = [f for f in fills if f not in FILL_ORIENTATIONS]
     if bad:
@@ -188,7 +178,7 @@ def radius_study(  # noqa: PLR0913
         params = [p for p in params if is_done(runs / run_name(p), p)]
         folders = [runs / run_name(p) for p in params]
     else:
-        folders = sweep(run_and_measure, params, runs, scheduler=scheduler,
+        folders = sweep(run_engine, params, runs, scheduler=scheduler,
                         n_workers=n_workers, progress=False)
     rows: dict[str, list] = {k: [] for k in RATE_COLS}
     theory: dict[tuple[int, float], float] = {}
@@ -387,7 +377,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
 
 def main(argv: Sequence[str] | None = None) -> Path:
     """Command line: run a scale of :data:`RADIUS_SCALES`, or redraw from ``--from-data``."""
-    ap = argparse.ArgumentParser(prog="python -m cases.studies.stability_radius",
+    ap = argparse.ArgumentParser(prog="python docs/measurements/stability_radius.py",
                                  description=__doc__.split("\n")[0])
     ap.add_argument("--scale", choices=sorted(RADIUS_SCALES), default="smoke")
     ap.add_argument("--out", default="runs/stability-radius")

@@ -2,12 +2,11 @@
 
 A paper-scale particle colony takes about an hour, so its seeds are grown one by one
 (``cases/data/ensemble_paper/README.md``) and only their records are kept
-(:mod:`cases.records`: thinned history, final and pooled profiles). This module reduces the
-records of every seed S of a lam, seed 0 being the figures' own colony (its pooled profile
-``cases/data/fig3_paper/profile_particles_lam=LAM.csv`` and history
+(``docs/measurements/records.py``: thinned history, final and pooled profiles). This script
+reduces the records of every seed S of a lam, seed 0 being the figures' own colony (its pooled
+profile ``cases/data/fig3_paper/profile_particles_lam=LAM.csv`` and history
 ``cases/data/particles_paper/lam=LAM/history.csv``), to the ensemble's files that the paper
-figures draw as bands (:func:`cases.datasets.ensemble_data` finds them beside
-``fig3_paper``):
+figures draw as bands (:func:`cases.datasets.ensemble_data` finds them beside ``fig3_paper``):
 
 - ``profile_lam=LAM.csv``: the seeds' pooled stress and mean-length profiles on the common
   equal-area annuli of radius 150, mean and spread (:func:`cases.analysis.seed_spread`);
@@ -19,7 +18,7 @@ figures draw as bands (:func:`cases.datasets.ensemble_data` finds them beside
   one division period (:func:`cases.studies.ensemble.mean_stress_ratio`): the stress offset
   of the particles over the continuum, with its 95 % t-interval over the seeds.
 
-Run ``python -m cases.studies.ensemble_paper`` (seconds); it prints the table of
+Run ``python docs/measurements/ensemble_paper.py`` (seconds); it prints the table of
 docs/results.md. Only lam with at least two seeds are reduced.
 """
 
@@ -37,7 +36,7 @@ from continuum import radial
 
 __all__ = ["seed_records", "reduce", "markdown_table", "main"]
 
-DATA = Path(__file__).resolve().parents[1] / "data"
+DATA = Path(__file__).resolve().parents[2] / "cases" / "data"
 RADIUS = 150.0
 #: Per-seed quantities of ``seeds.csv``, reduced over the seeds in ``summary.csv``.
 QUANTITIES = ("t_at_radius", "t_final", "slope", "central_max", "central_fit", "rel_central_fit",
@@ -129,8 +128,8 @@ def markdown_table(out: Path) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    """``python -m cases.studies.ensemble_paper [--data D] [--out O]``: reduce, print the table."""
-    p = argparse.ArgumentParser(prog="python -m cases.studies.ensemble_paper",
+    """``python docs/measurements/ensemble_paper.py [--data D] [--out O]``: reduce, print."""
+    p = argparse.ArgumentParser(prog="python docs/measurements/ensemble_paper.py",
                                 description=__doc__.split("\n\n")[0])
     p.add_argument("--data", type=Path, default=DATA, help="cases/data (default: the package's)")
     p.add_argument("--out", type=Path, default=None,

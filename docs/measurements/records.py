@@ -21,10 +21,10 @@ it as finished when its ``run.json`` says so and its configuration is the sweep'
 
 Command line::
 
-    python -m cases.records RUN [--data cases/data/particles_paper] [--time-log LOG]
+    python docs/measurements/records.py RUN [--data cases/data/particles_paper] [--time-log LOG]
         [--log PROGRESS_LOG]
-    python -m cases.records --table [--data cases/data/particles_paper]
-    python -m cases.records --compare OLD NEW [OLD NEW ...]
+    python docs/measurements/records.py --table [--data cases/data/particles_paper]
+    python docs/measurements/records.py --compare OLD NEW [OLD NEW ...]
 
 Nothing is written when a check fails (a one-line error, exit status 2).
 """
@@ -122,7 +122,7 @@ def summary(dest: str | Path) -> dict:
     """
     dest = Path(dest)
     if not (dest / "work.csv").is_file():
-        raise ValueError(f"{dest}: no work.csv (not recorded with cases.records)")
+        raise ValueError(f"{dest}: no work.csv (not recorded with docs/measurements/records.py)")
     work = A.read_csv(dest / "work.csv")
     n_min = list(work["min_particles"])
     if len(set(n_min)) != len(n_min):
@@ -234,7 +234,7 @@ def compare_table(pairs: list[tuple[Path, Path]]) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    p = argparse.ArgumentParser(prog="python -m cases.records",
+    p = argparse.ArgumentParser(prog="python docs/measurements/records.py",
                                 description=__doc__.split("\n\n")[0])
     p.add_argument("run", type=Path, nargs="?",
                    help="finished run folder (colony particles --out) to record")
