@@ -95,6 +95,7 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
 
 TIME_FIELDS = {"wall": r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)",
                "user": r"User time \(seconds\): (\S+)",
+               "system": r"System time \(seconds\): (\S+)",
                "peak_kb": r"Maximum resident set size \(kbytes\): (\d+)"}
 """What :func:`summary` reads from each ``/usr/bin/time -v`` report of ``time.txt``."""
 

@@ -199,3 +199,43 @@ def test_record_of_a_run_with_frames_keeps_the_pooled_profile(particle_run, tmp_
     assert set(pooled) == set(expected)
     for k, v in expected.items():
         np.testing.assert_allclose(pooled[k], v, rtol=1e-7)
+
+
+# ------------------------------------------------- the radius-260 colony's tables (colony_260)
+
+
+def test_colony_260_tables_on_exact_data(tmp_path):
+    """docs/measurements/colony_260.py on constructed data with known answers.
+
+    Progress lines on W = 3 (R/10)^4, N = 5 R^2: the wall and cells at each radius and a = 4;
+    a particle history equal to the continuum's R(t): no time offset; a pooled profile of
+    1.1 times the continuum's pressure: +10 % in every band and at the centre.
+    """
+    colony = measurement("colony_260")
+    radii = np.arange(45.0, 240.0, 1.0)
+    progress = tmp_path / "progress.log"
+    progress.write_text("".join(
+        f"colony: radius {r:.2f} of 260, t = 1, {5 * r * r:.0f} particles, step {k + 1}, "
+        f"dt 0.001, {3 * (r / 10) ** 4:.0f} s\n" for k, r in enumerate(radii)))
+    rows = colony.cost_rows(A.progress_lines(progress), radii=(40.0, 100.0, 200.0, 260.0))
+    assert rows[0] == ["40", "", "", ""] and rows[3] == ["260", "", "", ""]
+    assert rows[1][1:3] == ["30,000", "50,000"] and rows[2][1:] == ["480,000", "200,000", "4.00"]
+    report = ("\tUser time (seconds): 3000.5\n\tSystem time (seconds): 599.5\n"
+              "\tElapsed (wall clock) time (h:mm:ss or m:ss): 1:00:00\n"
+              "\tMaximum resident set size (kbytes): 900000\n")
+    assert colony.time_totals(report * 2) == {"reports": 2, "wall_s": 7200.0, "cpu_s": 7200.0,
+                                              "peak_mb": 900.0}
+
+    continuum = A.read_csv(colony.DATA / "continuum_lam=0.001" / "history.csv")
+    history = {"t": continuum["t"], "radius": continuum["radius"],
+               "mean_stress": np.ones_like(continuum["t"])}
+    growth = colony.growth_rows(history, continuum, radii=(100.0, 200.0))
+    assert [row[3] for row in growth] == ["+0.00 %", "+0.00 %"]
+
+    cprof = A.read_csv(colony.DATA / "continuum_lam=0.001" / "profile.csv")
+    profile = {"r": cprof["r"], "stress": 1.1 * cprof["pressure"],
+               "count": np.full(cprof["r"].size, 10.0)}
+    assert [row[2] for row in colony.profile_rows(profile, cprof, 260.0)] == ["+10.0 %"] * 4
+    central = colony.central_stress(profile, cprof, 260.0)
+    assert central["particles"] == pytest.approx(1.1 * central["continuum"], rel=1e-12)
+    assert central["continuum"] == pytest.approx(cprof["pressure"][0], rel=1e-2)
