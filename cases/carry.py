@@ -10,7 +10,9 @@ checkpoint is verified when packed).
     python -m cases.carry unpack FOLDER DIR           # makes DIR.partial; then the run's command
 
 ``pack`` replaces FOLDER as a whole (written beside it, then renamed) and adds ``carry.json``:
-each file's bytes and sha256, the cells and step of the checkpoint, and its bytes per cell.
+each file's bytes and sha256 (and, for a file stored compressed, its ``stored`` name and
+``stored_bytes``), the cells and step of the checkpoint, and its bytes per cell as it is and as
+stored (``checkpoint_bytes_per_cell``, ``stored_bytes_per_cell``).
 The checkpoint is stored xz-compressed (``checkpoint.npz.xz``: 0.58 of its bytes at 243,629
 cells, against 0.66 for git's own zlib), since a colony's states stay in the repository's
 history. ``unpack`` restores each file, checks its digest before it creates ``DIR.partial``,
@@ -30,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from cases.rundir import partial_of
+from cases.rundir import hold, partial_of
 
 #: What a stopped run needs to resume, from its stage folder.
 RESUME_FILES = ("run.json", "config.json", "history.csv", "checkpoint.npz")
@@ -60,35 +62,56 @@ def checkpoint_size(path: Path) -> tuple[int, int]:
     return cells, int(step)
 
 
+def _store(source: Path, target: Path, compressed: bool) -> dict:
+    """Copy ``source`` to ``target`` (xz when ``compressed``); bytes and sha256 of what was read."""
+    digest, size = hashlib.sha256(), 0
+    with open(source, "rb") as src, (lzma.open(target, "wb", preset=9) if compressed
+                                     else open(target, "wb")) as dst:
+        for block in iter(lambda: src.read(1 << 20), b""):
+            digest.update(block)
+            size += len(block)
+            dst.write(block)
+    return {"bytes": size, "sha256": digest.hexdigest()}
+
+
 def pack(stage: str | os.PathLike, folder: str | os.PathLike) -> dict:
-    """Copy the resume state of ``stage`` into ``folder`` (replaced whole); its carry.json."""
+    """Copy the resume state of ``stage`` into ``folder`` (replaced whole); its carry.json.
+
+    The stage is held (:func:`cases.rundir.hold`) while it is read, so the stage of a run still
+    going (or still writing its last checkpoint after a stop) is refused in one line; each
+    file's digest is of the bytes stored, and the stage's files are checked against them after.
+    """
     stage, folder = Path(stage), Path(folder)
     missing = [name for name in RESUME_FILES if not (stage / name).is_file()]
     if missing:
         raise ValueError(f"{stage} is not a stopped run's stage: no {', '.join(missing)}")
-    cells, step = checkpoint_size(stage / "checkpoint.npz")
     tmp = folder.with_name(folder.name + ".tmp")
-    if tmp.exists():
-        shutil.rmtree(tmp)
-    tmp.mkdir(parents=True)
-    files = {}
-    for name in RESUME_FILES:
-        files[name] = {"bytes": (stage / name).stat().st_size, "sha256": _sha256(stage / name)}
-        stored = name + COMPRESSED.get(name, "")
-        if stored == name:
-            shutil.copyfile(stage / name, tmp / name)
-        else:
-            with open(stage / name, "rb") as src, lzma.open(tmp / stored, "wb", preset=9) as dst:
-                shutil.copyfileobj(src, dst, 1 << 20)
-            files[name]["stored"] = stored
-            files[name]["stored_bytes"] = (tmp / stored).stat().st_size
-    if _sha256(stage / "checkpoint.npz") != files["checkpoint.npz"]["sha256"]:
-        raise ValueError(f"{stage / 'checkpoint.npz'} changed while packed: is its run going?")
-    checkpoint = files["checkpoint.npz"]
-    record = {"cells": cells, "step": step, "files": files,
-              "checkpoint_bytes_per_cell": round(checkpoint["bytes"] / max(cells, 1), 1),
-              "stored_bytes_per_cell": round(checkpoint["stored_bytes"] / max(cells, 1), 1)}
-    (tmp / CARRY).write_text(json.dumps(record, indent=2) + "\n")
+    with hold(stage):
+        cells, step = checkpoint_size(stage / "checkpoint.npz")
+        if tmp.exists():
+            shutil.rmtree(tmp)
+        tmp.mkdir(parents=True)
+        try:
+            files = {}
+            for name in RESUME_FILES:
+                stored = name + COMPRESSED.get(name, "")
+                files[name] = _store(stage / name, tmp / stored, stored != name)
+                if stored != name:
+                    files[name] |= {"stored": stored,
+                                    "stored_bytes": (tmp / stored).stat().st_size}
+            changed = [name for name in RESUME_FILES
+                       if _sha256(stage / name) != files[name]["sha256"]]
+            if changed:
+                raise ValueError(f"{stage}: {', '.join(changed)} changed while packed")
+            checkpoint = files["checkpoint.npz"]
+            record = {"cells": cells, "step": step, "files": files,
+                      "checkpoint_bytes_per_cell": round(checkpoint["bytes"] / max(cells, 1), 1),
+                      "stored_bytes_per_cell": round(checkpoint["stored_bytes"] / max(cells, 1),
+                                                     1)}
+            (tmp / CARRY).write_text(json.dumps(record, indent=2) + "\n")
+        except BaseException:
+            shutil.rmtree(tmp, ignore_errors=True)
+            raise
     if folder.exists():
         shutil.rmtree(folder)
     tmp.rename(folder)
@@ -109,16 +132,21 @@ def unpack(folder: str | os.PathLike, out: str | os.PathLike) -> Path:
     try:
         for name, expected in record["files"].items():
             stored = folder / expected.get("stored", name)
+            allowed = {name, name + COMPRESSED.get(name, "")}
+            if name not in RESUME_FILES or stored.name not in allowed:
+                raise ValueError(f"{folder / CARRY} names {stored.name}, not a resume file")
+            if not stored.is_file():
+                raise ValueError(f"{folder}: no {stored.name}, which {CARRY} names")
             if stored.name == name:
                 shutil.copyfile(stored, tmp / name)
             else:
-                with lzma.open(stored, "rb") as src, open(tmp / name, "wb") as dst:
-                    shutil.copyfileobj(src, dst, 1 << 20)
+                try:
+                    with lzma.open(stored, "rb") as src, open(tmp / name, "wb") as dst:
+                        shutil.copyfileobj(src, dst, 1 << 20)
+                except (lzma.LZMAError, EOFError) as error:
+                    raise ValueError(f"{stored} does not decompress ({error})") from None
             if _sha256(tmp / name) != expected["sha256"]:
                 raise ValueError(f"{stored} differs from what {CARRY} recorded")
-    except (lzma.LZMAError, EOFError) as error:
-        shutil.rmtree(tmp, ignore_errors=True)
-        raise ValueError(f"{folder}: a compressed file does not decompress ({error})") from None
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
@@ -137,13 +165,19 @@ def main(argv: list[str] | None = None) -> None:
     b.add_argument("folder")
     b.add_argument("out")
     args = p.parse_args(argv)
+    try:
+        if args.command == "pack":
+            record = pack(args.stage, args.folder)
+        else:
+            partial = unpack(args.folder, args.out)
+    except (ValueError, OSError) as error:
+        p.exit(2, f"{p.prog}: error: {error}\n")
     if args.command == "pack":
-        record = pack(args.stage, args.folder)
         print(f"{args.folder}: {record['cells']:,} cells at step {record['step']}, checkpoint "
               f"{record['checkpoint_bytes_per_cell']} bytes per cell "
               f"({record['stored_bytes_per_cell']} stored)")
     else:
-        print(f"{unpack(args.folder, args.out)}: give the run's command to resume it")
+        print(f"{partial}: give the run's command to resume it")
 
 
 if __name__ == "__main__":

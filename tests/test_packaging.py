@@ -81,8 +81,11 @@ def test_the_wheel_ships_the_library_not_the_measurements():
     assert any(fnmatch("cases.bench", pattern) for pattern in include)
     assert not any(fnmatch(name, pattern) for name in ("docs", "docs.measurements")
                    for pattern in include)
-    kept = {"__init__", "continuum", "particles", "cost_growth"}
+    kept = {"__init__", "continuum", "particles"}
     assert {p.stem for p in (ROOT / "cases" / "bench").glob("*.py")} == kept
+    for moved in ("records", "cost_growth", "ensemble_paper", "stability_radius"):
+        assert not list((ROOT / "cases").rglob(f"{moved}.py")), moved
+        assert (ROOT / "docs" / "measurements" / f"{moved}.py").is_file(), moved
     measurements = ROOT / "docs" / "measurements"
     assert {"contact_solvers", "timestep", "elements", "handoff"} <= {
         p.stem for p in measurements.glob("*.py")}

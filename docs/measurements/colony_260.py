@@ -22,9 +22,10 @@ Reads committed data only (``cases/data/colony_260``) and prints four markdown t
    interpolated at the particle annuli's radii).
 
     python docs/measurements/colony_260.py [--particles cases/data/colony_260/particles_lam=0.001]
-        [--history H] [--rings CSV] [--progress LOG] [--time TIME]
+        [--history H] [--rings CSV] [--progress LOG] [--time TIME] [--continuum DIR]
 
-``--history`` takes a stage's ``history.csv`` while the colony still grows (then no profile).
+``--history`` takes a stage's ``history.csv`` while the colony still grows (then no profile,
+and the rings default to ``particles_rings_so_far.csv``).
 """
 
 from __future__ import annotations
@@ -39,13 +40,16 @@ import numpy as np
 from cases import analysis as A
 from cases.studies.ensemble import history_growth
 
-sys.path.insert(0, str(Path(__file__).parent))
+if str(Path(__file__).parent) not in sys.path:  # the sibling scripts, also when imported
+    sys.path.insert(0, str(Path(__file__).parent))
 from cost_growth import PUBLISHED  # noqa: E402
-from records import TIME_FIELDS, _seconds  # noqa: E402
+from records import TIME_FIELDS, clock_seconds  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "cases" / "data" / "colony_260"
 LAM = 1e-3
 RADII = (40.0, 50.0, 75.0, 100.0, 150.0, 200.0, 235.0, 260.0)
+#: How far (in radius) a trajectory frame may be from a table's radius to stand for it.
+NEAR = 2.5
 #: Bands of r / R in which the stress profiles are compared.
 BANDS = ((0.0, 0.25), (0.25, 0.5), (0.5, 0.75), (0.75, 0.9))
 
@@ -78,7 +82,7 @@ def time_totals(text: str) -> dict[str, float]:
     ``text``: ``/usr/bin/time -v`` reports one after the other.
     """
     found = {k: re.findall(pattern, text) for k, pattern in TIME_FIELDS.items()}
-    return {"reports": len(found["wall"]), "wall_s": sum(map(_seconds, found["wall"])),
+    return {"reports": len(found["wall"]), "wall_s": sum(map(clock_seconds, found["wall"])),
             "cpu_s": sum(map(float, found["user"] + found["system"])),
             "peak_mb": max(map(int, found["peak_kb"]), default=0) / 1000}
 
@@ -95,14 +99,17 @@ def growth_rows(history: dict, continuum: dict, radii=RADII) -> list[list[str]]:
 
 
 def ring_rows(rings: dict, radii=RADII) -> list[list[str]]:
-    """The frame nearest each radius with a wavelength: its radius, wavelength, 1D reference."""
+    """The frame nearest each radius with a wavelength: its radius, wavelength, 1D reference.
+
+    Radii with no such frame within ``NEAR`` are left out.
+    """
     ok = np.isfinite(rings["wavelength"])
     R, w = rings["radius"][ok], rings["wavelength"][ok]
     rows = []
     for r in radii:
-        if R.size == 0 or not R.min() - 2.5 <= r <= R.max() + 2.5:
+        i = int(np.argmin(np.abs(R - r))) if R.size else -1
+        if i < 0 or abs(R[i] - r) > NEAR:
             continue
-        i = int(np.argmin(np.abs(R - r)))
         rows.append([f"{r:g}", f"{R[i]:.1f}", f"{w[i]:.2f}",
                      f"{A.exact_wavelength(LAM, float(R[i])):.2f}"])
     return rows
@@ -135,7 +142,8 @@ def central_stress(profile: dict, continuum: dict, radius: float) -> dict[str, f
 
 def main(argv: list[str] | None = None) -> str:
     """Print the tables of the module docstring; returns them."""
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap = argparse.ArgumentParser(prog="python docs/measurements/colony_260.py",
+                                 description=__doc__.split("\n")[0])
     ap.add_argument("--particles", type=Path, default=DATA / "particles_lam=0.001")
     ap.add_argument("--history", type=Path, default=None)
     ap.add_argument("--rings", type=Path, default=None)
@@ -144,7 +152,8 @@ def main(argv: list[str] | None = None) -> str:
     ap.add_argument("--continuum", type=Path, default=DATA / "continuum_lam=0.001")
     args = ap.parse_args(argv)
     history_path = args.history or args.particles / "history.csv"
-    rings_path = args.rings or args.particles / "rings.csv"
+    rings_path = args.rings or (DATA / "particles_rings_so_far.csv" if args.history
+                                else args.particles / "rings.csv")
     for path in (history_path, rings_path, args.progress, args.time,
                  args.continuum / "history.csv", args.continuum / "profile.csv",
                  args.continuum / "rings.csv"):

@@ -36,7 +36,8 @@ import numpy as np
 
 from cases import analysis as A
 
-sys.path.insert(0, str(Path(__file__).parent))
+if str(Path(__file__).parent) not in sys.path:  # the sibling scripts, also when imported
+    sys.path.insert(0, str(Path(__file__).parent))
 from records import summary  # noqa: E402
 
 #: The largest published run of the model (issue 33): wall hours, cores, wall exponent in R.
@@ -94,7 +95,8 @@ def table(rows: list[dict], radii: list[float]) -> str:
 
 def main(argv: list[str] | None = None) -> list[dict]:
     """Print the table of the module docstring; returns its rows."""
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap = argparse.ArgumentParser(prog="python docs/measurements/cost_growth.py",
+                                 description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", nargs="+", required=True, help="recorded run folders")
     ap.add_argument("--radii", nargs="+", type=float, default=[50.0, 75.0, 100.0, 150.0])
     ap.add_argument("--fit", nargs=2, type=float, default=[75.0, 150.0])

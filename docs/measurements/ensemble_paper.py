@@ -131,7 +131,7 @@ def main(argv: list[str] | None = None) -> int:
     """``python docs/measurements/ensemble_paper.py [--data D] [--out O]``: reduce, print."""
     p = argparse.ArgumentParser(prog="python docs/measurements/ensemble_paper.py",
                                 description=__doc__.split("\n\n")[0])
-    p.add_argument("--data", type=Path, default=DATA, help="cases/data (default: the package's)")
+    p.add_argument("--data", type=Path, default=DATA, help="cases/data (default: the checkout's)")
     p.add_argument("--out", type=Path, default=None,
                    help="folder of the ensemble files (default DATA/ensemble_paper)")
     args = p.parse_args(argv)

@@ -36,7 +36,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).parent))
+if str(Path(__file__).parent) not in sys.path:  # the sibling scripts, also when imported
+    sys.path.insert(0, str(Path(__file__).parent))
 from second_order import Problem, log  # noqa: E402
 
 from particles import Simulation  # noqa: E402

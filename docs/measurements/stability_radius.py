@@ -159,9 +159,10 @@ def radius_study(  # noqa: PLR0913
     The particle runs (cases.sweep.run_engine through cases.sweep.sweep, one folder each under
     ``runs``, default ``out/runs``; finished runs are reused) are those of the particle stage of
     cases.studies.stability with the star's R varied; each run's mode series
-    (:func:`mode_series`) is measured here and cached in its folder. Runs are submitted smallest
-    radius first and seed by seed within a radius; ``finished_only`` reduces the runs already
-    finished and runs nothing (a stopped sweep's data).
+    (:func:`mode_series`) is measured here, one run after the other, and cached in its folder
+    (a script's own function cannot be sent to the sweep's worker processes). Runs are
+    submitted smallest radius first and seed by seed within a radius; ``finished_only`` reduces
+    the runs already finished and runs nothing (a stopped sweep's data).
     """
     from cases.sweep import is_done, run_engine, run_name, sweep
 

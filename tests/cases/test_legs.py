@@ -266,11 +266,13 @@ def test_a_paused_run_carried_without_its_trajectory_resumes(colony, tmp_path):
         carry.unpack(tmp_path / "repo" / "resume", there)
 
 
-def test_carry_reads_an_uncompressed_state_and_refuses_a_damaged_one(tmp_path):
+def test_carry_reads_an_uncompressed_state_and_refuses_a_damaged_one(tmp_path, capsys):
     """Old folders (the checkpoint stored as it is) unpack; a damaged one is refused.
 
-    The refusal is one line, and nothing is left behind.
+    The refusal is one line, and nothing is left behind; so is packing a held stage.
     """
+    import hashlib
+
     from cases import carry
 
     stage = tmp_path / "run.partial"
@@ -278,24 +280,38 @@ def test_carry_reads_an_uncompressed_state_and_refuses_a_damaged_one(tmp_path):
     np.savez(stage / "checkpoint.npz", meta=json.dumps({"step": 7}), x=np.arange(5.0))
     for name in ("run.json", "config.json", "history.csv"):
         (stage / name).write_text(name)
+    with rundir.hold(stage), pytest.raises(rundir.FolderInUseError, match="is in use by"):
+        carry.pack(stage, tmp_path / "new")
+    assert not (tmp_path / "new").exists() and not (tmp_path / "new.tmp").exists()
     record = carry.pack(stage, tmp_path / "new")
     assert (record["cells"], record["step"]) == (5, 7)
-    old = tmp_path / "old"  # the layout of earlier versions: every file as it is
+    assert record["files"]["checkpoint.npz"]["stored"] == "checkpoint.npz.xz"
+    old = tmp_path / "old"  # a folder packed before the checkpoint was compressed
     old.mkdir()
+    files = {}
     for name in carry.RESUME_FILES:
-        (old / name).write_bytes((stage / name).read_bytes())
-        record["files"][name].pop("stored", None)
-    (old / carry.CARRY).write_text(json.dumps(record))
+        data = (stage / name).read_bytes()
+        (old / name).write_bytes(data)
+        files[name] = {"bytes": len(data), "sha256": hashlib.sha256(data).hexdigest()}
+    (old / carry.CARRY).write_text(json.dumps({"cells": 5, "step": 7, "files": files,
+                                               "checkpoint_bytes_per_cell": 1.0}))
     for folder in ("new", "old"):
         out = carry.unpack(tmp_path / folder, tmp_path / f"{folder}-run")
-        assert (out / "checkpoint.npz").read_bytes() == (stage / "checkpoint.npz").read_bytes()
+        for name in carry.RESUME_FILES:
+            assert (out / name).read_bytes() == (stage / name).read_bytes(), (folder, name)
     stored = tmp_path / "new" / "checkpoint.npz.xz"
     stored.write_bytes(stored.read_bytes()[:-40])
-    with pytest.raises(ValueError, match="does not decompress"):
+    with pytest.raises(ValueError, match="checkpoint.npz.xz does not decompress"):
         carry.unpack(tmp_path / "new", tmp_path / "again")
     (old / "history.csv").write_text("edited")
-    with pytest.raises(ValueError, match="differs from what carry.json recorded"):
+    with pytest.raises(ValueError, match="history.csv differs from what carry.json recorded"):
         carry.unpack(old, tmp_path / "again")
+    (old / "history.csv").unlink()
+    with pytest.raises(SystemExit) as exit_:
+        carry.main(["unpack", str(old), str(tmp_path / "again")])
+    err = capsys.readouterr().err
+    assert exit_.value.code == 2 and err.count("\n") == 1
+    assert err.startswith("python -m cases.carry: error: ") and "no history.csv, which" in err
     assert not (tmp_path / "again.partial").exists()
     assert not (tmp_path / "again.partial.tmp").exists()
 

@@ -204,12 +204,13 @@ def test_record_of_a_run_with_frames_keeps_the_pooled_profile(particle_run, tmp_
 # ------------------------------------------------- the radius-260 colony's tables (colony_260)
 
 
-def test_colony_260_tables_on_exact_data(tmp_path):
+def test_colony_260_tables_on_exact_data(tmp_path, capsys):
     """docs/measurements/colony_260.py on constructed data with known answers.
 
     Progress lines on W = 3 (R/10)^4, N = 5 R^2: the wall and cells at each radius and a = 4;
-    a particle history equal to the continuum's R(t): no time offset; a pooled profile of
-    1.1 times the continuum's pressure: +10 % in every band and at the centre.
+    a particle history on the continuum's R(t) with 1.05 times its mean pressure: no time
+    offset, +5 % mean stress; rings 20 apart; a pooled profile of (1 + r/R) times the
+    continuum's pressure: the bands' pooled ratios and +0 % at the centre by one estimator.
     """
     colony = measurement("colony_260")
     radii = np.arange(45.0, 240.0, 1.0)
@@ -219,23 +220,53 @@ def test_colony_260_tables_on_exact_data(tmp_path):
         f"dt 0.001, {3 * (r / 10) ** 4:.0f} s\n" for k, r in enumerate(radii)))
     rows = colony.cost_rows(A.progress_lines(progress), radii=(40.0, 100.0, 200.0, 260.0))
     assert rows[0] == ["40", "", "", ""] and rows[3] == ["260", "", "", ""]
-    assert rows[1][1:3] == ["30,000", "50,000"] and rows[2][1:] == ["480,000", "200,000", "4.00"]
+    assert rows[1] == ["100", "30,000", "50,000", "4.00"]  # fitted on R = 45 ... 100
+    assert rows[2] == ["200", "480,000", "200,000", "4.00"]
     report = ("\tUser time (seconds): 3000.5\n\tSystem time (seconds): 599.5\n"
               "\tElapsed (wall clock) time (h:mm:ss or m:ss): 1:00:00\n"
               "\tMaximum resident set size (kbytes): 900000\n")
     assert colony.time_totals(report * 2) == {"reports": 2, "wall_s": 7200.0, "cpu_s": 7200.0,
                                               "peak_mb": 900.0}
 
+    from cases.studies.ensemble import mean_stress_ratio
     continuum = A.read_csv(colony.DATA / "continuum_lam=0.001" / "history.csv")
     history = {"t": continuum["t"], "radius": continuum["radius"],
                "mean_stress": np.ones_like(continuum["t"])}
+    history["mean_stress"] = 1.05 / mean_stress_ratio(history, colony.LAM)["now"]
     growth = colony.growth_rows(history, continuum, radii=(100.0, 200.0))
-    assert [row[3] for row in growth] == ["+0.00 %", "+0.00 %"]
+    assert [row[3:] for row in growth] == [["+0.00 %", "+5.0 %"]] * 2
+
+    rings = {"radius": np.array([99.0, 150.0, 201.0]), "wavelength": np.array([20.0, np.nan,
+                                                                                 21.0])}
+    assert colony.ring_rows(rings, radii=(50.0, 100.0, 150.0, 200.0)) == [  # none near 50, 150
+        ["100", "99.0", "20.00", f"{A.exact_wavelength(1e-3, 99.0):.2f}"],
+        ["200", "201.0", "21.00", f"{A.exact_wavelength(1e-3, 201.0):.2f}"]]
 
     cprof = A.read_csv(colony.DATA / "continuum_lam=0.001" / "profile.csv")
-    profile = {"r": cprof["r"], "stress": 1.1 * cprof["pressure"],
+    factor = 1 + cprof["r"] / 260.0
+    profile = {"r": cprof["r"], "stress": factor * cprof["pressure"],
                "count": np.full(cprof["r"].size, 10.0)}
-    assert [row[2] for row in colony.profile_rows(profile, cprof, 260.0)] == ["+10.0 %"] * 4
-    central = colony.central_stress(profile, cprof, 260.0)
+    expected = []
+    for lo, hi in colony.BANDS:
+        sel = (cprof["r"] >= lo * 260) & (cprof["r"] < hi * 260)
+        ratio = np.sum(factor[sel] * cprof["pressure"][sel]) / np.sum(cprof["pressure"][sel])
+        assert lo < ratio - 1 < hi
+        expected.append(f"{100 * (ratio - 1):+.1f} %")
+    assert [row[2] for row in colony.profile_rows(profile, cprof, 260.0)] == expected
+    flat = dict(profile, stress=1.1 * cprof["pressure"])
+    central = colony.central_stress(flat, cprof, 260.0)
     assert central["particles"] == pytest.approx(1.1 * central["continuum"], rel=1e-12)
     assert central["continuum"] == pytest.approx(cprof["pressure"][0], rel=1e-2)
+
+    record = tmp_path / "record"  # the whole script on a record folder of these pieces
+    record.mkdir()
+    A.write_csv(record / "history.csv", history | {
+        "step": np.arange(history["t"].size), "n_particles": np.full(history["t"].size, 9)})
+    A.write_csv(record / "rings.csv", rings)
+    A.write_csv(record / "profile_pooled.csv", flat)
+    (tmp_path / "time.txt").write_text(report)
+    text = colony.main(["--particles", str(record), "--progress", str(progress),
+                        "--time", str(tmp_path / "time.txt")])
+    assert "| 200 | 480,000 | 200,000 | 4.00 |" in text and "1.00 CPU h" in text
+    assert "continuum" in text and "+10.0 %." in text and "| 0-0.25 |" in text
+    capsys.readouterr()
