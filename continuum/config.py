@@ -22,7 +22,7 @@ from continuum.radial import R0
 from continuum.sizes import INITIAL_SIZES, TRANSPORTS
 from continuum.strains import as_strains, parse_layout
 
-__all__ = ["Config", "config_fields"]
+__all__ = ["Config"]
 
 
 def _number(v) -> bool:
@@ -241,9 +241,3 @@ class Config:
         a polygon. ``line:N`` (particles only) is refused.
         """
         return shapes.outline(self.shape, radius=self.initial_radius)
-
-
-
-def config_fields() -> list[str]:
-    """Names of the Config fields (for the command line)."""
-    return [f.name for f in fields(Config)]

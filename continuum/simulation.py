@@ -53,7 +53,7 @@ import numpy as np
 
 from continuum import checkpoint, mesh
 from continuum.budget import check_memory
-from continuum.config import Config, config_fields  # noqa: F401 (older imports)
+from continuum.config import Config  # noqa: F401 (older imports)
 from continuum.darcy import darcy_flow
 from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
@@ -69,7 +69,7 @@ from continuum.sizes import (
 from continuum.state import State, StepRecord
 from continuum.strains import check_fractions, fractions_at, parse_layout, slope_scale
 
-# Config and config_fields live in continuum.config; imported here for older imports
+# Config lives in continuum.config; imported here for older imports
 # (``from continuum.simulation import Config``), documented there.
 __all__ = ["Simulation", "run", "reached", "check_goal", "require_goal", "RADIUS_RTOL",
            "TIME_TOL", "PROGRESS_SECONDS"]

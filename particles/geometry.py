@@ -110,18 +110,12 @@ def segment_distance(x, y, theta, length, i, j, b):
 
 
 @njit(cache=True)
-def _pair_candidates(x, y, theta, length, i, j, b, out):
+def _pair_candidates_uv(x, y, length, i, j, b, ui, vi, uj, vj, out):
     """Fill out[4, 11] with the four endpoint-to-segment candidates of the pair (i, j).
 
-    Columns: gap, nx, ny, cix, ciy, cjx, cjy, s_i, s_j, code, d.
+    (ui, vi), (uj, vj): the axes of the two rods. Columns: gap, nx, ny, cix, ciy, cjx, cjy,
+    s_i, s_j, code, d.
     """
-    _pair_candidates_uv(x, y, length, i, j, b, np.cos(theta[i]), np.sin(theta[i]),
-                        np.cos(theta[j]), np.sin(theta[j]), out)
-
-
-@njit(cache=True)
-def _pair_candidates_uv(x, y, length, i, j, b, ui, vi, uj, vj, out):
-    """:func:`_pair_candidates` given the axes (ui, vi), (uj, vj) of the two rods."""
     Li = length[i] - b
     Lj = length[j] - b
     for e in range(4):

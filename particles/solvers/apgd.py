@@ -61,9 +61,6 @@ from .problem import _gradient as gap_kernel  # q(gam) = Phi + dt D^T M D gam - 
 from .problem import _residual as residual  # max_k |min(a_kk gam_k, q_k)|
 from .problem import finish, incidence, particle_sums, prepare, problem_arrays, residual_term
 
-NAME = "apgd"
-"""Name under which the engine may register this solver (Config.solver)."""
-
 
 @njit(cache=True)
 def hessian_apply(v, start, idx, coef, ci, cj, nx, ny, ti, tj, gi, gj, mt, mr, cmax, dt, pw, out):
