@@ -5,9 +5,9 @@ Reads committed data only (``cases/data/colony_260``) and prints four markdown t
 1. **Cost.** The wall seconds to each radius from the legs' progress lines (one a minute; a
    resumed leg's clock continued, :func:`cases.analysis.progress_lines`), the cells there, and
    the exponent a of W ~ R^a fitted between neighbouring radii (:func:`cases.analysis.
-   power_law_fit` over the lines in that range); then the legs' wall, user CPU and peak memory
-   summed from their ``time -v`` reports, against the published C++/PETSc run (24 h on 112
-   cores, W ~ R^5).
+   power_law_fit` over the lines in that range); then the wall, CPU and peak memory of every
+   session of the run (its ``run.json``, written by the run itself), against the published
+   C++/PETSc run (24 h on 112 cores, W ~ R^5).
 2. **Growth.** The time to reach each radius and the whole colony's mean stress over the
    continuum's mean pressure at that radius, averaged over one division period, each relative
    to the continuum colony (:func:`cases.studies.ensemble.history_growth`).
@@ -22,16 +22,17 @@ Reads committed data only (``cases/data/colony_260``) and prints four markdown t
    interpolated at the particle annuli's radii).
 
     python docs/measurements/colony_260.py [--particles cases/data/colony_260/particles_lam=0.001]
-        [--history H] [--rings CSV] [--progress LOG] [--time TIME] [--continuum DIR]
+        [--history H] [--rings CSV] [--progress LOG] [--run RUN_JSON] [--continuum DIR]
 
 ``--history`` takes a stage's ``history.csv`` while the colony still grows (then no profile,
-and the rings default to ``particles_rings_so_far.csv``).
+and the rings default to ``particles_rings_so_far.csv``); ``--run`` defaults to the
+``run.json`` beside the history.
 """
 
 from __future__ import annotations
 
 import argparse
-import re
+import json
 import sys
 from pathlib import Path
 
@@ -43,7 +44,6 @@ from cases.studies.ensemble import history_growth
 if str(Path(__file__).parent) not in sys.path:  # the sibling scripts, also when imported
     sys.path.insert(0, str(Path(__file__).parent))
 from cost_growth import PUBLISHED  # noqa: E402
-from records import TIME_FIELDS, clock_seconds  # noqa: E402
 
 DATA = Path(__file__).resolve().parents[2] / "cases" / "data" / "colony_260"
 LAM = 1e-3
@@ -76,15 +76,13 @@ def cost_rows(progress: dict[str, np.ndarray], radii=RADII) -> list[list[str]]:
     return rows
 
 
-def time_totals(text: str) -> dict[str, float]:
-    """Summed wall and CPU (user + system) seconds and largest peak memory (MB) of ``text``.
-
-    ``text``: ``/usr/bin/time -v`` reports one after the other.
-    """
-    found = {k: re.findall(pattern, text) for k, pattern in TIME_FIELDS.items()}
-    return {"reports": len(found["wall"]), "wall_s": sum(map(clock_seconds, found["wall"])),
-            "cpu_s": sum(map(float, found["user"] + found["system"])),
-            "peak_mb": max(map(int, found["peak_kb"]), default=0) / 1000}
+def session_totals(record: dict) -> dict[str, float]:
+    """Sessions, summed wall and CPU seconds and largest peak memory (MB) of a ``run.json``."""
+    sessions = record["sessions"]
+    return {"sessions": len(sessions),
+            "wall_s": sum(s.get("wall_seconds") or 0.0 for s in sessions),
+            "cpu_s": sum(s.get("cpu_seconds") or 0.0 for s in sessions),
+            "peak_mb": max((s.get("peak_memory_mb") or 0.0 for s in sessions), default=0.0)}
 
 
 def growth_rows(history: dict, continuum: dict, radii=RADII) -> list[list[str]]:
@@ -148,25 +146,26 @@ def main(argv: list[str] | None = None) -> str:
     ap.add_argument("--history", type=Path, default=None)
     ap.add_argument("--rings", type=Path, default=None)
     ap.add_argument("--progress", type=Path, default=DATA / "particles_progress.log")
-    ap.add_argument("--time", type=Path, default=DATA / "particles_time.txt")
+    ap.add_argument("--run", type=Path, default=None)
     ap.add_argument("--continuum", type=Path, default=DATA / "continuum_lam=0.001")
     args = ap.parse_args(argv)
     history_path = args.history or args.particles / "history.csv"
     rings_path = args.rings or (DATA / "particles_rings_so_far.csv" if args.history
                                 else args.particles / "rings.csv")
-    for path in (history_path, rings_path, args.progress, args.time,
+    run_path = args.run or history_path.parent / "run.json"
+    for path in (history_path, rings_path, args.progress, run_path,
                  args.continuum / "history.csv", args.continuum / "profile.csv",
                  args.continuum / "rings.csv"):
         if not path.is_file():
             ap.error(f"no file {path}")
     history, continuum = A.read_csv(history_path), A.read_csv(args.continuum / "history.csv")
-    totals = time_totals(args.time.read_text())
+    totals = session_totals(json.loads(run_path.read_text()))
     radius = float(history["radius"][-1])
     out = [f"Particle colony: radius {radius:.2f}, {int(history['n_particles'][-1]):,} cells, "
            f"t = {history['t'][-1]:.4f}, step {int(history['step'][-1])}.", "",
            A.markdown_rows(["R", "wall s", "cells", "a (W ~ R^a) since the previous R"],
                            cost_rows(A.progress_lines(args.progress))), "",
-           f"{totals['reports']} time reports: {totals['wall_s'] / 3600:.2f} h wall, "
+           f"{totals['sessions']} sessions: {totals['wall_s'] / 3600:.2f} h wall, "
            f"{totals['cpu_s'] / 3600:.2f} CPU h, peak {totals['peak_mb']:.0f} MB. Published: "
            f"R = {PUBLISHED['radius']}, {PUBLISHED['wall_h']:g} h on {PUBLISHED['cores']} cores "
            f"= {PUBLISHED['wall_h'] * PUBLISHED['cores']:.0f} core hours, "

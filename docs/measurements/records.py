@@ -95,13 +95,11 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
 
 TIME_FIELDS = {"wall": r"Elapsed \(wall clock\) time \(h:mm:ss or m:ss\): (\S+)",
                "user": r"User time \(seconds\): (\S+)",
-               "system": r"System time \(seconds\): (\S+)",
                "peak_kb": r"Maximum resident set size \(kbytes\): (\d+)"}
-"""What :func:`summary` (and colony_260.py, the system time too) reads from each
-``/usr/bin/time -v`` report of ``time.txt``."""
+"""What :func:`summary` reads from each ``/usr/bin/time -v`` report of ``time.txt``."""
 
 
-def clock_seconds(clock: str) -> float:
+def _seconds(clock: str) -> float:
     """Seconds of a ``time -v`` wall clock, ``h:mm:ss`` or ``m:ss.ss``."""
     out = 0.0
     for part in clock.split(":"):
@@ -142,7 +140,7 @@ def summary(dest: str | Path) -> dict:
     text = (dest / "time.txt").read_text() if (dest / "time.txt").is_file() else ""
     found = {k: re.findall(pattern, text) for k, pattern in TIME_FIELDS.items()}
     row |= {"reports": len(found["wall"]),
-            "wall_s": sum(clock_seconds(v) for v in found["wall"]),
+            "wall_s": sum(_seconds(v) for v in found["wall"]),
             "user_s": sum(float(v) for v in found["user"]),
             "peak_mb": max((int(v) for v in found["peak_kb"]), default=0) / 1000}
     return row

@@ -222,11 +222,10 @@ def test_colony_260_tables_on_exact_data(tmp_path, capsys):
     assert rows[0] == ["40", "", "", ""] and rows[3] == ["260", "", "", ""]
     assert rows[1] == ["100", "30,000", "50,000", "4.00"]  # fitted on R = 45 ... 100
     assert rows[2] == ["200", "480,000", "200,000", "4.00"]
-    report = ("\tUser time (seconds): 3000.5\n\tSystem time (seconds): 599.5\n"
-              "\tElapsed (wall clock) time (h:mm:ss or m:ss): 1:00:00\n"
-              "\tMaximum resident set size (kbytes): 900000\n")
-    assert colony.time_totals(report * 2) == {"reports": 2, "wall_s": 7200.0, "cpu_s": 7200.0,
-                                              "peak_mb": 900.0}
+    run = {"sessions": [{"wall_seconds": 3000.0, "cpu_seconds": 2000.0, "peak_memory_mb": 900.0},
+                        {"wall_seconds": 600.0, "cpu_seconds": 1600.0, "peak_memory_mb": 1000.0}]}
+    assert colony.session_totals(run) == {"sessions": 2, "wall_s": 3600.0, "cpu_s": 3600.0,
+                                          "peak_mb": 1000.0}
 
     from cases.studies.ensemble import mean_stress_ratio
     continuum = A.read_csv(colony.DATA / "continuum_lam=0.001" / "history.csv")
@@ -264,9 +263,8 @@ def test_colony_260_tables_on_exact_data(tmp_path, capsys):
         "step": np.arange(history["t"].size), "n_particles": np.full(history["t"].size, 9)})
     A.write_csv(record / "rings.csv", rings)
     A.write_csv(record / "profile_pooled.csv", flat)
-    (tmp_path / "time.txt").write_text(report)
-    text = colony.main(["--particles", str(record), "--progress", str(progress),
-                        "--time", str(tmp_path / "time.txt")])
+    (record / "run.json").write_text(json.dumps(run))
+    text = colony.main(["--particles", str(record), "--progress", str(progress)])
     assert "| 200 | 480,000 | 200,000 | 4.00 |" in text and "1.00 CPU h" in text
     assert "continuum" in text and "+10.0 %." in text and "| 0-0.25 |" in text
     capsys.readouterr()
