@@ -46,8 +46,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from continuum import radial
+from continuum.rings import area_centroid
 
-__all__ = ["FIELDS", "velocity_gradient", "strain_rate", "mesh_centroid", "strain_rate_fields",
+__all__ = ["FIELDS", "velocity_gradient", "strain_rate", "strain_rate_fields",
            "radial_strain_rate"]
 
 #: The point fields of :func:`strain_rate_fields` (continuum.output adds them to every frame).
@@ -92,27 +93,19 @@ def strain_rate(points: NDArray, triangles: NDArray, u: NDArray) -> NDArray:
     return 0.5 * (L + np.swapaxes(L, 1, 2))
 
 
-def mesh_centroid(points: NDArray, triangles: NDArray) -> NDArray:
-    """Area centroid of a triangulation: sum_T A_T (centroid of T) / sum_T A_T."""
-    p = np.asarray(points, dtype=float)[np.asarray(triangles, dtype=np.int64)]
-    d1, d2 = p[:, 1] - p[:, 0], p[:, 2] - p[:, 0]
-    area = 0.5 * np.abs(d1[:, 0] * d2[:, 1] - d1[:, 1] * d2[:, 0])
-    return (area[:, None] * p.mean(axis=1)).sum(axis=0) / area.sum()
-
-
 def strain_rate_fields(points: NDArray, triangles: NDArray, u: NDArray,
                        center: ArrayLike | None = None) -> dict[str, NDArray]:
     """The point fields :data:`FIELDS` of the strain rate of the nodal velocity u.
 
     Cartesian e_xx, e_yy, e_xy; polar e_rr, e_tt, e_rt about ``center`` (default: the area
-    centroid of the mesh, :func:`mesh_centroid`); e_rr_minus_e_tt; shear (eigenvalue
+    centroid of the mesh, :func:`continuum.rings.area_centroid`); e_rr_minus_e_tt; shear (eigenvalue
     difference); axis_angle of the extension axis from the radial direction, radians in
     (-pi/2, pi/2]. At the centre itself the polar frame is that of the x axis.
     """
     points = np.asarray(points, dtype=float)
     E = strain_rate(points, triangles, u)
     if center is None:
-        center = mesh_centroid(points, triangles)
+        center = area_centroid(points, triangles)
     d = points - np.asarray(center, dtype=float)
     phi = np.arctan2(d[:, 1], d[:, 0])
     c, s = np.cos(phi), np.sin(phi)
