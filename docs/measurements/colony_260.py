@@ -24,8 +24,9 @@ Reads committed data only (``cases/data/colony_260``) and prints four markdown t
     python docs/measurements/colony_260.py [--particles cases/data/colony_260/particles_lam=0.001]
         [--history H] [--rings CSV] [--progress LOG] [--run RUN_JSON] [--continuum DIR]
 
-``--history`` takes a stage's ``history.csv`` while the colony still grows (then no profile,
-and the rings default to ``particles_rings_so_far.csv``); ``--run`` defaults to the
+The record's files are the defaults: ``history.csv`` (the run's whole history, every step),
+``rings.csv``, ``progress.log`` and ``run.json``. ``--history`` takes a stage's
+``history.csv`` while a colony still grows (then no profile); ``--run`` defaults to the
 ``run.json`` beside the history.
 """
 
@@ -145,15 +146,15 @@ def main(argv: list[str] | None = None) -> str:
     ap.add_argument("--particles", type=Path, default=DATA / "particles_lam=0.001")
     ap.add_argument("--history", type=Path, default=None)
     ap.add_argument("--rings", type=Path, default=None)
-    ap.add_argument("--progress", type=Path, default=DATA / "particles_progress.log")
+    ap.add_argument("--progress", type=Path, default=None)
     ap.add_argument("--run", type=Path, default=None)
     ap.add_argument("--continuum", type=Path, default=DATA / "continuum_lam=0.001")
     args = ap.parse_args(argv)
     history_path = args.history or args.particles / "history.csv"
-    rings_path = args.rings or (DATA / "particles_rings_so_far.csv" if args.history
-                                else args.particles / "rings.csv")
+    rings_path = args.rings or args.particles / "rings.csv"
+    progress_path = args.progress or args.particles / "progress.log"
     run_path = args.run or history_path.parent / "run.json"
-    for path in (history_path, rings_path, args.progress, run_path,
+    for path in (history_path, rings_path, progress_path, run_path,
                  args.continuum / "history.csv", args.continuum / "profile.csv",
                  args.continuum / "rings.csv"):
         if not path.is_file():
@@ -164,7 +165,7 @@ def main(argv: list[str] | None = None) -> str:
     out = [f"Particle colony: radius {radius:.2f}, {int(history['n_particles'][-1]):,} cells, "
            f"t = {history['t'][-1]:.4f}, step {int(history['step'][-1])}.", "",
            A.markdown_rows(["R", "wall s", "cells", "a (W ~ R^a) since the previous R"],
-                           cost_rows(A.progress_lines(args.progress))), "",
+                           cost_rows(A.progress_lines(progress_path))), "",
            f"{totals['sessions']} sessions: {totals['wall_s'] / 3600:.2f} h wall, "
            f"{totals['cpu_s'] / 3600:.2f} CPU h, peak {totals['peak_mb']:.0f} MB. Published: "
            f"R = {PUBLISHED['radius']}, {PUBLISHED['wall_h']:g} h on {PUBLISHED['cores']} cores "

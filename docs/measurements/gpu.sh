@@ -18,5 +18,5 @@ timeout 60 python3 docs/measurements/stream.py --threads 1 2 4 8 16 2>&1 | tee "
 timeout 150 python3 -m pytest -q -p no:cacheprovider tests/particles/test_cuda_solver.py 2>&1 \
     | tee "$OUT/tests.txt"
 timeout 300 python3 docs/measurements/gpu_solve.py \
-    cases/data/colony_260/particles_resume/checkpoint.npz --threads 1 2 16 --steps 3 2>&1 \
+    cases/data/colony_260/particles_state_104993/checkpoint.npz --threads 1 2 16 --steps 3 2>&1 \
     | tee "$OUT/solve.txt"

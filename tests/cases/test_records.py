@@ -268,3 +268,16 @@ def test_colony_260_tables_on_exact_data(tmp_path, capsys):
     assert "| 200 | 480,000 | 200,000 | 4.00 |" in text and "1.00 CPU h" in text
     assert "continuum" in text and "+10.0 %." in text and "| 0-0.25 |" in text
     capsys.readouterr()
+
+
+def test_colony_260_record_gives_its_readme_numbers(capsys):
+    """The finished radius-260 colony's committed record gives the numbers its README quotes."""
+    colony = measurement("colony_260")
+    text = colony.main([])
+    capsys.readouterr()
+    readme = (colony.DATA / "README.md").read_text()
+    for row in ("| 260 | 16.728 | 16.622 | +0.63 % | +5.3 % |", "| 0.75-0.9 | 75,115 | +2.4 % |",
+                "| 260 | 260.0 | 20.63 | 19.41 |", "| 260 | 52,831 | 298,248 | 3.40 |"):
+        assert row in text and row in readme
+    assert "15 sessions: 14.78 h wall, 17.04 CPU h, peak 1078 MB" in text
+    assert "particles 2610.4 +- 4.2, continuum 2482.6" in text and "+5.1 %." in text
