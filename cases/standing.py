@@ -51,6 +51,11 @@ def projected_wall(history: dict[str, np.ndarray], variable: str, goal: float,
     return wall * max((goal / x[-1]) ** a - 1.0, 0.0), a
 
 
+def _count(n: int, noun: str) -> str:
+    """``n noun`` with the noun in the plural unless n is 1 ("1 session", "2,048 cells")."""
+    return f"{n:,} {noun}{'' if n == 1 else 's'}"
+
+
 def wall_spent(run: dict, until: datetime) -> float:
     """Wall seconds of a run's sessions; a session still running counts until ``until``."""
     total = 0.0
@@ -81,12 +86,13 @@ def standing(folder: Path, run: dict) -> list[str]:
     if not history or variable not in history or not len(history[variable]) or goal is None:
         return []
     now = float(history[variable][-1])
-    cells = (f", {int(history['n_particles'][-1]):,} cells" if "n_particles" in history else "")
+    cells = (f", {_count(int(history['n_particles'][-1]), 'cell')}" if "n_particles" in history
+             else "")
     written = (Path(folder) / "history.csv").stat().st_mtime  # the history's last step
     wall = wall_spent(run, datetime.fromtimestamp(written, UTC))
     lines = [f"stands at       {variable} {now:.4g} of {goal:g}{cells}, t = "
              f"{float(history['t'][-1]):.4g}, step {len(history[variable])}; wall spent "
-             f"{wall / 3600:.2f} h in {len(run.get('sessions', []))} sessions"]
+             f"{wall / 3600:.2f} h in {_count(len(run.get('sessions', [])), 'session')}"]
     projection = projected_wall(history, variable, float(goal), wall)
     if projection is not None and math.isfinite(projection[0]):
         lines.append(f"projected       {projection[0] / 3600:.2f} h more wall to {variable} "

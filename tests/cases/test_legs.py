@@ -229,7 +229,8 @@ def test_info_says_where_a_paused_run_stands(colony, capsys, tmp_path):
     assert cli.main(["info", str(out)]) == 0
     text = capsys.readouterr().out
     assert "status          paused" in text
-    assert "stands at       radius 0.5101 of 3, 1 cells, t = 0.02, step 1; wall spent" in text
+    assert "stands at       radius 0.5101 of 3, 1 cell, t = 0.02, step 1; wall spent" in text
+    assert " h in 1 session\n" in text  # one session, one cell: the singular
 
 
 # --------------------------------------------------------------------------- carry
