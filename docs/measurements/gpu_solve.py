@@ -19,7 +19,7 @@ of iterations (the same iteration to round-off); the table says how far their ga
 Run (from the repository root, the package installed, on the GPU machine)::
 
     NUMBA_ENABLE_CUDASIM=0 python docs/measurements/gpu_solve.py \
-        cases/data/colony_260/particles_state_104993/checkpoint.npz --threads 1 2 16 --steps 3
+        runs/state_104993/checkpoint.npz --threads 1 2 16 --steps 3
 
 Prints progress lines on stderr and a markdown table on stdout.
 """

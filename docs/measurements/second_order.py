@@ -46,7 +46,10 @@ Run (from the repository root, with the project's environment, one thread)::
 
     export NUMBA_NUM_THREADS=1 OMP_NUM_THREADS=1 OPENBLAS_NUM_THREADS=1 MKL_NUM_THREADS=1
     python docs/measurements/second_order.py \
-        [--checkpoint cases/data/colony_260/particles_state_104993/checkpoint.npz] [--repeats 3]
+        [--checkpoint runs/state_104993/checkpoint.npz] [--repeats 3]
+
+(the state after leg 1 of the radius-260 colony, restored from git history as
+``cases/data/colony_260/README.md`` says)
 
 Needs: the package's dependencies (numpy, scipy, numba) and ``pip install cholespy qdldl qpalm
 piqp`` (a missing one is reported in its row and skipped).
@@ -84,7 +87,7 @@ from particles.stepping import detect, warm_start
 from particles.strains import growth_law
 
 ROOT = Path(__file__).resolve().parents[2]
-CHECKPOINT = ROOT / "cases/data/colony_260/particles_state_104993/checkpoint.npz"
+CHECKPOINT = ROOT / "runs/state_104993/checkpoint.npz"
 RHO0 = 0.1
 """ADMM penalty after Jacobi scaling (OSQP's default rho); R = diag(RHO0 H_kk)."""
 RELAX = 1.6
