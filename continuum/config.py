@@ -139,7 +139,7 @@ class Config:
         ``EXECUTION_FIELDS``: a checkpoint resumes under another value, with the same result).
     max_hours : float or None
         Wall-clock limit of one ``run`` call: before it passes, the run writes a checkpoint and
-        pauses (``Simulation.paused``; checkpoint.WallLimit); the same call resumes it. An
+        pauses (``Simulation.paused``; runfiles.WallLimit); the same call resumes it. An
         execution setting like ``checkpoint_seconds`` (each leg of a chain may give its own).
         None (the default): no limit.
     strains : tuple of continuum.strains.Strain

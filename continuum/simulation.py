@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from continuum import checkpoint, mesh
+from continuum import checkpoint, mesh, runfiles
 from continuum.budget import check_memory
 from continuum.config import Config  # noqa: F401 (older imports)
 from continuum.darcy import darcy_flow
@@ -59,6 +59,7 @@ from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.remesh import remesh, remesh_reason
+from continuum.runfiles import check_goal, reached, require_goal
 from continuum.sizes import (
     TRANSPORT_REMAP,
     CharacteristicSizes,
@@ -71,50 +72,9 @@ from continuum.strains import check_fractions, fractions_at, parse_layout, slope
 
 # Config lives in continuum.config; imported here for older imports
 # (``from continuum.simulation import Config``), documented there.
-__all__ = ["Simulation", "run", "reached", "check_goal", "require_goal", "RADIUS_RTOL",
-           "TIME_TOL", "PROGRESS_SECONDS"]
+__all__ = ["Simulation", "run", "PROGRESS_SECONDS"]
 
 log = logging.getLogger(__name__)
-
-RADIUS_RTOL = 1e-7
-"""A radius goal R is reached at a colony radius >= R (1 - RADIUS_RTOL).
-
-The last step of a radius goal lands on it by a linear extrapolation of dR/dt
-(``Simulation._dt``), within about 1e-9 relative below it (measured: -1.2e-9 for a disc at
-lam = 0 to radius 4.5); a tighter tolerance would add a step of that size. The particle
-engine uses the same tolerance."""
-
-TIME_TOL = 1e-12
-"""A time goal T is reached at t >= T - TIME_TOL max(1, T) (the particle engine's too)."""
-
-
-def reached(radius_now, t: float, radius: float | None, time: float | None) -> bool:
-    """Whether the first of the goals is reached (False when both goals are None).
-
-    Time T: t >= T - TIME_TOL max(1, T); radius R_goal: R >= R_goal (1 - RADIUS_RTOL).
-    ``radius_now``: the colony radius, or a function returning it (called only for a radius
-    goal). The twin of ``particles.simulation.reached``.
-    """
-    if time is not None and t >= time - TIME_TOL * max(1.0, time):
-        return True
-    if radius is None:
-        return False
-    return (radius_now() if callable(radius_now) else radius_now) >= radius * (1 - RADIUS_RTOL)
-
-
-def check_goal(radius: float | None, time: float | None) -> None:
-    """ValueError unless each given goal is a positive finite number."""
-    for name, v in (("radius", radius), ("time", time)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
-                              or not (math.isfinite(v) and v > 0)):
-            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-
-
-def require_goal(config: Config) -> None:
-    """ValueError unless ``config`` has a goal (``run`` needs one of ``radius`` and ``time``)."""
-    if config.radius is None and config.time is None:
-        raise ValueError("give exactly one of radius and time")
-
 
 def initial_state(config: Config) -> State:
     """The colony at t = 0.
@@ -266,7 +226,7 @@ class Simulation:
         self.config = config
         self.finished, self.paused = True, False
         self.output = None if out is None else _Outputs(config, Path(out))
-        if self.output is not None and checkpoint.checkpoint_files(self.output.out):
+        if self.output is not None and runfiles.checkpoint_files(self.output.out):
             path, saved = checkpoint.resume_checkpoint(self.output.out, config)
             self._restore(saved.state, saved.amg, saved.history)
             self.output.resume(saved.frames, saved.next_frame)
@@ -506,7 +466,7 @@ class Simulation:
         if self.output is not None and path == self.output.checkpoint:
             self.output.ensure_space(self)
             self.output.write_history(self)
-            history = checkpoint.history_record(self.output.out / checkpoint.HISTORY,
+            history = runfiles.history_record(self.output.out / runfiles.HISTORY,
                                                 len(self.history))
         checkpoint.save_checkpoint(path, checkpoint.Checkpoint(
             self.config, self.state, history, frame_times, self.solver.amg_state(), next_frame,
@@ -590,7 +550,7 @@ class _Outputs:
         if not out.is_dir():
             raise ValueError(f"output folder does not exist: {out}")
         self.output, self.config, self.out = output, config, out
-        self.checkpoint = out / checkpoint.CHECKPOINT
+        self.checkpoint = out / runfiles.CHECKPOINT
         self.fields = output.FieldWriter(out) if config.write_fields else None
         self.next_frame = config.output_every if config.output_every > 0 else math.inf
 
@@ -688,8 +648,8 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
     SIGINT, SIGTERM or SIGHUP in the main thread ends the run after the current step (remeshing
     and output included) with a checkpoint of that step, then raises KeyboardInterrupt (SIGINT)
     or SystemExit(128 + signum) (SIGTERM, SIGHUP); a second signal acts at once
-    (checkpoint.StopRequest). Before ``config.max_hours`` of wall have passed, the run writes a
-    checkpoint and returns paused (``.paused``; checkpoint.WallLimit).
+    (runfiles.StopRequest). Before ``config.max_hours`` of wall have passed, the run writes a
+    checkpoint and returns paused (``.paused``; runfiles.WallLimit).
 
     Raises
     ------
@@ -701,7 +661,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
         No pressure solution (e.g. lam < 0 beyond the critical size).
     """
     require_goal(config)
-    with checkpoint.StopRequest() as stop:
+    with runfiles.StopRequest() as stop:
         sim = Simulation(config, state, out, layout=layout)
         _steps(sim, progress, max_steps, stop, started)
     stop.reraise()
@@ -709,7 +669,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
 
 
 def _steps(sim: Simulation, progress: bool, max_steps: int | None,
-           stop: checkpoint.StopRequest, started: float | None = None) -> None:
+           stop: runfiles.StopRequest, started: float | None = None) -> None:
     """The loop of ``run``.
 
     Step until the goal, a stop request, ``max_steps`` steps or ``config.max_hours``;
@@ -719,7 +679,7 @@ def _steps(sim: Simulation, progress: bool, max_steps: int | None,
     config = sim.config
     goal = {"radius": config.radius, "time": config.time}
     last_checkpoint = _time.monotonic()
-    limit = checkpoint.WallLimit(config.max_hours, started)
+    limit = runfiles.WallLimit(config.max_hours, started)
     steps_here = 0
     with _ProgressBar(sim, progress=progress, **goal) as bar:
         while not sim._reached(**goal):

@@ -115,7 +115,7 @@ class Config:
         setting: a run may resume with another value).
     max_hours : float or None
         Wall-clock limit of one ``run`` call: before it passes, the run writes a checkpoint and
-        pauses (``Simulation.paused``; checkpoint.WallLimit); the same call resumes it. An
+        pauses (``Simulation.paused``; runfiles.WallLimit); the same call resumes it. An
         execution setting like ``checkpoint_seconds`` (each leg of a chain may give its own).
         None (the default): no limit.
     max_particles : int

@@ -24,7 +24,6 @@ the configuration's), ``save(path=None)``, ``Simulation.load(path, config=None)`
 from __future__ import annotations
 
 import logging
-import math
 import os
 import sys
 import time as _time
@@ -35,13 +34,8 @@ import numpy as np
 from tqdm import tqdm
 
 from .checkpoint import (
-    HISTORY,
     NO_FRAMES,
     Checkpoint,
-    StopRequest,
-    WallLimit,
-    checkpoint_files,
-    history_record,
     load_checkpoint,
     resume_checkpoint,
     save_checkpoint,
@@ -50,6 +44,16 @@ from .config import STEP_POLICY_FIELDS, Config
 from .division import divide_in_order
 from .output import RunOutput, strain_columns, write_config, write_history
 from .packings import from_csv, single_cell
+from .runfiles import (
+    HISTORY,
+    StopRequest,
+    WallLimit,
+    check_goal,
+    checkpoint_files,
+    history_record,
+    reached,
+    require_goal,
+)
 from .solvers import check_device
 from .state import ParticleState, StepRecord
 from .stepping import Detections, detect, next_dt, robust_step
@@ -59,44 +63,7 @@ log = logging.getLogger(__name__)
 
 # StepRecord lives in particles.state; imported here for older imports
 # (``from particles.simulation import StepRecord``), documented there.
-__all__ = ["ParticleLimitError", "Simulation", "check_initial", "initial_state", "run",
-           "reached", "check_goal", "require_goal", "RADIUS_RTOL", "TIME_TOL"]
-
-RADIUS_RTOL = 1e-7
-"""A radius goal R is reached at an enclosing radius >= R (1 - RADIUS_RTOL) (the continuum
-engine's tolerance, whose last step lands on R by an extrapolation good to about 1e-9)."""
-
-TIME_TOL = 1e-12
-"""A time goal T is reached at t >= T - TIME_TOL max(1, T) (the continuum engine's too)."""
-
-
-def reached(radius_now, t: float, radius: float | None, time: float | None) -> bool:
-    """Whether the first of the goals is reached (False when both goals are None).
-
-    Time T: t >= T - TIME_TOL max(1, T); radius R_goal: R >= R_goal (1 - RADIUS_RTOL).
-    ``radius_now``: the colony radius, or a function returning it (called only for a radius
-    goal). The twin of ``continuum.simulation.reached``.
-    """
-    if time is not None and t >= time - TIME_TOL * max(1.0, time):
-        return True
-    if radius is None:
-        return False
-    return (radius_now() if callable(radius_now) else radius_now) >= radius * (1 - RADIUS_RTOL)
-
-
-def check_goal(radius: float | None, time: float | None) -> None:
-    """ValueError unless each given goal is a positive finite number."""
-    for name, v in (("radius", radius), ("time", time)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
-                              or not (math.isfinite(v) and v > 0)):
-            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
-
-
-def require_goal(config: Config) -> None:
-    """ValueError unless ``config`` has a goal (``run`` needs one of ``radius`` and ``time``)."""
-    if config.radius is None and config.time is None:
-        raise ValueError("give exactly one of radius and time")
-
+__all__ = ["ParticleLimitError", "Simulation", "check_initial", "initial_state", "run"]
 
 class ParticleLimitError(RuntimeError):
     """The colony exceeded ``Config.max_particles``."""
@@ -549,8 +516,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,  
     (e.g. a batch system's time limit) or SIGHUP (a closed terminal) in the main thread ends
     the run after the current step, with a checkpoint of that step written (then
     KeyboardInterrupt, or SystemExit(128 + signal) for SIGTERM and SIGHUP); a second signal
-    interrupts at once (checkpoint.StopRequest).  Before ``config.max_hours`` of wall have
-    passed, the run writes a checkpoint and returns paused (``.paused``; checkpoint.WallLimit).
+    interrupts at once (runfiles.StopRequest).  Before ``config.max_hours`` of wall have
+    passed, the run writes a checkpoint and returns paused (``.paused``; runfiles.WallLimit).
 
     Parameters
     ----------

@@ -14,15 +14,18 @@ engines"): a Config is validated when made and frozen; the initial state is copi
 does not pass ``time``; ``advance`` and ``done`` stop at the first goal reached (both None:
 the configuration's); ``advance`` writes no final files, ``run`` does; ``run(max_steps=...)``
 pauses with a checkpoint; ``save`` / ``load`` continue bit for bit; ``StopRequest`` is a context
-manager. And the code each engine holds a copy of (TWINS) is the same in both.
+manager. And what both need of a run's files and controls is one source (``runfiles``).
 """
 
 from __future__ import annotations
 
+import ast
 import dataclasses
 import importlib
 import inspect
+import os
 import signal
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -30,21 +33,25 @@ import pytest
 
 import continuum
 import continuum.checkpoint
+import continuum.runfiles
 import continuum.simulation
 import particles
 import particles.checkpoint
+import particles.runfiles
 import particles.simulation
 from tests.continuum.conftest import SMALL
 
 ENGINES = {
     "continuum": SimpleNamespace(
         module=continuum, simulation=continuum.simulation, checkpoint=continuum.checkpoint,
+        runfiles=continuum.runfiles,
         config=lambda **kw: continuum.Config(**{**SMALL, **kw}),
         initial=lambda config: continuum.simulation.initial_state(config),
         near_radius=1.2,  # reached at t = 2.2 (SMALL, 12 steps)
         final_files={"history.csv", "boundary.csv"}),
     "particles": SimpleNamespace(
         module=particles, simulation=particles.simulation, checkpoint=particles.checkpoint,
+        runfiles=particles.runfiles,
         config=lambda **kw: particles.Config(lam=1e-2, seed=1, **kw),
         initial=lambda config: particles.single_cell(),
         near_radius=2.0,  # reached at t = 1.54 (77 steps)
@@ -111,7 +118,7 @@ def member(engine: str, dotted: str):
     """``Simulation.step``, ``run``, ``save_checkpoint``, ... of one engine."""
     e = ENGINES[engine]
     head, *rest = dotted.split(".")
-    for where in (e.module, e.simulation, e.checkpoint):
+    for where in (e.module, e.simulation, e.checkpoint, e.runfiles):
         if hasattr(where, head):
             obj = getattr(where, head)
             break
@@ -145,23 +152,12 @@ def test_the_same_modules_and_names():
         assert e.simulation.StepRecord is e.module.StepRecord
         assert {"Config", "Simulation", "StepRecord", "run"} <= set(e.module.__all__)
         assert isinstance(inspect.getattr_static(e.module.Simulation, "load"), classmethod)
-        assert e.checkpoint.STOP_SIGNALS == (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-    c, p = (e.simulation for e in ENGINES.values())
-    assert (c.RADIUS_RTOL, c.TIME_TOL) == (p.RADIUS_RTOL, p.TIME_TOL)
-    assert (continuum.checkpoint.CHECKPOINT, continuum.checkpoint.PREVIOUS) == (
-        particles.checkpoint.CHECKPOINT, particles.checkpoint.PREVIOUS)
+        assert e.runfiles.STOP_SIGNALS == (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
-#: The code both engines must each hold, since neither may import the other (docs/DESIGN.md):
+#: The code both engines need, since neither may import the other (docs/DESIGN.md):
 #: module -> names whose source is the same in both but for the line naming the other copy.
-TWINS = {
-    "checkpoint": ("CheckpointError", "damaged", "arrays_digest", "_read_file", "_why",
-                   "read_arrays", "read_meta", "checked", "_intact", "_sync_folder",
-                   "write_arrays", "history_record", "_number", "read_history",
-                   "checkpoint_files", "resume_from", "StopRequest", "WallLimit"),
-    "simulation": ("check_goal", "require_goal"),
-    "config": ("_number",),
-}
+TWINS = {"config": ("_number",)}
 
 
 @pytest.mark.parametrize("module", sorted(TWINS))
@@ -173,6 +169,25 @@ def test_the_twin_code_is_one_rule_in_two_copies(module):
 
     for name in TWINS[module]:
         assert source("continuum", name) == source("particles", name), f"{module}.{name}"
+
+
+def test_the_run_files_are_one_source():
+    """The run files and controls are written once, and each engine has them as its own module.
+
+    ``particles/runfiles.py`` is a symbolic link to ``continuum/runfiles.py`` (neither engine
+    imports the other); the module imports neither engine nor ``cases``.
+    """
+    link = Path(particles.runfiles.__file__)
+    assert link.is_symlink() and os.readlink(link) == "../continuum/runfiles.py"
+    assert link.resolve() == Path(continuum.runfiles.__file__).resolve()
+    assert continuum.runfiles.__name__ != particles.runfiles.__name__
+    for e in ENGINES.values():
+        assert e.simulation.reached is e.runfiles.reached  # the engines use their own module
+        assert e.checkpoint.read_arrays is e.runfiles.read_arrays
+    imported = {n.module for n in ast.walk(ast.parse(link.read_text()))
+                if isinstance(n, ast.ImportFrom)} | {a.name for n in ast.walk(
+                    ast.parse(link.read_text())) if isinstance(n, ast.Import) for a in n.names}
+    assert not {m.split(".")[0] for m in imported if m} & {"continuum", "particles", "cases"}
 
 
 def test_config_common_fields():
@@ -327,14 +342,14 @@ def test_save_and_load_continue_bit_for_bit(engine, tmp_path):
 def test_stop_request_defers_a_signal_to_the_end_of_a_step(engine):
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
-        with engine.checkpoint.StopRequest() as stop:
+        with engine.runfiles.StopRequest() as stop:
             assert stop.signum is None
             signal.raise_signal(signal.SIGINT)  # deferred: no KeyboardInterrupt here
             assert stop.signum == signal.SIGINT
         assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
         with pytest.raises(KeyboardInterrupt):
             stop.reraise()
-        with engine.checkpoint.StopRequest() as calm:
+        with engine.runfiles.StopRequest() as calm:
             pass
         calm.reraise()  # no signal: nothing
     finally:

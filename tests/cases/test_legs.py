@@ -157,7 +157,7 @@ def test_max_hours_must_be_positive_and_finite(colony, tmp_path, value):
 
 
 def test_the_limit_counts_the_next_step_and_checkpoint():
-    from particles.checkpoint import WallLimit
+    from particles.runfiles import WallLimit
 
     limit = WallLimit(1.0)
     assert not limit.due  # no step yet: the first step is always taken

@@ -22,8 +22,9 @@ import pytest
 
 import continuum.output as output
 from continuum import Simulation, run
-from continuum.checkpoint import CHECKPOINT, PREVIOUS, CheckpointError, load_checkpoint
+from continuum.checkpoint import load_checkpoint
 from continuum.output import remove_frames_from
+from continuum.runfiles import CHECKPOINT, PREVIOUS, CheckpointError
 from tests.particles.test_checkpoint_safety import BYTES, assert_one_line, rewrite
 
 from .conftest import small_config

@@ -26,7 +26,7 @@ import numpy as np
 import pytest
 
 from continuum import Simulation, run
-from continuum.checkpoint import CHECKPOINT
+from continuum.runfiles import CHECKPOINT
 
 from .conftest import SMALL, small_config, state_bytes
 

@@ -257,8 +257,8 @@ def test_a_removed_solver_is_refused_with_a_note(tmp_path):
     import json
     import re
 
-    from particles.checkpoint import read_arrays
     from particles.config import SOLVERS
+    from particles.runfiles import read_arrays
 
     with pytest.raises(ValueError, match=re.escape(f"unknown solver 'twolevel'; choose from "
                                                    f"{sorted(SOLVERS)} (twolevel was removed")):

@@ -18,13 +18,8 @@ import numpy as np
 import pytest
 
 from particles import Config, Simulation, run
-from particles.checkpoint import (
-    CHECKPOINT,
-    PREVIOUS,
-    CheckpointError,
-    checkpoint_config,
-    load_checkpoint,
-)
+from particles.checkpoint import checkpoint_config, load_checkpoint
+from particles.runfiles import CHECKPOINT, PREVIOUS, CheckpointError
 
 CFG = Config(lam=1e-2, time=1.2, dt=0.02, seed=3, output_every=0.04)
 """A small colony: 60 steps, a frame every 2 steps, well under a second."""

@@ -1,0 +1,429 @@
+"""A run's files and controls, written once for both engines (``continuum``, ``particles``).
+
+Neither engine imports the other, so each has this module as its own: ``particles/runfiles.py``
+is a symbolic link to ``continuum/runfiles.py`` (one source; a wheel holds a copy in each
+package). It imports nothing but the standard library and numpy.
+
+Files. A checkpoint is an ``np.savez`` archive of named arrays with ``sha256``, the checksum of
+all the others (:func:`arrays_digest`). :func:`write_arrays` writes it to a temporary file,
+flushes, reads it back and verifies it; only then the run folder's ``checkpoint.npz``, when
+intact, becomes ``checkpoint.prev.npz`` and the new file takes its name (os.replace).
+:func:`read_arrays` never unpickles (allow_pickle=False), verifies the checksum and refuses
+anything damaged with one :class:`CheckpointError` line. :func:`resume_from` falls back to
+``checkpoint.prev.npz`` (with a warning) when ``checkpoint.npz`` is damaged. A run folder's
+checkpoint keeps of the history only ``{"rows": n, "sha256": ...}`` of the history.csv written
+just before it (:func:`history_record`), checked and read back by :func:`read_history`. What a
+checkpoint contains is each engine's (``continuum.checkpoint``, ``particles.checkpoint``).
+
+Controls. :class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step,
+so that a run writes a checkpoint of a whole step before it stops; :class:`WallLimit` pauses a
+run before ``Config.max_hours`` of wall while a checkpoint still fits; :func:`reached`,
+:func:`check_goal` and :func:`require_goal` are the goals' rules.
+"""
+
+from __future__ import annotations
+
+import csv
+import errno
+import hashlib
+import io
+import json
+import logging
+import math
+import os
+import re
+import signal
+import stat
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "CheckpointError", "damaged",
+           "arrays_digest", "read_arrays", "read_meta", "checked", "write_arrays",
+           "history_record", "read_history", "checkpoint_files", "resume_from",
+           "STOP_SIGNALS", "StopRequest", "WallLimit", "RADIUS_RTOL", "TIME_TOL", "reached",
+           "check_goal", "require_goal"]
+
+log = logging.getLogger(__name__)
+
+CHECKPOINT = "checkpoint.npz"
+"""File name of the checkpoint in a run folder."""
+
+PREVIOUS = "checkpoint.prev.npz"
+"""File name of the checkpoint before it, kept until a new one is written and verified."""
+
+HISTORY = "history.csv"
+"""The history beside a run folder's checkpoint (each engine's output.write_history)."""
+
+CHECKSUM = "sha256"
+"""Entry of a checkpoint holding the checksum of all its other entries."""
+
+
+class CheckpointError(ValueError):
+    """A checkpoint that cannot be used (damaged, or contradicted by history.csv).
+
+    One line: which file is damaged and why, that the output written so far is intact, and how
+    to start afresh.  ``damage`` is its first part ("FILE is damaged (WHY)"), ``remove`` the
+    checkpoint files to remove to start afresh.
+    """
+
+    def __init__(self, damage: str, remove: list[Path]):
+        self.damage, self.remove = damage, list(dict.fromkeys(remove))
+        files = " and ".join(str(p) for p in self.remove)
+        super().__init__(f"{damage}; the output written so far is intact; to start afresh, "
+                         f"give --overwrite or remove {files}")
+
+
+def damaged(path: Path, why: str, checkpoint: Path | None = None) -> CheckpointError:
+    """The CheckpointError of ``path`` damaged for ``why`` (``checkpoint``: the one to remove)."""
+    return CheckpointError(f"{path} is damaged ({why})",
+                           [path if checkpoint is None else checkpoint])
+
+
+def arrays_digest(arrays: dict[str, np.ndarray]) -> str:
+    """sha256 (hex) of the arrays' names, dtypes, shapes and bytes, in the order of the names."""
+    h = hashlib.sha256()
+    for name in sorted(arrays):
+        a = arrays[name]
+        h.update(f"{name}\0{a.dtype.str}\0{a.shape}\0".encode())
+        h.update(a.tobytes())
+    return h.hexdigest()
+
+
+def _read_file(path: Path, follow: bool = True) -> bytes:
+    """The bytes of the regular file ``path``; CheckpointError for another kind of entry.
+
+    ``follow`` False: a symbolic link is refused, not read.
+    """
+    flags = os.O_RDONLY | os.O_NONBLOCK | (0 if follow else os.O_NOFOLLOW)
+    try:
+        fd = os.open(path, flags)
+    except OSError as err:
+        if err.errno == errno.ELOOP:
+            raise damaged(path, "a symbolic link, not read") from None
+        raise
+    if not stat.S_ISREG(os.fstat(fd).st_mode):
+        os.close(fd)
+        raise damaged(path, "not a regular file")
+    with os.fdopen(fd, "rb") as fh:
+        return fh.read()
+
+
+def _why(err: BaseException) -> str:
+    """What a failed np.load says of a file, in a few words (never numpy's advice)."""
+    text = str(err)
+    if "CRC" in text:
+        return "bytes changed: CRC check failed"
+    if "pickle" in text:
+        return "holds an object array, refused"
+    if isinstance(err, MemoryError):
+        return "impossible array sizes"
+    if isinstance(err, EOFError) or "zip" in text.lower():
+        return "not a complete npz archive"
+    return "unreadable npz archive"
+
+
+def read_arrays(path: Path, follow: bool = True) -> dict[str, np.ndarray]:
+    """The arrays of the checkpoint ``path``, verified (CheckpointError when damaged).
+
+    Read with allow_pickle=False; the checksum (entry CHECKSUM) is checked and removed;
+    a checkpoint written before checksums has none (its zip CRCs are checked).  ``follow``
+    False: a symbolic link is refused.
+    """
+    data = _read_file(path, follow)
+    if not data:
+        raise damaged(path, "empty file")
+    if not data.startswith(b"PK\x03\x04"):  # else np.load tries an npy file, or a pickle
+        raise damaged(path, "not an npz archive")
+    try:
+        with np.load(io.BytesIO(data), allow_pickle=False) as z:
+            arrays = {name: z[name] for name in z.files}
+    except Exception as err:  # anything numpy or zipfile raises on a damaged archive
+        raise damaged(path, _why(err)) from None
+    saved = arrays.pop(CHECKSUM, None)
+    if saved is not None and (saved.shape != () or saved.dtype.kind != "U"
+                              or str(saved) != arrays_digest(arrays)):
+        raise damaged(path, "checksum mismatch")
+    return arrays
+
+
+def read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict:
+    """The JSON ``meta`` entry of a checkpoint's arrays (CheckpointError when unreadable)."""
+    meta = arrays.get("meta")
+    if meta is None or meta.shape != () or meta.dtype.kind != "U":
+        raise damaged(path, "no meta entry")
+    try:
+        meta = json.loads(str(meta))
+    except (ValueError, RecursionError):
+        raise damaged(path, "meta is not JSON") from None
+    if not isinstance(meta, dict):
+        raise damaged(path, "meta is not a JSON object")
+    return meta
+
+
+def checked(path: Path, build: Callable):
+    """``build()``; a KeyError, TypeError, ValueError... of unexpected content: CheckpointError."""
+    try:
+        return build()
+    except CheckpointError:
+        raise
+    except KeyError as err:
+        raise damaged(path, f"no entry {err.args[0]}") from None
+    except (TypeError, ValueError, IndexError, AttributeError, OverflowError):
+        raise damaged(path, "unexpected content") from None
+
+
+def _intact(path: Path) -> bool:
+    """Whether ``path`` is a checkpoint that reads and verifies (not through a link)."""
+    try:
+        read_arrays(path, follow=False)
+    except (CheckpointError, OSError):
+        return False
+    return True
+
+
+def _sync_folder(folder: Path) -> None:
+    """Flush a folder's entries (a rename) to disk."""
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def write_arrays(path: Path, arrays: dict, previous: Path | None = None) -> None:
+    """Write ``arrays`` and their checksum to ``path``, so that a verified checkpoint remains.
+
+    Written to ``path.tmp.npz`` (created anew, never through a link), flushed to disk, read
+    back and verified; then, with ``previous``, the checkpoint at ``path`` becomes
+    ``previous`` when it is intact (a damaged one is replaced, the previous kept), and the new
+    file takes the name ``path`` (os.replace).  A failed write (e.g. a full disk) leaves the
+    checkpoints as they were.
+    """
+    arrays = {name: np.asarray(a) for name, a in arrays.items()}
+    arrays[CHECKSUM] = np.array(arrays_digest(arrays))
+    tmp = path.with_name(path.name + ".tmp.npz")
+    try:
+        tmp.unlink(missing_ok=True)
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o644)
+        with os.fdopen(fd, "wb") as fh:
+            np.savez(fh, **arrays)
+            fh.flush()
+            os.fsync(fh.fileno())
+        read_arrays(tmp, follow=False)
+        if previous is not None and _intact(path):
+            os.replace(path, previous)
+        os.replace(tmp, path)
+        _sync_folder(path.parent)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def history_record(csv_path: Path, rows: int) -> dict:
+    """What a checkpoint keeps of the history.csv written just before it: rows, sha256."""
+    return {"rows": rows, "sha256": hashlib.sha256(_read_file(csv_path, follow=False)).hexdigest()}
+
+
+def _number(text: str) -> int | float:
+    """A history.csv value: an int when written as one, else a float (repr round-trips)."""
+    return int(text) if re.fullmatch(r"-?[0-9]+", text) else float(text)
+
+
+def read_history(csv_path: Path, record: dict, checkpoint: Path) -> list[dict]:
+    """The first ``record["rows"]`` rows of ``csv_path``, checked against ``record``.
+
+    The header and those rows must have the sha256 the checkpoint recorded (later rows, of
+    steps after the checkpoint, are ignored); blank values (columns added later) are left out
+    of the rows.  CheckpointError otherwise, naming ``csv_path``.
+    """
+    rows, digest = checked(checkpoint, lambda: (int(record["rows"]), str(record["sha256"])))
+    try:
+        lines = _read_file(csv_path, follow=False).splitlines(keepends=True)
+    except FileNotFoundError:
+        raise damaged(csv_path, "missing", checkpoint) from None
+    head = b"".join(lines[: rows + 1])
+    if len(lines) < rows + 1 or hashlib.sha256(head).hexdigest() != digest:
+        raise damaged(csv_path, f"its first {rows} rows are not those {checkpoint.name} "
+                      "recorded", checkpoint)
+    reader = csv.reader(io.StringIO(head.decode()))
+    names = next(reader)
+    return checked(csv_path, lambda: [
+        {k: _number(v) for k, v in zip(names, row, strict=True) if v != ""} for row in reader])
+
+
+def checkpoint_files(out: Path) -> list[Path]:
+    """The checkpoints present in the run folder ``out``, the newest first."""
+    return [p for p in (Path(out) / CHECKPOINT, Path(out) / PREVIOUS) if os.path.lexists(p)]
+
+
+def resume_from(out: Path, load: Callable[[Path], tuple]) -> tuple[Path, tuple]:
+    """(path, ``load(path)``) of the run folder's newest checkpoint that loads.
+
+    ``checkpoint.npz``, else ``checkpoint.prev.npz`` with a logged warning (the run resumes one
+    checkpoint interval earlier); a CheckpointError naming both when neither loads.  Other
+    errors of ``load`` (a checkpoint of another configuration) are raised as they come.
+    """
+    errors = []
+    for path in checkpoint_files(out):
+        try:
+            result = load(path)
+        except CheckpointError as err:
+            errors.append(err)
+            continue
+        if path.name == PREVIOUS:
+            why = errors[0].damage if errors else f"{path.with_name(CHECKPOINT)} is missing"
+            log.warning("%s; resuming from %s, one checkpoint interval earlier", why, path)
+        return path, result
+    if not errors:
+        raise FileNotFoundError(errno.ENOENT, "no checkpoint", str(Path(out) / CHECKPOINT))
+    raise CheckpointError(", and ".join(e.damage for e in errors),
+                          [p for e in errors for p in e.remove])
+
+
+# ---------------------------------------------------------------------- controls
+
+
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+"""Signals that end a run after its current step, with a checkpoint (:class:`StopRequest`)."""
+
+
+class StopRequest:
+    """SIGINT / SIGTERM / SIGHUP deferred to the end of the current step (main thread only).
+
+    A context manager: entering installs the handlers; the first signal sets ``signum`` and
+    puts the previous handlers back, so the run can finish its step and write a checkpoint,
+    while a second signal acts at once; leaving puts them back. After the checkpoint,
+    :meth:`reraise` raises for the signal that came::
+
+        with StopRequest() as stop:
+            while ... and stop.signum is None:
+                ...  # steps
+        stop.reraise()
+
+    """
+
+    def __init__(self):
+        self.signum = None
+        self._previous = {}
+
+    def install(self) -> StopRequest:
+        """Catch STOP_SIGNALS (from the main thread only; elsewhere a no-op); returns self."""
+        if threading.current_thread() is threading.main_thread():
+            for sig in STOP_SIGNALS:
+                self._previous[sig] = signal.signal(sig, self._handle)
+        return self
+
+    def _handle(self, signum, frame):
+        self.signum = signum
+        self.restore()
+
+    def restore(self) -> None:
+        """Put the previous signal handlers back."""
+        for sig, handler in self._previous.items():
+            signal.signal(sig, handler)
+        self._previous = {}
+
+    def __enter__(self) -> StopRequest:
+        return self.install()
+
+    def __exit__(self, *exc) -> None:
+        self.restore()
+
+    def reraise(self) -> None:
+        """Re-raise the signal that came, after the final checkpoint.
+
+        KeyboardInterrupt for SIGINT, SystemExit(128 + signal) for SIGTERM and SIGHUP, nothing
+        when no signal came.
+        """
+        if self.signum == signal.SIGINT:
+            raise KeyboardInterrupt
+        if self.signum is not None:
+            raise SystemExit(128 + self.signum)
+
+
+class WallLimit:
+    """The wall-clock limit of a run, ``Config.max_hours``: pause while a checkpoint still fits.
+
+    From the run's start (``start``, a time.monotonic() reading: the process's start as the
+    command line gives it; default: now), the run pauses before a step when
+
+        elapsed + 2 max(recent step) + 2 (checkpoint write) >= 3600 max_hours,
+
+    the recent steps being the last RECENT_STEPS (a checkpoint's write not counted in them);
+    before the run's first checkpoint its write counts as long as a step.  The first step of a
+    run is always taken, so every leg of a chain advances.  No limit (None): never due.
+
+    """
+
+    RECENT_STEPS = 20
+
+    def __init__(self, hours: float | None, start: float | None = None):
+        self.limit = None if hours is None else 3600.0 * float(hours)
+        self.last = time.monotonic()
+        self.start = self.last if start is None else start
+        self.steps: deque[float] = deque(maxlen=self.RECENT_STEPS)
+        self.write: float | None = None
+
+    def stepped(self) -> None:
+        """A step ended now."""
+        now = time.monotonic()
+        self.steps.append(now - self.last)
+        self.last = now
+
+    def saved(self, seconds: float) -> None:
+        """A checkpoint took ``seconds`` to write, just now."""
+        self.write = seconds
+        self.last = time.monotonic()
+
+    @property
+    def due(self) -> bool:
+        """Whether the run pauses before its next step."""
+        if self.limit is None or not self.steps:
+            return False
+        step = max(self.steps)
+        write = step if self.write is None else self.write
+        return time.monotonic() - self.start + 2 * step + 2 * write >= self.limit
+
+
+RADIUS_RTOL = 1e-7
+"""A radius goal R is reached at a colony radius >= R (1 - RADIUS_RTOL).
+
+The continuum's last step of a radius goal lands on it by a linear extrapolation of dR/dt
+(``continuum.simulation.Simulation._dt``), within about 1e-9 relative below it (measured:
+-1.2e-9 for a disc at lam = 0 to radius 4.5); a tighter tolerance would add a step of that
+size. The particle engine's last step lands at or beyond it."""
+
+TIME_TOL = 1e-12
+"""A time goal T is reached at t >= T - TIME_TOL max(1, T) (both engines)."""
+
+
+def reached(radius_now, t: float, radius: float | None, time: float | None) -> bool:
+    """Whether the first of the goals is reached (False when both goals are None).
+
+    Time T: t >= T - TIME_TOL max(1, T); radius R_goal: R >= R_goal (1 - RADIUS_RTOL).
+    ``radius_now``: the colony radius, or a function returning it (called only for a radius
+    goal).
+    """
+    if time is not None and t >= time - TIME_TOL * max(1.0, time):
+        return True
+    if radius is None:
+        return False
+    return (radius_now() if callable(radius_now) else radius_now) >= radius * (1 - RADIUS_RTOL)
+
+
+def check_goal(radius: float | None, time: float | None) -> None:
+    """ValueError unless each given goal is a positive finite number."""
+    for name, v in (("radius", radius), ("time", time)):
+        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                              or not (math.isfinite(v) and v > 0)):
+            raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+
+
+def require_goal(config) -> None:
+    """ValueError unless ``config`` has a goal (``run`` needs one of ``radius`` and ``time``)."""
+    if config.radius is None and config.time is None:
+        raise ValueError("give exactly one of radius and time")
