@@ -35,7 +35,7 @@ rho(x) = 1 / (b lbar(x)), so Psi0 = n(x, s_i) = rho(x) p(x, i) / ds (the flow do
 depend on this normalisation; the fields number and total_length do).
 
 Growth phase: G0 = 0 (continuum.initial): the transported Psi carries the sizes from here on
-(``psi_transport`` along characteristics shifts each element's distribution exactly), G only
+(the transport along characteristics shifts each element's distribution exactly), G only
 measures the growth since the hand-off; the closed form 2^frac(G / ln 2) of ``mean_length``
 does not apply to this start (it is that of Psi0 = delta(l - 1)).
 

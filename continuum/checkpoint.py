@@ -5,7 +5,7 @@ on, so a simulation loaded from it continues bit-identically:
 
 - the arrays of the :class:`~continuum.state.State`: ``points``, ``tris``, ``G``, ``p``,
   ``u``, ``g``, ``psi`` (Psi's cell values), ``psi_phase`` (the phase offsets of Psi's windows
-  with ``psi_transport = "characteristics"``) or, for the delta Psi0 (``initial_sizes =
+  along the characteristics) or, for the delta Psi0 (``initial_sizes =
   "delta"``), ``psi_delta`` and ``psi_log_length`` (continuum.sizes.DeltaSizes), with strains
   ``phi`` and ``G_strains`` (n, S) (continuum.strains), ``p_prev`` (when set) and ``amg``, the
   CSR data of the matrix the pressure solver's AMG hierarchy was built from (when there is one; the
@@ -43,9 +43,9 @@ are never read through a symbolic link.
 A checkpoint resumes under a configuration equal to the saved one up to ``EXECUTION_FIELDS``
 (settings that do not change the result). Checkpoints of earlier versions load when intact
 (their zip CRCs hold): without ``sha256``, with the history and the frames ((t, file) pairs,
-whose names are ignored) in ``meta``, without ``step``, as finite volumes when their
-configuration has no ``psi_transport``, and with the bump Psi0 when it has no
-``initial_sizes``.
+whose names are ignored) in ``meta``, without ``step``, and with the bump Psi0 when it has no
+``initial_sizes``; those of a removed transport of Psi (continuum.sizes.REMOVED_TRANSPORTS) are
+refused in one line.
 
 ``runfiles.StopRequest`` (a context manager) defers SIGINT, SIGTERM and SIGHUP to the end of the
 current step, so that ``continuum.run`` can write a checkpoint of a whole step before stopping.
@@ -73,13 +73,7 @@ from continuum.runfiles import (
     resume_from,
     write_arrays,
 )
-from continuum.sizes import (
-    TRANSPORT_REMAP,
-    CharacteristicSizes,
-    DeltaSizes,
-    LengthGrid,
-    SizeDistribution,
-)
+from continuum.sizes import REMOVED_TRANSPORTS, CharacteristicSizes, DeltaSizes, LengthGrid
 from continuum.state import State
 
 __all__ = ["EXECUTION_FIELDS", "Checkpoint", "save_checkpoint", "load_checkpoint",
@@ -149,9 +143,7 @@ def save_checkpoint(path: Path, checkpoint: Checkpoint) -> None:
         arrays["psi_delta"] = state.sizes.n
         arrays["psi_log_length"] = state.sizes.log_length
     else:
-        arrays["psi"] = state.sizes.n
-    if isinstance(state.sizes, CharacteristicSizes):
-        arrays["psi_phase"] = state.sizes.phase
+        arrays["psi"], arrays["psi_phase"] = state.sizes.n, state.sizes.phase
     if state.phi is not None:
         arrays["phi"], arrays["G_strains"] = state.phi, state.G_strains
     if state.p_prev is not None:
@@ -178,7 +170,7 @@ def _check_arrays(path: Path, arrays: dict, n_cells: int, n_strains: int = 0) ->
     shapes = {"points": (n, 2), "u": (n, 2), "G": (n,), "p": (n,), "g": (n,), "psi_phase": (n,),
               "p_prev": (n,), "psi": (n, n_cells), "psi_delta": (n,), "psi_log_length": (n,),
               "phi": (n, n_strains), "G_strains": (n, n_strains)}
-    psi = ("psi_delta", "psi_log_length") if "psi_delta" in arrays else ("psi",)
+    psi = ("psi_delta", "psi_log_length") if "psi_delta" in arrays else ("psi", "psi_phase")
     strains = ("phi", "G_strains") if n_strains else ()
     if not n_strains and arrays.keys() & {"phi", "G_strains"}:
         raise damaged(path, "unexpected content (phi)")
@@ -200,11 +192,8 @@ def _state(arrays: dict, meta: dict, saved: dict, default_step: int) -> State:
     grid = LengthGrid(saved["n_length_cells"])
     if "psi_delta" in arrays:
         sizes = DeltaSizes(arrays["psi_delta"], arrays["psi_log_length"])
-    elif "psi_phase" in arrays:
-        remap = TRANSPORT_REMAP.get(saved.get("psi_transport"), "cells")
-        sizes = CharacteristicSizes(grid, arrays["psi"], arrays["psi_phase"], remap)
     else:
-        sizes = SizeDistribution(grid, arrays["psi"])
+        sizes = CharacteristicSizes(grid, arrays["psi"], arrays["psi_phase"])
     return State(
         **{attr: np.array(arrays[name]) for attr, name in _ARRAYS.items()},
         sizes=sizes,
@@ -251,7 +240,12 @@ def _bookkeeping(path: Path, meta: dict) -> tuple[float, bool]:
 
 
 def _saved_config(path: Path, arrays: dict) -> dict:
-    """The configuration fields a checkpoint holds (older ones: ``element`` P1)."""
+    """The configuration fields a checkpoint holds (older ones: ``element`` P1).
+
+    ValueError for a checkpoint of a removed transport of Psi (REMOVED_TRANSPORTS; one without
+    ``psi_transport`` carried Psi by finite volumes, or along characteristics with cells
+    remapped when it has ``psi_phase``).
+    """
     meta = read_meta(path, arrays)
     saved = checked(path, lambda: meta["config"])
     if not isinstance(saved, dict):
@@ -262,6 +256,12 @@ def _saved_config(path: Path, arrays: dict) -> dict:
     saved.setdefault("layout", None)
     if "max_steps" in saved:  # Config.step_limit's former name
         saved["step_limit"] = saved.pop("max_steps")
+    transport = saved.setdefault(
+        "psi_transport", "characteristics" if "psi_phase" in arrays else "finite-volume")
+    if transport in REMOVED_TRANSPORTS and "psi_delta" not in arrays:
+        raise ValueError(f"checkpoint {path} carries Psi by the {transport!r} transport, which "
+                         f"was removed ({REMOVED_TRANSPORTS[transport]}): resume it with that "
+                         "commit's code")
     return saved
 
 

@@ -19,7 +19,7 @@ import numpy as np
 from continuum import mesh, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
-from continuum.sizes import INITIAL_SIZES, TRANSPORTS
+from continuum.sizes import INITIAL_SIZES, REMOVED_TRANSPORTS, TRANSPORTS
 from continuum.strains import as_strains, parse_layout
 
 __all__ = ["Config"]
@@ -115,12 +115,11 @@ class Config:
         Half-width in s = log2 l of the initial bump (``initial_sizes = "bump"``).
     psi_transport : str
         Transport of Psi in l on the grid (a "bump" or "histogram" Psi0):
-        "characteristics-labels" (default: exact shift of per-node windows in s = log2 l,
-        continuum.sizes.CharacteristicSizes; a remesh interpolates the rows by label,
-        continuum.remesh: from a uniform Psi0 exact to round-off at radius 150),
-        "characteristics" (the same transport; a remesh remaps the cells conservatively in s,
-        which smears across rings: median error of the mean length 0.030 at radius 150) or
-        "finite-volume" (flux-limited Lax-Wendroff, continuum.sizes.SizeDistribution).
+        "characteristics-labels", the one there is: exact shift of per-node windows in
+        s = log2 l, continuum.sizes.CharacteristicSizes; a remesh interpolates the rows by
+        label, continuum.remesh: from a uniform Psi0 exact to round-off at radius 150. The
+        cell remap ("characteristics") and finite volumes ("finite-volume") were removed
+        (continuum.sizes.REMOVED_TRANSPORTS).
     element : str
         Lagrange element of the pressure: "P1" (default: hand-written assembly, equal to
         scikit-fem's to round-off, 2x faster over a whole run; velocity by patch recovery and
@@ -206,7 +205,9 @@ class Config:
         for name, ok, what in rules + _RULES:
             v = getattr(self, name)
             if not ok(v):
-                raise ValueError(f"{name} must be {what}, got {v!r}")
+                removed = REMOVED_TRANSPORTS.get(v) if name == "psi_transport" else None
+                raise ValueError(f"{name} must be {what}, got {v!r}"
+                                 + (f" ({v} was removed: {removed})" if removed else ""))
         if self.layout is not None:
             if len(self.strains) < 2:
                 raise ValueError(f"layout {self.layout!r} needs two or more strains")

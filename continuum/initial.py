@@ -26,10 +26,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from continuum import mesh
 from continuum.sizes import (
-    TRANSPORT_REMAP,
     CharacteristicSizes,
     LengthGrid,
-    SizeDistribution,
 )
 from continuum.state import State
 
@@ -38,13 +36,13 @@ __all__ = ["state_from", "sizes_from"]
 
 def sizes_from(config, points: NDArray,
                psi0: Callable[[NDArray], ArrayLike] | ArrayLike
-               ) -> SizeDistribution | CharacteristicSizes:
-    """Psi0 at the nodes ``points`` in the class of ``config.psi_transport``.
+               ) -> CharacteristicSizes:
+    """Psi0 at the nodes ``points``, carried along the characteristics (``psi_transport``).
 
     Parameters
     ----------
     config : continuum.Config
-        Its ``n_length_cells`` (the grid in s = log2 l) and ``psi_transport``.
+        Its ``n_length_cells`` (the grid in s = log2 l).
     points : ndarray (n, 2)
         Node positions.
     psi0 : callable or array_like
@@ -70,9 +68,7 @@ def sizes_from(config, points: NDArray,
         raise ValueError("Psi0 must be finite and >= 0")
     if np.any(values.sum(axis=1) <= 0):
         raise ValueError("Psi0 has no cells at some node")
-    if config.psi_transport == "finite-volume":
-        return SizeDistribution(grid, values)
-    return CharacteristicSizes(grid, values, remap=TRANSPORT_REMAP[config.psi_transport])
+    return CharacteristicSizes(grid, values)
 
 
 def state_from(config, boundary: ArrayLike,

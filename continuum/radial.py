@@ -425,7 +425,7 @@ def mean_length_profile(
     """Mean length lbar(r, t) = 2^frac(G(r, t) / ln 2 + phase0) at radii r_eval.
 
     phase0 = 0: initial delta(l - 1); phase0 = log2 l_init for delta(l - l_init) (e.g. the centre
-    ``width`` of :meth:`continuum.sizes.SizeDistribution.bump`). G (smooth in r) is computed
+    ``width`` of :func:`continuum.sizes.bump_profile`). G (smooth in r) is computed
     exactly along each point's characteristic; lbar (discontinuous at the rings) only afterwards.
     """
     G = growth_phase(lam, r_eval, t, radius, R0=R0, rtol=rtol)

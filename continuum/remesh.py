@@ -37,30 +37,16 @@ material element with its divisions undone is interpolated with the convex weigh
 delta put at the new node's growth phase G_new / ln 2, so its mean length stays
 2^frac(G / ln 2) to round-off (``DeltaSizes.transfer_labels``). On the l grid:
 
-Psi counts cells per material element, whose area stretch is exp(G) (div u = g), so the
-density per current area Psi exp(-G) is transferred and multiplied back by exp(G_new)
-(:func:`transfer_sizes`).
-
-- Finite volumes (``psi_transport = "finite-volume"``): with W; negative values of the
-  interpolant are cut to 0.
-- Along characteristics (the default, continuum.sizes.CharacteristicSizes): every row lives on
-  its own window in s = log2 l; the new node's window is placed at its growth phase
-  frac(G_new / ln 2) (where Psi0 = delta(l - 1) would sit) and every old row is mapped onto it
-  keeping the number and the length of each cell (``CharacteristicSizes.transfer``). The
-  weights are the linear ones with the extrapolation cut to a convex combination
-  (:func:`convex_weights` of ``interpolation_matrix``: W >= 0, rows summing to 1), so nothing is
-  cut and the number and total length per current area transfer exactly with these weights. Why
-  not the gradient-corrected W: its negative weights, applied to narrow distributions at
-  neighbouring phases, leave negative cells; cutting them raised the total length per area by
-  up to 15 % at radius 40 (lam = 1e-2), against 0.5 % for the extrapolated nodes alone and
-  round-off with the convex weights (docs/validation.md).
-- Along characteristics, by labels (``psi_transport = "characteristics-labels"``): the rows
-  with their divisions undone, 2^-k n, are interpolated by cell index with the same convex
-  weights and put on the window at the new node's phase G_new / ln 2 (no remap in s; the
-  total length per current area transfers exactly with the weights, the number follows the
-  phase; ``CharacteristicSizes.transfer_labels``). From the model's uniform Psi0 this keeps
-  Psi exact: the cell remap instead mixes the distributions of neighbours at different phases,
-  bimodal across a ring, and the error grows with the remeshes (docs/validation.md).
+Along characteristics (continuum.sizes.CharacteristicSizes), by labels: every row lives on its
+own window in s = log2 l; the rows with their divisions undone, 2^-k n, are interpolated by cell
+index and put on the window at the new node's phase G_new / ln 2 (no remap in s; the total
+length per current area transfers exactly with the weights, the number follows the phase;
+``CharacteristicSizes.transfer_labels``). From the model's uniform Psi0 this keeps Psi exact. The
+weights are the linear ones with the extrapolation cut to a convex combination
+(:func:`convex_weights` of ``interpolation_matrix``: W >= 0, rows summing to 1). Why not the
+gradient-corrected W: its negative weights, applied to narrow distributions at neighbouring
+phases, left negative cells in the cell remap this replaced, and cutting them raised the total
+length per area by up to 15 % at radius 40 (lam = 1e-2; docs/validation.md).
 """
 
 from __future__ import annotations
@@ -73,7 +59,7 @@ import scipy.sparse as sp
 from continuum import mesh
 from continuum.growth import LN2
 from continuum.pressure import P1Assembler
-from continuum.sizes import CharacteristicSizes, DeltaSizes, SizeDistribution, split_phase
+from continuum.sizes import CharacteristicSizes, DeltaSizes
 from continuum.state import State
 from continuum.velocity import GradientRecovery
 
@@ -162,28 +148,16 @@ def remesh_reason(
     return None
 
 
-def transfer_sizes(
-    sizes: SizeDistribution | CharacteristicSizes | DeltaSizes, W: sp.csr_matrix,
-    G_old: np.ndarray, G_new: np.ndarray,
-) -> SizeDistribution | CharacteristicSizes | DeltaSizes:
-    """Psi on the new nodes: Psi_new = max(exp(G_new) W (exp(-G_old) Psi), 0).
+def transfer_sizes(sizes: CharacteristicSizes | DeltaSizes, W: sp.csr_matrix,
+                   G_old: np.ndarray, G_new: np.ndarray) -> CharacteristicSizes | DeltaSizes:
+    """Psi on the new nodes, by labels (module docstring).
 
-    Transfers the density per current area Psi exp(-G) (module docstring) with the matrix W;
-    rows along characteristics onto windows at the phases frac(G_new / ln 2); a delta
-    (DeltaSizes) by labels: its undivided number with W, its position at G_new.
+    The undivided rows (a delta's undivided number) interpolated with W, placed at the new
+    nodes' phases G_new / ln 2.
     """
     if isinstance(sizes, DeltaSizes):
         return sizes.transfer_labels(W, G_old, G_new)
-    if isinstance(sizes, CharacteristicSizes) and sizes.remap == "labels":
-        return sizes.transfer_labels(W, np.asarray(G_old) / LN2, np.asarray(G_new) / LN2)
-    Wd = W.multiply(np.exp(-G_old)[None, :]).tocsr()
-    if isinstance(sizes, CharacteristicSizes):
-        dens = sizes.transfer(Wd, split_phase(np.asarray(G_new, dtype=float) / LN2)[1])
-    else:
-        dens = sizes.transfer(Wd)
-    dens.n *= np.exp(G_new)[:, None]
-    np.maximum(dens.n, 0.0, out=dens.n)
-    return dens
+    return sizes.transfer_labels(W, np.asarray(G_old) / LN2, np.asarray(G_new) / LN2)
 
 
 def remesh(

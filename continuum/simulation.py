@@ -61,11 +61,9 @@ from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_th
 from continuum.remesh import remesh, remesh_reason
 from continuum.runfiles import check_goal, reached, require_goal
 from continuum.sizes import (
-    TRANSPORT_REMAP,
     CharacteristicSizes,
     DeltaSizes,
     LengthGrid,
-    SizeDistribution,
 )
 from continuum.state import State, StepRecord
 from continuum.strains import check_fractions, fractions_at, parse_layout, slope_scale
@@ -91,19 +89,16 @@ def initial_state(config: Config) -> State:
 
 
 def initial_sizes(config: Config, n: int
-                  ) -> DeltaSizes | SizeDistribution | CharacteristicSizes:
+                  ) -> DeltaSizes | CharacteristicSizes:
     """Psi0 on n nodes (``initial_sizes``).
 
     "delta": delta(l - 1) carried by its position (DeltaSizes); "bump": the bump of
-    ``bump_width`` in the class of ``psi_transport``.
+    ``bump_width`` along the characteristics (``psi_transport``).
     """
     if config.initial_sizes == "delta":
         return DeltaSizes.delta(n)
     grid = LengthGrid(config.n_length_cells)
-    if config.psi_transport == "finite-volume":
-        return SizeDistribution.bump(grid, n, width=config.bump_width)
-    return CharacteristicSizes.bump(grid, n, width=config.bump_width,
-                                    remap=TRANSPORT_REMAP[config.psi_transport])
+    return CharacteristicSizes.bump(grid, n, width=config.bump_width)
 
 
 def _solver(config: Config) -> PressureSolver:

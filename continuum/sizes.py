@@ -25,35 +25,13 @@ So the total length grows exactly like the local area stretch exp(G) (per curren
 conserved: the packing), while N grows like exp(G) only for the stable profile n ~ 2^-s
 (Psi ~ l^-2), which the shift maps to 2^(sigma - s); for other profiles N oscillates about it.
 
-Two transports (``Config.psi_transport``):
-
-- along the characteristics (:class:`CharacteristicSizes`, the default, remeshed by labels):
-  the characteristics are parallel in s, so each node's grid moves with them: a phase offset per
-  node and values on a fixed-width window of one octave; advancing is an exact shift, a division
-  an exact doubling of the values that cross s = 1; a remesh remaps rows between windows keeping
-  each cell's number and length (class docstring);
-- finite volumes (:class:`SizeDistribution`), below.
-
-Numerical scheme of the finite volumes. Cell averages on a uniform grid in s and the one-step
-flux-limited Lax-Wendroff scheme (Sweby form, LeVeque, FVMHP, section 6.12) with the monotonised
-central (MC) limiter::
-
-    n_i <- n_i - nu (Phi_{i+1/2} - Phi_{i-1/2}),   nu = a dt / ds,
-    Phi_{i-1/2} = n_{i-1} + (1 - nu)/2 * MC(n_i - n_{i-1}, n_{i-1} - n_{i-2}),
-    MC(d, e) = sign(d) min(|d + e|/2, 2|d|, 2|e|) if d e > 0 else 0.
-
-Why this scheme: it is second order where the solution is smooth and monotone, TVD (so it creates
-no new extrema and keeps n >= 0) for 0 <= nu <= 1, exact (a pure shift) at nu = 1, and needs one
-flux evaluation per step instead of two for MUSCL + SSP-RK2 (which is TVD only for nu <= 1/2):
-about four times cheaper per unit of phase. Each call of :meth:`SizeDistribution.advance` takes,
-per node, m = ceil(a dt / (courant ds)) equal substeps (default courant = 0.9 <= 1), so every row
-is advanced independently of the others (bit-for-bit the same as alone).
-
-Division condition, exactly: the flux at s = 0 is set to twice the flux at s = 1,
-Phi_{-1/2} = 2 Phi_{N-1/2}, and the ghost cells n_{-1} = 2 n_{N-1}, n_N = n_0 / 2 serve the
-limiter at the two faces next to them. The limiter is positively homogeneous, so the flux through
-s = 0 computed from the ghost states would be the same 2 Phi_{N-1/2}; the number gained per step,
-nu ds Phi_{N-1/2}, is the discrete analogue of dN/dt = a n(1).
+The transport (``Config.psi_transport = "characteristics-labels"``), along the characteristics
+(:class:`CharacteristicSizes`): the characteristics are parallel in s, so each node's grid moves
+with them: a phase offset per node and values on a fixed-width window of one octave; advancing
+is an exact shift, a division an exact doubling of the values that cross s = 1; a remesh
+interpolates the rows by label (class docstring). The model's delta Psi0 is carried exactly by
+its position instead (:class:`DeltaSizes`). Two transports measured against it were removed
+(REMOVED_TRANSPORTS; their measurements are in docs/validation.md).
 """
 
 from __future__ import annotations
@@ -62,7 +40,6 @@ import math
 from collections.abc import Callable
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from continuum.growth import LN2
@@ -72,16 +49,13 @@ LN4 = 2.0 * LN2
 
 __all__ = [
     "LengthGrid",
-    "SizeDistribution",
     "CharacteristicSizes",
     "DeltaSizes",
     "INITIAL_SIZES",
     "TRANSPORTS",
-    "REMAPS",
-    "TRANSPORT_REMAP",
+    "REMOVED_TRANSPORTS",
+    "bump_profile",
     "exact_shift",
-    "lw_mc_step",
-    "remap_pivots",
     "split_phase",
     "spread",
 ]
@@ -89,18 +63,21 @@ __all__ = [
 INITIAL_SIZES = ("delta", "bump", "histogram")
 """Psi0 of a run (``Config.initial_sizes``): the model's delta(l - 1) carried exactly by its
 position (:class:`DeltaSizes`, the default), the smooth bump of ``bump_width`` on the l grid
-(:meth:`CharacteristicSizes.bump` / :meth:`SizeDistribution.bump`), or a histogram on the l
+(:func:`bump_profile`), or a histogram on the l
 grid given with the state (continuum.initial.state_from, e.g. the particle hand-off)."""
 
-TRANSPORTS = ("characteristics", "characteristics-labels", "finite-volume")
-"""Transports of Psi (``Config.psi_transport``): CharacteristicSizes remapped by cells or by
-labels at a remesh, SizeDistribution."""
+TRANSPORTS = ("characteristics-labels",)
+"""Transports of Psi (``Config.psi_transport``): :class:`CharacteristicSizes`, remeshed by
+labels."""
 
-REMAPS = ("cells", "labels")
-"""How a remesh transfers CharacteristicSizes (its ``remap``)."""
+REMOVED_TRANSPORTS = {
+    "characteristics": "it remapped the cells in s at a remesh and smeared across rings (median "
+                       "error of the mean length 0.030 at radius 150); last in commit a216238",
+    "finite-volume": "flux-limited Lax-Wendroff, error 1.8e-4 at 256 cells where the default's "
+                     "is 8e-7; last in commit a216238",
+}
+"""Transports measured against the default and removed (docs/validation.md), with why."""
 
-TRANSPORT_REMAP = {"characteristics": "cells", "characteristics-labels": "labels"}
-"""The ``remap`` of CharacteristicSizes for each transport along characteristics."""
 
 class LengthGrid:
     """Uniform finite-volume grid in s = log2 l on [0, 1] (l in [1, 2]).
@@ -153,200 +130,28 @@ def _check_speed(g: ArrayLike, n_nodes: int) -> NDArray:
     return g
 
 
-def lw_mc_step(n: NDArray, nu: NDArray) -> NDArray:
-    """One flux-limited Lax-Wendroff (MC limiter) step of dn/dt + a dn/ds = 0, n(0) = 2 n(1).
+def bump_profile(grid: LengthGrid, width: float = 0.08, number: float = 1.0) -> NDArray:
+    """Cell values of a narrow smooth bump standing in for Psi0 = number * delta(l - 1).
 
-    Parameters
-    ----------
-    n : ndarray (k, N)
-        Cell averages, one row per node.
-    nu : ndarray (k,)
-        Courant numbers a dt / ds in [0, 1].
-
-    Returns
-    -------
-    ndarray (k, N)
-        n_i - nu (Phi_{i+1/2} - Phi_{i-1/2}) with the fluxes of the module docstring.
+    n0(s) = C exp(-1 / (1 - x^2)) for ``|x| < 1``, x = (s - width) / width: a C-infinity bump of
+    half-width ``width`` in s centred at s = width, so its support (0, 2 width) lies inside
+    (0, 1) (all lengths in (1, 2^(2 width)); mean length ~ 2^width). The cell averages
+    (16-point Gauss-Legendre) are scaled so that the discrete number sum n ds equals
+    ``number``. Its mean length follows the delta limit 2^frac(G/ln 2) to within the bump's
+    spread, i.e. a factor 2^(+-2 width).
     """
-    N = n.shape[1]
-    # extended row with the ghost cells: [n_{-1} = 2 n_{N-1}, n_0, ..., n_{N-1}, n_N = n_0 / 2]
-    E = np.concatenate((2.0 * n[:, N - 1 :], n, 0.5 * n[:, :1]), axis=1)
-    d = np.diff(E, axis=1)  # d[:, j] = n_j - n_{j-1}, j = 0..N
-    loc, up = d[:, 1:], d[:, :-1]  # at face i + 1/2, i = 0..N-1: n_{i+1} - n_i, n_i - n_{i-1}
-    lim = np.minimum(np.abs(loc + up) * 0.5, 2.0 * np.minimum(np.abs(loc), np.abs(up)))
-    lim *= np.sign(loc)
-    lim[loc * up <= 0.0] = 0.0
-    nu = nu[:, None]
-    phi = n + (0.5 * (1.0 - nu)) * lim  # Phi_{i+1/2}, i = 0..N-1
-    phi_left = np.concatenate((2.0 * phi[:, N - 1 :], phi[:, : N - 1]), axis=1)  # Phi_{i-1/2}
-    return n - nu * (phi - phi_left)
+    if not 0.0 < width < 0.5:
+        raise ValueError(f"bump width must be in (0, 0.5), got {width}")
+    if width < 2.0 * grid.ds:
+        raise ValueError(f"bump width {width} is below two cells (2 ds = {2 * grid.ds})")
 
+    def f(s):
+        x = (s - width) / width
+        inside = np.abs(x) < 1.0
+        return np.where(inside, np.exp(-1.0 / np.where(inside, 1.0 - x * x, 1.0)), 0.0)
 
-@njit(cache=True)
-def _advance_rows(n: NDArray, nu_total: NDArray, courant: float) -> None:  # pragma: no cover
-    """In place: row j takes m_j = max(1, ceil(nu_total_j / courant)) steps of :func:`lw_mc_step`.
-
-    The compiled twin of ``lw_mc_step`` applied row by row (same arithmetic, same order), so each
-    row is advanced independently. Rows with nu_total_j = 0 are left untouched.
-    """
-    k, N = n.shape
-    phi = np.empty(N)
-    for j in range(k):
-        if nu_total[j] <= 0.0:
-            continue
-        m = max(1, int(math.ceil(nu_total[j] / courant * (1.0 - 1e-12))))
-        nu = nu_total[j] / m
-        c = 0.5 * (1.0 - nu)
-        for _ in range(m):
-            for i in range(N):
-                ni = n[j, i]
-                nm = n[j, i - 1] if i > 0 else 2.0 * n[j, N - 1]
-                npl = n[j, i + 1] if i < N - 1 else 0.5 * n[j, 0]
-                loc = npl - ni
-                up = ni - nm
-                lim = 0.0
-                if loc * up > 0.0:
-                    lim = min(abs(loc + up) * 0.5, 2.0 * min(abs(loc), abs(up)))
-                    if loc < 0.0:
-                        lim = -lim
-                phi[i] = ni + c * lim
-            prev = 2.0 * phi[N - 1]
-            for i in range(N):
-                n[j, i] = n[j, i] - nu * (phi[i] - prev)
-                prev = phi[i]
-
-
-class SizeDistribution:
-    """Cell averages n[node, i] of n(s) = Psi dl/ds on a :class:`LengthGrid`, one row per node.
-
-    Parameters
-    ----------
-    grid : LengthGrid
-    n : ndarray (n_nodes, n_cells)
-        Non-negative cell averages (number per material element per unit s).
-    courant : float
-        Largest Courant number a dt_sub / ds of a substep, in (0, 1] (TVD bound of the scheme).
-    """
-
-    def __init__(self, grid: LengthGrid, n: ArrayLike, courant: float = 0.9):
-        n = np.array(n, dtype=float)
-        if n.ndim != 2 or n.shape[1] != grid.n_cells:
-            raise ValueError(f"n must have shape (n_nodes, {grid.n_cells}), got {n.shape}")
-        if not np.all(np.isfinite(n)):
-            raise ValueError("n must be finite")
-        if not 0.0 < courant <= 1.0:
-            raise ValueError(f"courant must be in (0, 1], got {courant}")
-        self.grid = grid
-        self.n = n
-        self.courant = float(courant)
-
-    @property
-    def n_nodes(self) -> int:
-        """Number of rows (material elements, mesh nodes)."""
-        return self.n.shape[0]
-
-    def __repr__(self) -> str:
-        return f"SizeDistribution(n_nodes={self.n_nodes}, grid={self.grid!r})"
-
-    # ------------------------------------------------------------------ constructors
-
-    @classmethod
-    def from_function(
-        cls,
-        grid: LengthGrid,
-        n_nodes: int,
-        f: Callable[[NDArray], NDArray],
-        n_quad: int = 8,
-        **kwargs,
-    ) -> SizeDistribution:
-        """Every node holds the cell averages of f(s) (Gauss-Legendre, n_quad points per cell)."""
-        row = grid.cell_averages(f, n_quad)
-        return cls(grid, np.tile(row, (int(n_nodes), 1)), **kwargs)
-
-    @classmethod
-    def bump(
-        cls, grid: LengthGrid, n_nodes: int, width: float = 0.08, number: float = 1.0, **kwargs
-    ) -> SizeDistribution:
-        """Narrow smooth bump standing in for Psi0 = number * delta(l - 1).
-
-        n0(s) = C exp(-1 / (1 - x^2)) for ``|x| < 1``, x = (s - width) / width: a C-infinity bump of
-        half-width ``width`` in s centred at s = width, so its support (0, 2 width) lies inside
-        (0, 1) (all lengths in (1, 2^(2 width)); mean length ~ 2^width). C is set so that the
-        discrete number sum n ds equals ``number``. Its mean length follows the delta limit
-        2^frac(G/ln 2) to within the bump's spread, i.e. a factor 2^(+-2 width).
-        """
-        if not 0.0 < width < 0.5:
-            raise ValueError(f"bump width must be in (0, 0.5), got {width}")
-        if width < 2.0 * grid.ds:
-            raise ValueError(f"bump width {width} is below two cells (2 ds = {2 * grid.ds})")
-
-        def f(s):
-            x = (s - width) / width
-            inside = np.abs(x) < 1.0
-            return np.where(inside, np.exp(-1.0 / np.where(inside, 1.0 - x * x, 1.0)), 0.0)
-
-        row = grid.cell_averages(f, 16)
-        row *= number / (row.sum() * grid.ds)
-        return cls(grid, np.tile(row, (int(n_nodes), 1)), **kwargs)
-
-    # ------------------------------------------------------------------ transport
-
-    def advance(self, g: ArrayLike, dt: float) -> SizeDistribution:
-        """Advance every row by dt at its speed a = g / ln 2 (in place; returns self).
-
-        Node j takes m_j = max(1, ceil(a_j dt / (courant ds))) substeps of :func:`lw_mc_step`
-        with nu_j = a_j dt / (m_j ds) <= courant (compiled Numba kernel, one row at a time).
-        """
-        g = _check_speed(g, self.n_nodes)
-        dt = float(dt)
-        if not math.isfinite(dt) or dt < 0:
-            raise ValueError(f"dt must be finite and >= 0, got {dt}")
-        nu_total = g * dt / (LN2 * self.grid.ds)
-        if not self.n.flags.c_contiguous:
-            self.n = np.ascontiguousarray(self.n)
-        _advance_rows(self.n, nu_total, self.courant)
-        return self
-
-    # ------------------------------------------------------------------ moments
-
-    def number(self) -> NDArray:
-        """Number of particles per material element, N = int n ds (per node)."""
-        return self.n.sum(axis=1) * self.grid.ds
-
-    def total_length(self) -> NDArray:
-        """Total length per material element, L = int 2^s n ds (exact cell integrals of l)."""
-        return self.n @ self.grid.length_integrals
-
-    def mean_length(self) -> NDArray:
-        """Mean length lbar = L / N per node."""
-        return self.total_length() / self.number()
-
-    def square_length(self) -> NDArray:
-        """Sum of the squared lengths per material element, Q = int 4^s n ds (exact per cell)."""
-        return self.n @ (np.diff(4.0**self.grid.edges) / LN4)
-
-    def length_std(self) -> NDArray:
-        """Standard deviation of the lengths per node, sqrt(Q / N - lbar^2) (:func:`spread`)."""
-        return spread(self.number(), self.total_length(), self.square_length())
-
-    # ------------------------------------------------------------------ remeshing
-
-    def take(self, index: ArrayLike) -> SizeDistribution:
-        """A new distribution holding the rows ``index`` (copy)."""
-        return SizeDistribution(self.grid, self.n[np.asarray(index)], courant=self.courant)
-
-    def transfer(self, W) -> SizeDistribution:
-        """A new distribution n_new = W @ n, W an (n_new, n_nodes) matrix (e.g. sparse P1 weights).
-
-        Moments are linear in n, so number and total length transfer with the same weights.
-        """
-        if W.ndim != 2 or W.shape[1] != self.n_nodes:
-            raise ValueError(f"W must have shape (n_new, {self.n_nodes}), got {W.shape}")
-        return SizeDistribution(self.grid, np.asarray(W @ self.n), courant=self.courant)
-
-    def copy(self) -> SizeDistribution:
-        """A copy with its own cell averages."""
-        return SizeDistribution(self.grid, self.n.copy(), courant=self.courant)
+    row = grid.cell_averages(f, 16)
+    return row * (number / (row.sum() * grid.ds))
 
 
 def exact_shift(f0: Callable[[NDArray], NDArray], shift: float) -> Callable[[NDArray], NDArray]:
@@ -398,63 +203,6 @@ def split_phase(x: NDArray) -> tuple[NDArray, NDArray]:
     return k, f
 
 
-def remap_pivots(theta: float, ds: float) -> tuple[float, float]:
-    """Fractions (a, b) of a cell shifted by theta ds (0 <= theta < 1) given to the cells k, k + 1.
-
-    a = (2^ds - 2^(theta ds)) / (2^ds - 1), b = 1 - a: the number a + b and the length
-    a p_k + b p_(k+1) = p_k 2^(theta ds) of the shifted cell are both kept (p_k the mean of
-    2^s over cell k; the mean over the shifted cell is p_k 2^(theta ds)). theta = 0 gives (1, 0).
-    """
-    q = 2.0**ds
-    a = (q - 2.0 ** (theta * ds)) / (q - 1.0)
-    return a, 1.0 - a
-
-
-@njit(cache=True)
-def _remap_csr(indptr, indices, data, n_old, phase_old, phase_new, out):  # pragma: no cover
-    """out[i] = sum_j W_ij R(phase_old_j -> phase_new_i) n_old[j] (class CharacteristicSizes).
-
-    W in CSR form (indptr, indices, data). For each entry the source row is shifted by
-    r = (phase_old_j - phase_new_i) N cells of the target grid: k0 = floor(r), theta = r - k0;
-    source cell q gives the fraction a of its value to target cell q + k0 and b = 1 - a to
-    q + k0 + 1 (:func:`remap_pivots`); a target index k outside 0..N-1 is the cell k mod N one
-    octave away, whose value is 2^floor(k / N) times as large (twisted periodicity).
-    """
-    n_new, N = out.shape
-    ds = 1.0 / N
-    q2 = 2.0**ds
-    den = q2 - 1.0
-    for i in range(n_new):
-        for p in range(indptr[i], indptr[i + 1]):
-            w = data[p]
-            if w == 0.0:
-                continue
-            j = indices[p]
-            r = (phase_old[j] - phase_new[i]) * N
-            k0 = int(math.floor(r))
-            theta = r - k0
-            a = (q2 - 2.0 ** (theta * ds)) / den
-            b = 1.0 - a
-            for q in range(N):
-                v = w * n_old[j, q]
-                if v == 0.0:
-                    continue
-                _add(out, i, q + k0, a * v, N)
-                if b != 0.0:
-                    _add(out, i, q + k0 + 1, b * v, N)
-
-
-@njit(cache=True, inline="always")
-def _add(out, i, k, v, N):  # pragma: no cover
-    """out[i, k] += v for k in 0..N-1; k < 0 (k >= N) is cell k + N (k - N) at value v/2 (2 v)."""
-    if k < 0:
-        out[i, k + N] += 0.5 * v
-    elif k >= N:
-        out[i, k - N] += 2.0 * v
-    else:
-        out[i, k] += v
-
-
 class CharacteristicSizes:
     r"""Psi per node carried exactly along its characteristics in s = log2 l (the default).
 
@@ -482,17 +230,7 @@ class CharacteristicSizes:
     L is the same in every window (a division keeps the length), so L = exp(G) L(0) exactly
     along a path; N is piecewise linear in phi (rising while a cell crosses s = 1).
 
-    Remap (:meth:`transfer`): a remesh combines rows with different phases onto a new row with
-    its own phase. Each source cell, shifted onto the target grid by theta ds (0 <= theta < 1)
-    past cell k, is split between cells k and k + 1 so that its number and its total length are
-    both kept (the fixed-pivot split, :func:`remap_pivots`; the split of the overlap remap
-    a = 1 - theta corrected to the curvature of 2^s, positive). Cells moved past the window
-    come back one octave away (value times 2 or 1/2, the twisted periodicity). L is kept to
-    round-off; N too, except for a cell within one cell of s = 1 (one value per cell cannot
-    keep both moments there). The smearing per remap is a variance theta (1 - theta) ds^2 in s
-    (measured in tests/continuum/test_psi_characteristics.py). This is ``remap = "cells"``.
-
-    Remap by labels (:meth:`transfer_labels`, ``remap = "labels"``). Along a path the solution
+    Remap by labels (:meth:`transfer_labels`). Along a path the solution
     is n(s) = 2^k n0(y) at the label y = s - sigma, sigma = G / ln 2 (+ the initial phase),
     k = floor(sigma): cell i of a window is label y_i = i ds whatever the phase, and
     n_hat = 2^-k n (the divisions undone) is the initial profile of the material element,
@@ -513,15 +251,9 @@ class CharacteristicSizes:
         Non-negative values on the windows.
     phase : ndarray (n_nodes,), optional
         Phase offsets in [0, 1) (default 0: the window is [0, 1)).
-    remap : str
-        How a remesh transfers the rows (continuum.remesh.transfer_sizes): "cells" or "labels".
     """
 
-    def __init__(self, grid: LengthGrid, n: ArrayLike, phase: ArrayLike | None = None,
-                 remap: str = "cells"):
-        if remap not in REMAPS:
-            raise ValueError(f"remap must be one of {REMAPS}, got {remap!r}")
-        self.remap = remap
+    def __init__(self, grid: LengthGrid, n: ArrayLike, phase: ArrayLike | None = None):
         n = np.array(n, dtype=float)
         if n.ndim != 2 or n.shape[1] != grid.n_cells:
             raise ValueError(f"n must have shape (n_nodes, {grid.n_cells}), got {n.shape}")
@@ -544,16 +276,15 @@ class CharacteristicSizes:
 
     @classmethod
     def from_function(cls, grid: LengthGrid, n_nodes: int, f: Callable[[NDArray], NDArray],
-                      n_quad: int = 8, remap: str = "cells") -> CharacteristicSizes:
+                      n_quad: int = 8) -> CharacteristicSizes:
         """Every node holds the cell averages of f(s) on [0, 1) (phase 0)."""
-        return cls(grid, SizeDistribution.from_function(grid, n_nodes, f, n_quad).n,
-                   remap=remap)
+        return cls(grid, np.tile(grid.cell_averages(f, n_quad), (int(n_nodes), 1)))
 
     @classmethod
     def bump(cls, grid: LengthGrid, n_nodes: int, width: float = 0.08,
-             number: float = 1.0, remap: str = "cells") -> CharacteristicSizes:
-        """The bump of :meth:`SizeDistribution.bump` (same cell values, phase 0)."""
-        return cls(grid, SizeDistribution.bump(grid, n_nodes, width, number).n, remap=remap)
+             number: float = 1.0) -> CharacteristicSizes:
+        """Every node holds the bump of :func:`bump_profile` (phase 0)."""
+        return cls(grid, np.tile(bump_profile(grid, width, number), (int(n_nodes), 1)))
 
     def advance(self, g: ArrayLike, dt: float) -> CharacteristicSizes:
         """Shift every row by a dt = g dt / ln 2 in s, exactly (in place; returns self)."""
@@ -602,31 +333,11 @@ class CharacteristicSizes:
     def take(self, index: ArrayLike) -> CharacteristicSizes:
         """A new distribution holding the rows ``index`` (copy)."""
         index = np.asarray(index)
-        return CharacteristicSizes(self.grid, self.n[index], self.phase[index], self.remap)
-
-    def transfer(self, W, phase: ArrayLike) -> CharacteristicSizes:
-        """Rows sum_j W_ij R_ij n_j on new windows of phases ``phase`` (class docstring, remap).
-
-        W an (n_new, n_nodes) matrix (sparse or dense); R_ij maps row j's window onto the window
-        of phase ``phase[i]`` keeping the number and the length of every cell. Moments: the
-        new total lengths are W @ total_length() to round-off.
-        """
-        import scipy.sparse as sp
-
-        if W.ndim != 2 or W.shape[1] != self.n_nodes:
-            raise ValueError(f"W must have shape (n_new, {self.n_nodes}), got {W.shape}")
-        W = sp.csr_matrix(W)
-        phase = np.array(phase, dtype=float)
-        if phase.shape != (W.shape[0],) or not np.all((phase >= 0) & (phase < 1)):
-            raise ValueError(f"phase must have shape ({W.shape[0]},) with values in [0, 1)")
-        out = np.zeros((W.shape[0], self.grid.n_cells))
-        _remap_csr(W.indptr, W.indices, W.data.astype(float), np.ascontiguousarray(self.n),
-                   self.phase, phase, out)
-        return CharacteristicSizes(self.grid, out, phase, self.remap)
+        return CharacteristicSizes(self.grid, self.n[index], self.phase[index])
 
     def copy(self) -> CharacteristicSizes:
         """A copy with its own values and phases."""
-        return CharacteristicSizes(self.grid, self.n.copy(), self.phase.copy(), self.remap)
+        return CharacteristicSizes(self.grid, self.n.copy(), self.phase.copy())
 
     def transfer_labels(self, W, sigma_old: ArrayLike, sigma_new: ArrayLike
                         ) -> CharacteristicSizes:
@@ -646,7 +357,7 @@ class CharacteristicSizes:
         k_old = np.round(sigma_old - self.phase)
         n_hat = np.asarray(W @ (self.n * np.exp2(-k_old)[:, None]))
         k_new, phase = split_phase(sigma_new)
-        return CharacteristicSizes(self.grid, n_hat * np.exp2(k_new)[:, None], phase, self.remap)
+        return CharacteristicSizes(self.grid, n_hat * np.exp2(k_new)[:, None], phase)
 
 
 class DeltaSizes:

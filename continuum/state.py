@@ -17,11 +17,10 @@ Fields (:attr:`State.fields`), nodal values:
   continuum.sizes.DeltaSizes) the delta is carried exactly: mean_length_psi equals
   2^frac(G / ln 2) (= mean_length) to round-off at every node, across rings and remeshes, and
   length_std_psi is 0. From the smooth bump of ``bump_width`` ("bump"): along characteristics
-  the bump is shifted exactly between remeshes, and with the default ``psi_transport`` (by
-  labels) also across them, so mean_length_psi follows the closed form 2^frac(G / ln 2 + w)
-  of the bump's centre w to round-off; with finite volumes it smears over many divisions;
-  length_std_psi is the bump's width away from the rings and, across a ring, where part of
-  the bump has divided, the spread of a bimodal distribution (up to ~0.5).
+  the bump is shifted exactly between remeshes, and by labels (``psi_transport``) also
+  across them, so mean_length_psi follows the closed form 2^frac(G / ln 2 + w) of the bump's
+  centre w to round-off; length_std_psi is the bump's width away from the rings and, across a
+  ring, where part of the bump has divided, the spread of a bimodal distribution (up to ~0.5).
 
 Strains (continuum.strains; only when the state has strain fractions ``phi``, S of them):
 phi_i, the fraction of strain i, G_i = int g_i dt, its growth phase, and
@@ -29,10 +28,9 @@ mean_length_i = 2^frac(G_i / ln 2), its mean length from a delta Psi0, for i = 0
 G stays the phase of the mixture's growth rate g = sum_i phi_i g_i (the area stretch exp(G),
 which Psi is transported with).
 
-``sizes`` is a continuum.sizes.DeltaSizes (the delta's undivided number and position), a
-continuum.sizes.CharacteristicSizes (values and phase offsets) or a
-continuum.sizes.SizeDistribution (cell averages), as ``Config.initial_sizes`` and
-``Config.psi_transport`` say.
+``sizes`` is a continuum.sizes.DeltaSizes (the delta's undivided number and position) or a
+continuum.sizes.CharacteristicSizes (values and phase offsets), as ``Config.initial_sizes``
+says.
 """
 
 from __future__ import annotations
@@ -45,7 +43,7 @@ import numpy as np
 
 from continuum import mesh
 from continuum.growth import mean_length
-from continuum.sizes import CharacteristicSizes, DeltaSizes, SizeDistribution
+from continuum.sizes import CharacteristicSizes, DeltaSizes
 from continuum.strains import phase_areas
 
 __all__ = ["State", "StepRecord", "HISTORY_COLUMNS", "REMESH_CODES", "TIMING_STAGES"]
@@ -75,7 +73,7 @@ class State:
         Velocity u = -grad p at the nodes.
     G : ndarray (N,)
         Growth phase int g dt of each material element.
-    sizes : DeltaSizes, CharacteristicSizes or SizeDistribution
+    sizes : DeltaSizes or CharacteristicSizes
         Psi per material element (one row per node).
     t : float
         Time.
@@ -110,7 +108,7 @@ class State:
     u: np.ndarray
     g: np.ndarray
     G: np.ndarray
-    sizes: DeltaSizes | CharacteristicSizes | SizeDistribution
+    sizes: DeltaSizes | CharacteristicSizes
     t: float = 0.0
     step: int = 0
     n_remesh: int = 0

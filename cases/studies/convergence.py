@@ -32,7 +32,7 @@ h ~ R / sqrt(n_nodes) at every time, no remeshing; x = the initial boundary spac
 ``time_step`` (courant at a fixed mesh sequence: dt = courant h / u_edge, so dt is decoupled from
 the mesh below the CFL bound courant <= 1; the errors there are dominated by the mesh, so they are
 measured as differences from the run at the smallest courant, ``reference = finest``),
-``length_cells`` (n_length_cells, for each of the three psi_transport values), ``bump_width``
+``length_cells`` (n_length_cells, for each psi_transport: the one by labels), ``bump_width``
 (at 128 length cells), ``q_min`` and ``stretch`` (the remeshing thresholds, on meshes capped at
 h_max so that the colony is remeshed as it grows).
 
@@ -71,6 +71,7 @@ from cases import analysis as A
 from cases.sweep import ENGINES, is_done, run_engine, run_name, sweep
 from continuum import ellipse, radial
 from continuum.growth import LN2, mean_length
+from continuum.sizes import TRANSPORTS
 
 __all__ = ["SCALES", "Family", "families", "compute", "reduce", "plot", "continuum_errors",
            "particle_quantities", "ellipse_reference", "fit_order", "order_tables",
@@ -78,12 +79,10 @@ __all__ = ["SCALES", "Family", "families", "compute", "reduce", "plot", "continu
 
 #: Cells of the fine length grid of the exact shift of the initial bump (``mean_length_transport``).
 REFERENCE_CELLS = 2048
-TRANSPORTS = ("characteristics-labels", "characteristics", "finite-volume")
 #: Expected orders. mesh: R(t), p by the P1 pressure and Heun's motion of the nodes (2), G and its
 #: contours by the nodal velocity, O(h) on unstructured meshes (1); time_step: Heun's RK2 (2);
-#: length_cells: the exact shift of cell averages (the moments of the cell-averaged bump, 2), the
-#: remap of cells at a remesh (first-order projection, 1), flux-limited Lax-Wendroff (2 where
-#: smooth); bump_width: the mean of the bump sits at s ~ w (1); particles dt: explicit first-order
+#: length_cells: the exact shift of cell averages (the moments of the cell-averaged bump, 2);
+#: bump_width: the mean of the bump sits at s ~ w (1); particles dt: explicit first-order
 #: stepping (1). None: no order expected.
 EXPECTED: dict[tuple[str, str], float] = {
     ("mesh", "radius"): 2, ("mesh", "max_pressure"): 2, ("mesh", "G"): 1,
@@ -92,8 +91,6 @@ EXPECTED: dict[tuple[str, str], float] = {
     ("time_step", "G_rms"): 2,
     ("time_step", "ring_radii"): 2, ("time_step", "semi_axes"): 2,
     ("length_cells:characteristics-labels", "mean_length_transport"): 2,
-    ("length_cells:characteristics", "mean_length_transport"): 1,
-    ("length_cells:finite-volume", "mean_length_transport"): 2,
     ("bump_width", "mean_length"): 1,
     ("dt", "t_final"): 1, ("dt", "radius_t"): 1,
 }
@@ -180,7 +177,7 @@ def scale_config(scale: str) -> dict[str, Any]:
 def families(scale: str) -> list[Family]:
     """The studies of ``scale``.
 
-    Continuum: mesh, time_step, length_cells (x 3 transports), bump_width, q_min, stretch;
+    Continuum: mesh, time_step, length_cells (per transport), bump_width, q_min, stretch;
     particles: dt, solver_tol, tol.
     """
     cfg = scale_config(scale)

@@ -10,11 +10,14 @@ node's G in one exact step). The error is reported away from the ring jumps (nod
 frac(G / ln 2 + w), w the bump's centre, is more than 2 w from a division), where a smeared Psi
 shows as an error of order one, and over all nodes; with the spread of the total length per
 area (constant for the exact solution) and the CPU seconds of the run and of its transport.
+The table of docs/validation.md also has the two transports measured against it and removed
+since (``continuum.sizes.REMOVED_TRANSPORTS``): that commit's checkout of this script measures
+them.
 
 Command line (from the repository root, the package installed)::
 
     python docs/measurements/psi_transport.py [--radius 40] [--lam 1e-2]
-        [--transports characteristics-labels characteristics finite-volume]
+        [--transports characteristics-labels]
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ import numpy as np
 from cases.analysis import markdown_rows
 from continuum import Config, Simulation
 from continuum.growth import LN2
-from continuum.sizes import TRANSPORT_REMAP, CharacteristicSizes, LengthGrid
+from continuum.sizes import TRANSPORTS, CharacteristicSizes, LengthGrid
 
 __all__ = ["psi_errors", "main"]
 
@@ -60,8 +63,7 @@ def main(argv: list[str] | None = None) -> list[dict]:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--radius", type=float, default=40.0)
     parser.add_argument("--lam", type=float, default=1e-2)
-    parser.add_argument("--transports", nargs="+", default=list(TRANSPORT_REMAP) +
-                        ["finite-volume"], choices=list(TRANSPORT_REMAP) + ["finite-volume"])
+    parser.add_argument("--transports", nargs="+", default=list(TRANSPORTS), choices=TRANSPORTS)
     args = parser.parse_args(argv)
     rows = [psi_errors(args.radius, args.lam, t) for t in args.transports]
     columns = list(rows[0])

@@ -81,7 +81,10 @@ def test_smoke_end_to_end(tmp_path):
     assert set(C.ORDER_COLUMNS) <= set(rows[0])
     assert {r["engine"] for r in rows} == {"continuum", "particles"}
     studies = {r["study"] for r in rows}
-    assert {"mesh", "time_step", "bump_width", "length_cells:finite-volume", "dt", "tol"} <= studies
+    assert {"mesh", "time_step", "bump_width", "length_cells:characteristics-labels", "dt",
+            "tol"} <= studies
+    assert not any(s in studies for s in ("length_cells:finite-volume",
+                                          "length_cells:characteristics"))
     for r in rows:
         assert (r["expected_order"] == "") == ((r["study"], r["quantity"]) not in C.EXPECTED)
         if r["engine"] == "particles":

@@ -6,14 +6,13 @@ import pytest
 from continuum import Config, Simulation
 from continuum.initial import sizes_from, state_from
 from continuum.simulation import initial_state
-from continuum.sizes import CharacteristicSizes, LengthGrid, SizeDistribution
+from continuum.sizes import CharacteristicSizes, LengthGrid, bump_profile
 
 
-@pytest.mark.parametrize("transport", ["characteristics-labels", "finite-volume"])
-def test_the_configured_shape_and_bump_give_the_model_start(transport):
+def test_the_configured_shape_and_bump_give_the_model_start():
     """state_from(the config's polygon, the bump's row) is initial_state(config), bit for bit."""
-    config = Config(lam=0.01, n_nodes=200, initial_sizes="bump", psi_transport=transport)
-    row = SizeDistribution.bump(LengthGrid(config.n_length_cells), 1, config.bump_width).n[0]
+    config = Config(lam=0.01, n_nodes=200, initial_sizes="bump")
+    row = bump_profile(LengthGrid(config.n_length_cells), config.bump_width)
     a, b = initial_state(config), state_from(config, config.initial_boundary(), row)
     np.testing.assert_array_equal(a.points, b.points)
     np.testing.assert_array_equal(a.triangles, b.triangles)
@@ -33,7 +32,7 @@ def test_a_simulation_grows_a_given_start():
         return out
 
     start = state_from(config, square, psi0)
-    assert isinstance(start.sizes, CharacteristicSizes) and start.sizes.remap == "labels"
+    assert isinstance(start.sizes, CharacteristicSizes)
     cell_mean = grid.length_integrals / grid.ds  # the mean length of one cell
     np.testing.assert_allclose(start.fields["mean_length_psi"],
                                cell_mean[(start.points[:, 0] * 10).astype(int)], rtol=1e-12)

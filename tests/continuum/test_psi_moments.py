@@ -12,7 +12,7 @@ import numpy as np
 
 from continuum import Simulation
 from continuum.growth import LN2
-from continuum.sizes import CharacteristicSizes, LengthGrid, SizeDistribution, spread
+from continuum.sizes import CharacteristicSizes, LengthGrid, spread
 
 from .conftest import small_config
 
@@ -46,11 +46,9 @@ def test_square_length_is_exact_at_any_phase():
         np.testing.assert_allclose(sd.total_length()[j], L, rtol=2e-5)
         np.testing.assert_allclose(sd.square_length()[j], Q, rtol=2e-5)
         np.testing.assert_allclose(sd.length_std()[j], np.sqrt(Q / N - (L / N) ** 2), rtol=1e-3)
-    # finite volumes on [0, 1): the same row at phase 0
-    fv = SizeDistribution(grid, n)
-    np.testing.assert_allclose(fv.square_length(), sd.square_length() * (phase == 0)
-                               + fv.square_length() * (phase != 0), rtol=1e-13)
-    np.testing.assert_allclose(fv.length_std()[0], sd.length_std()[0], rtol=1e-13)
+    # at phase 0 (no cell past s = 1) Q = int 4^s n ds exactly: sum of n_i (4^b - 4^a) / ln 4
+    exact_q = n[0] @ (np.diff(4.0**grid.edges) / (2 * LN2))
+    np.testing.assert_allclose(sd.square_length()[0], exact_q, rtol=1e-13)
 
 
 def test_one_cell_has_the_spread_of_its_lengths():
@@ -61,7 +59,7 @@ def test_one_cell_has_the_spread_of_its_lengths():
     a, b = 3 / 8, 4 / 8
     m1 = (2**b - 2**a) / LN2 / (b - a)
     m2 = (4**b - 4**a) / (2 * LN2) / (b - a)
-    np.testing.assert_allclose(SizeDistribution(grid, n).length_std(), np.sqrt(m2 - m1**2),
+    np.testing.assert_allclose(CharacteristicSizes(grid, n).length_std(), np.sqrt(m2 - m1**2),
                                rtol=1e-10)
     assert spread(1.0, 1.0, 1.0 - 1e-17) == 0.0  # round-off below zero is cut
 
