@@ -44,24 +44,24 @@ frames, fields.pvd and history.csv are written to a temporary file and renamed (
 none is ever half written and none is written through a symbolic link; ``fields`` itself may
 not be a link (:func:`fields_folder`). A resumed run removes the frames after its checkpoint
 (:func:`remove_frames_from`: only names this module makes, never through a link). Like the
-particle engine, a run keeps RESERVE_BYTES free on its file system (:func:`ensure_space`).
+particle engine, a run keeps ``runfiles.RESERVE_BYTES`` free on its file system
+(:func:`ensure_space`).
 """
 
 from __future__ import annotations
 
 import csv
 import dataclasses
-import errno
 import io
 import json
 import os
 import re
-import shutil
 from pathlib import Path
 
 import meshio
 import numpy as np
 
+from continuum import runfiles
 from continuum.growth import ring_index
 from continuum.strain_rate import FIELDS as STRAIN_FIELDS
 from continuum.strain_rate import strain_rate_fields
@@ -69,11 +69,7 @@ from continuum.strain_rate import strain_rate_fields
 __all__ = ["write_config", "write_history", "write_boundary", "write_rings", "write_interfaces",
            "FieldWriter",
            "ring_index", "read_frame_time", "frame_name", "fields_folder", "remove_frames_from",
-           "ensure_space", "RESERVE_BYTES"]
-
-#: Free space a run keeps on its output's file system (as the particle engine's): it stops with
-#: ENOSPC before a write could fill it, its last checkpoint intact.
-RESERVE_BYTES = 4 * 2**20
+           "ensure_space"]
 
 #: Bytes of a VTU frame per mesh node, a bound (coordinates, connectivity, 21 fields; base64).
 FRAME_BYTES_PER_NODE = 520
@@ -137,22 +133,15 @@ def write_history(out: Path, history: list[dict]) -> Path:
 
 def ensure_space(out: Path, n_nodes: int, checkpoint: Path | None = None,
                  n_strains: int = 0) -> None:
-    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes.
+    """OSError(ENOSPC) unless ``out`` keeps its reserve after the next writes (runfiles).
 
     The next writes: a frame of ``n_nodes`` nodes (with the fields of ``n_strains`` strains,
     0 for a one-strain colony), a checkpoint (at most the last one's size twice) and a new copy
     of history.csv.
     """
-    out = Path(out)
     per_node = FRAME_BYTES_PER_NODE + STRAIN_FRAME_BYTES_PER_NODE * n_strains
-    need = RESERVE_BYTES + per_node * n_nodes
-    for path, times in ((checkpoint, 2), (out / "history.csv", 1)):
-        if path is not None and path.is_file():
-            need += times * path.stat().st_size
-    free = shutil.disk_usage(out).free
-    if free < need:
-        raise OSError(errno.ENOSPC, f"no space left on {out} ({free / 2**20:.1f} MB free, "
-                      f"{need / 2**20:.1f} MB needed for the next output)")
+    runfiles.ensure_space(Path(out), per_node * n_nodes,
+                          ((checkpoint, 2), (Path(out) / "history.csv", 1)))
 
 
 def write_boundary(out: Path, boundary: np.ndarray) -> Path:

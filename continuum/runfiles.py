@@ -32,6 +32,7 @@ import logging
 import math
 import os
 import re
+import shutil
 import signal
 import stat
 import threading
@@ -45,6 +46,7 @@ import numpy as np
 __all__ = ["CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "CheckpointError", "damaged",
            "arrays_digest", "read_arrays", "read_meta", "checked", "write_arrays",
            "history_record", "read_history", "checkpoint_files", "resume_from",
+           "RESERVE_BYTES", "ensure_space",
            "STOP_SIGNALS", "StopRequest", "WallLimit", "RADIUS_RTOL", "TIME_TOL", "reached",
            "check_goal", "require_goal"]
 
@@ -282,6 +284,29 @@ def resume_from(out: Path, load: Callable[[Path], tuple]) -> tuple[Path, tuple]:
         raise FileNotFoundError(errno.ENOENT, "no checkpoint", str(Path(out) / CHECKPOINT))
     raise CheckpointError(", and ".join(e.damage for e in errors),
                           [p for e in errors for p in e.remove])
+
+
+
+#: Free space a run keeps on its output's file system: it stops with ENOSPC before a write
+#: could fill it (a trajectory write into a full tmpfs can end the process with SIGBUS).
+RESERVE_BYTES = 4 * 2**20
+
+
+def ensure_space(out: Path, need: int, rewritten: tuple = ()) -> None:
+    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes.
+
+    The next writes: ``need`` new bytes (a frame), and the files of ``rewritten``, pairs
+    (path, times): each ``times`` its present size (a checkpoint 2, its temporary copy
+    beside it; a history rewritten 1); a missing file counts 0.
+    """
+    need = RESERVE_BYTES + need
+    for path, times in rewritten:
+        if path is not None and Path(path).is_file():
+            need += times * Path(path).stat().st_size
+    free = shutil.disk_usage(out).free
+    if free < need:
+        raise OSError(errno.ENOSPC, f"no space left on {out} ({free / 2**20:.1f} MB free, "
+                      f"{need / 2**20:.1f} MB needed for the next output)")
 
 
 # ---------------------------------------------------------------------- controls

@@ -38,7 +38,7 @@ EXECUTION_FIELDS) on that folder resumes from it (from the previous one when it 
 drops the history rows and removes the frames written after it, and ends bit-identical to an
 uninterrupted run; writing checkpoints changes no state, so the result does not depend on when
 they happen. ``Simulation.save`` / ``Simulation.load`` write and read the same format. Before
-each frame and checkpoint the run checks for continuum.output.RESERVE_BYTES of free space.
+each frame and checkpoint the run checks for continuum.runfiles.RESERVE_BYTES of free space.
 """
 
 from __future__ import annotations

@@ -40,11 +40,9 @@ opens the file in OVITO's Python module (optional dependency ``ovito``) and
 from __future__ import annotations
 
 import csv
-import errno
 import json
 import math
 import os
-import shutil
 from collections.abc import Iterable, Iterator
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -52,6 +50,7 @@ from pathlib import Path
 import gsd.hoomd
 import numpy as np
 
+from . import runfiles
 from .state import B, ParticleState
 
 HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "max_stress",
@@ -102,11 +101,6 @@ def write_history(out: Path, history: list[dict]) -> None:
     os.replace(tmp, out / "history.csv")
 
 
-#: Free space a run keeps on its output's file system: it stops with ENOSPC before a write
-#: could fill it (a trajectory write into a full tmpfs can end the process with SIGBUS).
-RESERVE_BYTES = 4 * 2**20
-
-
 STRAIN_COLUMN_PREFIXES = ("n_strain_", "total_length_")
 """Prefixes of history.csv's columns per strain (:func:`strain_columns`)."""
 
@@ -125,18 +119,12 @@ def strain_columns(state: ParticleState, n_strains: int) -> dict[str, float]:
 
 
 def ensure_space(out: Path, n_particles: int, checkpoint: Path | None = None) -> None:
-    """Raise OSError(ENOSPC) unless ``out`` has RESERVE_BYTES free beyond the next writes.
+    """OSError(ENOSPC) unless ``out`` keeps its reserve after the next writes (runfiles).
 
     The next writes: a frame and a checkpoint of ``n_particles``, at most the last checkpoint's
     size twice.
     """
-    need = RESERVE_BYTES + 200 * n_particles
-    if checkpoint is not None and checkpoint.exists():
-        need += 2 * checkpoint.stat().st_size
-    free = shutil.disk_usage(out).free
-    if free < need:
-        raise OSError(errno.ENOSPC, f"no space left on {out} ({free / 2**20:.1f} MB free, "
-                      f"{need / 2**20:.1f} MB needed for the next output)")
+    runfiles.ensure_space(Path(out), 200 * n_particles, ((checkpoint, 2),))
 
 
 def write_particles(out: Path, state: ParticleState) -> None:

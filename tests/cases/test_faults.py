@@ -182,7 +182,7 @@ def test_no_space_during_the_run_keeps_the_last_checkpoint(colony, tmp_path, mon
     it once space is back.
     """
     import particles.checkpoint as checkpoint
-    import particles.output as sim
+    import particles.runfiles as sim
 
     out = tmp_path / "run"
     real = sim.shutil.disk_usage

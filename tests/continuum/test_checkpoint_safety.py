@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import continuum.output as output
+import continuum.runfiles as runfiles
 from continuum import Simulation, run
 from continuum.checkpoint import load_checkpoint
 from continuum.output import remove_frames_from
-from continuum.runfiles import CHECKPOINT, PREVIOUS, CheckpointError
+from continuum.runfiles import CHECKPOINT, PREVIOUS, RESERVE_BYTES, CheckpointError
 from tests.particles.test_checkpoint_safety import BYTES, assert_one_line, rewrite
 
 from .conftest import small_config
@@ -243,15 +243,15 @@ def test_a_full_disk_stops_the_run_with_its_checkpoint_intact(reference, tmp_pat
 
     def filling(path):
         calls[0] += 1
-        return real(path)._replace(free=2**40 if calls[0] < 12 else output.RESERVE_BYTES)
+        return real(path)._replace(free=2**40 if calls[0] < 12 else RESERVE_BYTES)
 
-    monkeypatch.setattr(output.shutil, "disk_usage", filling)
+    monkeypatch.setattr(runfiles.shutil, "disk_usage", filling)
     with pytest.raises(OSError) as err:
         run(small_config(checkpoint_seconds=0.0), out=tmp_path)
     assert err.value.errno == errno.ENOSPC and "no space left on" in str(err.value)
     assert load_checkpoint(tmp_path / CHECKPOINT).state.step > 0
     assert not list(tmp_path.rglob("*.tmp*"))
-    monkeypatch.setattr(output.shutil, "disk_usage", real)
+    monkeypatch.setattr(runfiles.shutil, "disk_usage", real)
     state = run(small_config(checkpoint_seconds=0.0), out=tmp_path)
     assert_same_run(reference, tmp_path, state, skip=("config.json",))
 
