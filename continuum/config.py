@@ -19,25 +19,16 @@ import numpy as np
 from continuum import mesh, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
+from continuum.runfiles import is_number
 from continuum.sizes import INITIAL_SIZES, REMOVED_TRANSPORTS, TRANSPORTS
 from continuum.strains import as_strains, parse_layout
 
 __all__ = ["Config"]
 
 
-def _number(v) -> bool:
-    """A finite int or float (a bool is no number here)."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return False
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an int beyond the range of floats
-        return False
-
-
 #: The types of the fields' annotations: (test of a value, what the value must be).
 _TYPES = {
-    "float": (_number, "a number"),
+    "float": (is_number, "a number"),
     "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
     "str": (lambda v: isinstance(v, str), "a string"),
     "bool": (lambda v: isinstance(v, bool), "true or false"),

@@ -18,7 +18,8 @@ checkpoint contains is each engine's (``continuum.checkpoint``, ``particles.chec
 Controls. :class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step,
 so that a run writes a checkpoint of a whole step before it stops; :class:`WallLimit` pauses a
 run before ``Config.max_hours`` of wall while a checkpoint still fits; :func:`reached`,
-:func:`check_goal` and :func:`require_goal` are the goals' rules.
+:func:`check_goal` and :func:`require_goal` are the goals' rules, :func:`is_number` that of
+every numeric setting (both engines' Config).
 """
 
 from __future__ import annotations
@@ -48,7 +49,7 @@ __all__ = ["CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "CheckpointError", "
            "history_record", "read_history", "checkpoint_files", "resume_from",
            "RESERVE_BYTES", "ensure_space",
            "STOP_SIGNALS", "StopRequest", "WallLimit", "RADIUS_RTOL", "TIME_TOL", "reached",
-           "check_goal", "require_goal"]
+           "is_number", "check_goal", "require_goal"]
 
 log = logging.getLogger(__name__)
 
@@ -440,11 +441,20 @@ def reached(radius_now, t: float, radius: float | None, time: float | None) -> b
     return (radius_now() if callable(radius_now) else radius_now) >= radius * (1 - RADIUS_RTOL)
 
 
+def is_number(v) -> bool:
+    """A finite int or float (a bool is no number here): the rule of every numeric setting."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    try:
+        return math.isfinite(v)
+    except OverflowError:  # an int beyond the range of floats
+        return False
+
+
 def check_goal(radius: float | None, time: float | None) -> None:
     """ValueError unless each given goal is a positive finite number."""
     for name, v in (("radius", radius), ("time", time)):
-        if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
-                              or not (math.isfinite(v) and v > 0)):
+        if v is not None and not (is_number(v) and v > 0):
             raise ValueError(f"{name} must be a positive finite number, got {v!r}")
 
 

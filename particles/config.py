@@ -16,6 +16,7 @@ from pathlib import Path
 import numba
 
 from .geometry import B
+from .runfiles import is_number
 from .strains import as_strains
 
 __all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "REMOVED_SOLVERS",
@@ -267,19 +268,9 @@ class Config:
         return self.solver_tol_factor * self.tol if self.solver_tol is None else self.solver_tol
 
 
-def _number(v) -> bool:
-    """A finite int or float (a bool is no number here)."""
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        return False
-    try:
-        return math.isfinite(v)
-    except OverflowError:  # an int beyond the range of floats
-        return False
-
-
 #: The types of the fields' annotations: (test of a value, what the value must be).
 _TYPES = {
-    "float": (_number, "a number"),
+    "float": (is_number, "a number"),
     "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
     "str": (lambda v: isinstance(v, str), "a string"),
     "bool": (lambda v: isinstance(v, bool), "true or false"),

@@ -155,22 +155,6 @@ def test_the_same_modules_and_names():
         assert e.runfiles.STOP_SIGNALS == (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 
 
-#: The code both engines need, since neither may import the other (docs/DESIGN.md):
-#: module -> names whose source is the same in both but for the line naming the other copy.
-TWINS = {"config": ("_number",)}
-
-
-@pytest.mark.parametrize("module", sorted(TWINS))
-def test_the_twin_code_is_one_rule_in_two_copies(module):
-    """What each engine holds a copy of stays the same code, line for line, in both."""
-    def source(engine, name):
-        obj = getattr(importlib.import_module(f"{engine}.{module}"), name)
-        return [line for line in inspect.getsource(obj).splitlines() if "twin of" not in line]
-
-    for name in TWINS[module]:
-        assert source("continuum", name) == source("particles", name), f"{module}.{name}"
-
-
 def test_the_run_files_are_one_source():
     """The run files and controls are written once, and each engine has them as its own module.
 
@@ -184,6 +168,8 @@ def test_the_run_files_are_one_source():
     for e in ENGINES.values():
         assert e.simulation.reached is e.runfiles.reached  # the engines use their own module
         assert e.checkpoint.read_arrays is e.runfiles.read_arrays
+        config = importlib.import_module(e.module.Config.__module__)
+        assert config._TYPES["float"][0] is e.runfiles.is_number  # the rule of a number
     imported = {n.module for n in ast.walk(ast.parse(link.read_text()))
                 if isinstance(n, ast.ImportFrom)} | {a.name for n in ast.walk(
                     ast.parse(link.read_text())) if isinstance(n, ast.Import) for a in n.names}
