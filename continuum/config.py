@@ -12,29 +12,19 @@ resume under other values: ``continuum.checkpoint.EXECUTION_FIELDS``.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from continuum import mesh, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
-from continuum.runfiles import is_number
+from continuum.runfiles import check_types, type_mismatch
 from continuum.sizes import INITIAL_SIZES, REMOVED_TRANSPORTS, TRANSPORTS
 from continuum.strains import as_strains, parse_layout
 
 __all__ = ["Config"]
 
-
-#: The types of the fields' annotations: (test of a value, what the value must be).
-_TYPES = {
-    "float": (is_number, "a number"),
-    "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
-    "str": (lambda v: isinstance(v, str), "a string"),
-    "bool": (lambda v: isinstance(v, bool), "true or false"),
-    "None": (lambda v: v is None, "None"),
-    "tuple": (lambda v: isinstance(v, (tuple, list)), "a list of strains [lam, growth]"),
-}
 
 _RULES = [  # (field, test, what the value must be), checked by Config.validate after the types
     ("n_nodes", lambda v: v >= 50, "an integer >= 50"),
@@ -183,11 +173,7 @@ class Config:
         Every field's type first (``type_mismatch``), then the goal (at most one of ``radius``
         and ``time``), the values and the shape.
         """
-        for field in fields(self):
-            value = getattr(self, field.name)
-            what = self.type_mismatch(field.name, value)
-            if what is not None:
-                raise ValueError(f"{field.name} must be {what}, got {value!r}")
+        check_types(self)
         if self.radius is not None and self.time is not None:
             raise ValueError("give at most one of radius and time, not both")
         positive = ["initial_radius", "h_max", "courant", "bump_width", "grading"]
@@ -215,15 +201,9 @@ class Config:
     def type_mismatch(cls, name: str, value) -> str | None:
         """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
 
-        The type is the field's annotation (``float | None``): float a finite int or float, never
-        a bool; int an int, not a bool; str a string; bool True or False only; None.
+        The type is the field's annotation (runfiles.type_mismatch).
         """
-        kinds = [kind.strip() for kind in cls.__dataclass_fields__[name].type.split("|")]
-        if any(_TYPES[kind][0](value) for kind in kinds):
-            return None
-        if "float" in kinds and isinstance(value, float):
-            return "a finite number"
-        return " or ".join(_TYPES[kind][1] for kind in kinds if kind != "None")
+        return type_mismatch(cls.__dataclass_fields__[name].type, value)
 
     def initial_boundary(self) -> np.ndarray:
         """A dense polygon of the initial shape (checked, counter-clockwise).

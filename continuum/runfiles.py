@@ -18,13 +18,14 @@ checkpoint contains is each engine's (``continuum.checkpoint``, ``particles.chec
 Controls. :class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step,
 so that a run writes a checkpoint of a whole step before it stops; :class:`WallLimit` pauses a
 run before ``Config.max_hours`` of wall while a checkpoint still fits; :func:`reached`,
-:func:`check_goal` and :func:`require_goal` are the goals' rules, :func:`is_number` that of
-every numeric setting (both engines' Config).
+:func:`check_goal` and :func:`require_goal` are the goals' rules; :func:`is_number`,
+:func:`type_mismatch` and :func:`check_types` those of a Config's field types (both engines').
 """
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import errno
 import hashlib
 import io
@@ -49,7 +50,8 @@ __all__ = ["CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "CheckpointError", "
            "history_record", "read_history", "checkpoint_files", "resume_from",
            "RESERVE_BYTES", "ensure_space",
            "STOP_SIGNALS", "StopRequest", "WallLimit", "RADIUS_RTOL", "TIME_TOL", "reached",
-           "is_number", "check_goal", "require_goal"]
+           "is_number", "FIELD_TYPES", "type_mismatch", "check_types", "check_goal",
+           "require_goal"]
 
 log = logging.getLogger(__name__)
 
@@ -449,6 +451,40 @@ def is_number(v) -> bool:
         return math.isfinite(v)
     except OverflowError:  # an int beyond the range of floats
         return False
+
+
+#: The types of a Config field's annotation: (test of a value, what the value must be).
+FIELD_TYPES = {
+    "float": (is_number, "a number"),
+    "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
+    "str": (lambda v: isinstance(v, str), "a string"),
+    "bool": (lambda v: isinstance(v, bool), "true or false"),
+    "None": (lambda v: v is None, "None"),
+    "tuple": (lambda v: isinstance(v, (tuple, list)), "a list of strains [lam, growth]"),
+}
+
+
+def type_mismatch(annotation: str, value) -> str | None:
+    """What a field of ``annotation`` takes (e.g. "a number") when ``value`` is not of it.
+
+    None when it is. The annotation is the field's (``float | None``): float a finite int or
+    float, never a bool; int an int, not a bool; str a string; bool True or False only; None.
+    """
+    kinds = [kind.strip() for kind in annotation.split("|")]
+    if any(FIELD_TYPES[kind][0](value) for kind in kinds):
+        return None
+    if "float" in kinds and isinstance(value, float):
+        return "a finite number"
+    return " or ".join(FIELD_TYPES[kind][1] for kind in kinds if kind != "None")
+
+
+def check_types(config) -> None:
+    """ValueError (one line) naming the first field of the dataclass ``config`` not of its type."""
+    for field in dataclasses.fields(config):
+        value = getattr(config, field.name)
+        what = type_mismatch(field.type, value)
+        if what is not None:
+            raise ValueError(f"{field.name} must be {what}, got {value!r}")
 
 
 def check_goal(radius: float | None, time: float | None) -> None:

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numba
 
 from .geometry import B
-from .runfiles import is_number
+from .runfiles import check_types, type_mismatch
 from .strains import as_strains
 
 __all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "REMOVED_SOLVERS",
@@ -200,11 +200,7 @@ class Config:
         ``_RULES``.  Whether this machine can do the
         run is :meth:`check_budget`'s question.
         """
-        for field in fields(self):
-            value = getattr(self, field.name)
-            what = self.type_mismatch(field.name, value)
-            if what is not None:
-                raise ValueError(f"{field.name} must be {what}, got {value!r}")
+        check_types(self)
         if self.lam < 0:
             raise ValueError(f"lam must be a finite number >= 0 for particles, got {self.lam}")
         if self.radius is not None and self.time is not None:
@@ -252,31 +248,15 @@ class Config:
     def type_mismatch(cls, name: str, value) -> str | None:
         """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
 
-        The type is the field's annotation (``float | None``): float a finite int or float, never
-        a bool; int an int, not a bool; str a string; bool True or False only; None.
+        The type is the field's annotation (runfiles.type_mismatch).
         """
-        kinds = [kind.strip() for kind in cls.__dataclass_fields__[name].type.split("|")]
-        if any(_TYPES[kind][0](value) for kind in kinds):
-            return None
-        if "float" in kinds and isinstance(value, float):
-            return "a finite number"
-        return " or ".join(_TYPES[kind][1] for kind in kinds if kind != "None")
+        return type_mismatch(cls.__dataclass_fields__[name].type, value)
 
     @property
     def effective_solver_tol(self) -> float:
         """Residual tolerance of each solve: ``solver_tol``, or solver_tol_factor tol if None."""
         return self.solver_tol_factor * self.tol if self.solver_tol is None else self.solver_tol
 
-
-#: The types of the fields' annotations: (test of a value, what the value must be).
-_TYPES = {
-    "float": (is_number, "a number"),
-    "int": (lambda v: isinstance(v, int) and not isinstance(v, bool), "an integer"),
-    "str": (lambda v: isinstance(v, str), "a string"),
-    "bool": (lambda v: isinstance(v, bool), "true or false"),
-    "None": (lambda v: v is None, "None"),
-    "tuple": (lambda v: isinstance(v, (tuple, list)), "a list of strains (lam, growth)"),
-}
 
 
 def _is_file(path: str) -> bool:

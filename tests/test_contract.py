@@ -169,7 +169,7 @@ def test_the_run_files_are_one_source():
         assert e.simulation.reached is e.runfiles.reached  # the engines use their own module
         assert e.checkpoint.read_arrays is e.runfiles.read_arrays
         config = importlib.import_module(e.module.Config.__module__)
-        assert config._TYPES["float"][0] is e.runfiles.is_number  # the rule of a number
+        assert config.check_types is e.runfiles.check_types  # the rule of a field's type
     imported = {n.module for n in ast.walk(ast.parse(link.read_text()))
                 if isinstance(n, ast.ImportFrom)} | {a.name for n in ast.walk(
                     ast.parse(link.read_text())) if isinstance(n, ast.Import) for a in n.names}
