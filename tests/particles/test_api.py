@@ -230,7 +230,8 @@ def test_readme_example(capsys):
 def test_option_names_live_in_the_config():
     """config.py imports no engine module (no circle through stepping or packings).
 
-    Only geometry (the diameter b) and strains (the strains' checks; it imports nothing local).
+    Only geometry (the diameter b), strains (the strains' checks; it imports nothing local)
+    and runfiles (the field-type rules; it imports nothing of the engine).
 
     The solvers by name are those of config.SOLVERS.
     """
@@ -244,7 +245,7 @@ def test_option_names_live_in_the_config():
         tree = ast.parse(Path(module.__file__).read_text())
         return {n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.level == 1}
 
-    assert local_imports(particles.config) == {"geometry", "strains"}
+    assert local_imports(particles.config) == {"geometry", "strains", "runfiles"}
     assert local_imports(particles.strains) == set()
     assert tuple(BY_NAME) == particles.config.SOLVERS
 
