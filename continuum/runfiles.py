@@ -13,7 +13,8 @@ anything damaged with one :class:`CheckpointError` line. :func:`resume_from` fal
 ``checkpoint.prev.npz`` (with a warning) when ``checkpoint.npz`` is damaged. A run folder's
 checkpoint keeps of the history only ``{"rows": n, "sha256": ...}`` of the history.csv written
 just before it (:func:`history_record`), checked and read back by :func:`read_history`. What a
-checkpoint contains is each engine's (``continuum.checkpoint``, ``particles.checkpoint``).
+checkpoint contains is each engine's (``continuum.checkpoint``, ``particles.checkpoint``). A run
+keeps RESERVE_BYTES free on its file system (:func:`ensure_space`).
 
 Controls. :class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step,
 so that a run writes a checkpoint of a whole step before it stops; :class:`WallLimit` pauses a
