@@ -42,6 +42,9 @@ _RULES = [  # (field, test, what the value must be), checked by Config.validate 
     ("max_hours", lambda v: v is None or 0 < v < math.inf, "positive and finite, or None"),
 ]
 
+#: Values a field once took and no longer does, with why: a refusal names it.
+_REMOVED = {"psi_transport": REMOVED_TRANSPORTS}
+
 
 @dataclass(frozen=True)
 class Config:
@@ -182,9 +185,9 @@ class Config:
         for name, ok, what in rules + _RULES:
             v = getattr(self, name)
             if not ok(v):
-                removed = REMOVED_TRANSPORTS.get(v) if name == "psi_transport" else None
+                why = _REMOVED.get(name, {}).get(v)
                 raise ValueError(f"{name} must be {what}, got {v!r}"
-                                 + (f" ({v} was removed: {removed})" if removed else ""))
+                                 + (f" ({v} was removed: {why})" if why else ""))
         if self.layout is not None:
             if len(self.strains) < 2:
                 raise ValueError(f"layout {self.layout!r} needs two or more strains")

@@ -51,7 +51,7 @@ from pathlib import Path
 
 import numpy as np
 
-from continuum import checkpoint, mesh, runfiles
+from continuum import checkpoint, mesh
 from continuum.budget import check_memory
 from continuum.config import Config  # noqa: F401 (older imports)
 from continuum.darcy import darcy_flow
@@ -59,7 +59,17 @@ from continuum.initial import meshed_state
 from continuum.motion import heun_step, radius_rate, stable_dt
 from continuum.pressure import PressureDivergence, PressureSolver, limit_blas_threads
 from continuum.remesh import remesh, remesh_reason
-from continuum.runfiles import check_goal, reached, require_goal
+from continuum.runfiles import (
+    CHECKPOINT,
+    HISTORY,
+    StopRequest,
+    WallLimit,
+    check_goal,
+    checkpoint_files,
+    history_record,
+    reached,
+    require_goal,
+)
 from continuum.sizes import (
     CharacteristicSizes,
     DeltaSizes,
@@ -221,7 +231,7 @@ class Simulation:
         self.config = config
         self.finished, self.paused = True, False
         self.output = None if out is None else _Outputs(config, Path(out))
-        if self.output is not None and runfiles.checkpoint_files(self.output.out):
+        if self.output is not None and checkpoint_files(self.output.out):
             path, saved = checkpoint.resume_checkpoint(self.output.out, config)
             self._restore(saved.state, saved.amg, saved.history)
             self.output.resume(saved.frames, saved.next_frame)
@@ -461,7 +471,7 @@ class Simulation:
         if self.output is not None and path == self.output.checkpoint:
             self.output.ensure_space(self)
             self.output.write_history(self)
-            history = runfiles.history_record(self.output.out / runfiles.HISTORY,
+            history = history_record(self.output.out / HISTORY,
                                                 len(self.history))
         checkpoint.save_checkpoint(path, checkpoint.Checkpoint(
             self.config, self.state, history, frame_times, self.solver.amg_state(), next_frame,
@@ -545,7 +555,7 @@ class _Outputs:
         if not out.is_dir():
             raise ValueError(f"output folder does not exist: {out}")
         self.output, self.config, self.out = output, config, out
-        self.checkpoint = out / runfiles.CHECKPOINT
+        self.checkpoint = out / CHECKPOINT
         self.fields = output.FieldWriter(out) if config.write_fields else None
         self.next_frame = config.output_every if config.output_every > 0 else math.inf
 
@@ -656,7 +666,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
         No pressure solution (e.g. lam < 0 beyond the critical size).
     """
     require_goal(config)
-    with runfiles.StopRequest() as stop:
+    with StopRequest() as stop:
         sim = Simulation(config, state, out, layout=layout)
         _steps(sim, progress, max_steps, stop, started)
     stop.reraise()
@@ -664,7 +674,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
 
 
 def _steps(sim: Simulation, progress: bool, max_steps: int | None,
-           stop: runfiles.StopRequest, started: float | None = None) -> None:
+           stop: StopRequest, started: float | None = None) -> None:
     """The loop of ``run``.
 
     Step until the goal, a stop request, ``max_steps`` steps or ``config.max_hours``;
@@ -674,7 +684,7 @@ def _steps(sim: Simulation, progress: bool, max_steps: int | None,
     config = sim.config
     goal = {"radius": config.radius, "time": config.time}
     last_checkpoint = _time.monotonic()
-    limit = runfiles.WallLimit(config.max_hours, started)
+    limit = WallLimit(config.max_hours, started)
     steps_here = 0
     with _ProgressBar(sim, progress=progress, **goal) as bar:
         while not sim._reached(**goal):
