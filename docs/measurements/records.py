@@ -6,7 +6,7 @@ under the sweep's name (``colony case NAME --scale paper --print-runs``), where 
 it as finished when its ``run.json`` says so and its configuration is the sweep's
 (``cases.sweep.is_done``). What the repository keeps of it:
 
-1. :func:`record`: its small data (history thinned by ``cases.analysis.thin_rows``, the final
+1. :func:`record`: its small data (history thinned by :func:`record_history`, the final
    profile, the profile pooled over the last frames as the figures draw it
    (``profile_pooled.csv``, ``cases.analysis.final_particle_profile``), the configuration and
    the ``/usr/bin/time -v`` reports of its segments) copied
@@ -18,6 +18,9 @@ it as finished when its ``run.json`` says so and its configuration is the sweep'
 3. :func:`compare`: two records of one lam (e.g. a colony and the one it replaces, the earlier
    taken from git) side by side: size and time at radius 150, the first times at radii 50,
    100 and 150, the central stress and the mean differences of the final profiles.
+4. :func:`thinning_table`: what thinning a full history would do to the whole colony's
+   stress averaged over the last division period (:func:`thinning_bias`; why
+   :func:`record_history` keeps that period whole).
 
 Command line::
 
@@ -25,6 +28,7 @@ Command line::
         [--log PROGRESS_LOG]
     python docs/measurements/records.py --table [--data cases/data/particles_paper]
     python docs/measurements/records.py --compare OLD NEW [OLD NEW ...]
+    python docs/measurements/records.py --thinning RUN [RUN ...]
 
 Nothing is written when a check fails (a one-line error, exit status 2).
 """
@@ -42,8 +46,10 @@ import numpy as np
 
 from cases import analysis as A
 from cases.rundir import read_record
+from cases.studies import ensemble as E
 
-__all__ = ["compare", "compare_table", "record", "summary", "table", "time_reports"]
+__all__ = ["compare", "compare_table", "record", "record_history", "summary", "table",
+           "thinning_bias", "thinning_table", "time_reports"]
 
 SMALL_FILES = ("profile.csv", "config.json")
 """Files copied as they are by :func:`record` (besides the thinned history)."""
@@ -62,6 +68,55 @@ def time_reports(text: str, lines: int = 23) -> str:
                    for b in blocks)
 
 
+def record_history(history: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The history a record keeps: thinned, and whole over the last division period.
+
+    ``cases.analysis.thin_rows`` plus every row from the one before t_end - P on, P the
+    division period (``cases.studies.ensemble.DIVISION_PERIOD``). So the whole colony's
+    stress averaged over the last period (``cycle_mean``) is the full history's: the rows of a
+    thinned history alone sample the division waves too coarsely (:func:`thinning_bias`).
+    """
+    t = np.asarray(history["t"], dtype=float)
+    first = max(int(np.searchsorted(t, t[-1] - E.DIVISION_PERIOD)) - 1, 0)
+    return A.thin_rows(history, keep=np.arange(t.size) >= first)
+
+
+def thinning_bias(history: dict[str, np.ndarray], lam: float) -> dict[str, float]:
+    """What thinning does to the final cycle-mean stress ratio r = mean stress / continuum's.
+
+    ``full``: r - 1 of the whole history (``cases.studies.ensemble.mean_stress_ratio``),
+    ``thinned``: of ``thin_rows(history)`` (every k-th row from the first: the records before
+    :func:`record_history`) less ``full``, ``lowest`` and ``highest``: that difference over
+    the k phases (rows o, o + k, ... and the last, o < k), ``stride``: k.
+    """
+    n = len(history["t"])
+    rows = A.thin_rows({"row": np.arange(n)})["row"]  # 0, k, 2k, ... and n - 1
+    k = int(rows[1] - rows[0]) if rows.size > 1 else 1
+
+    def final(idx):
+        h = {c: np.asarray(v)[idx] for c, v in history.items()}
+        return float(E.mean_stress_ratio(h, lam)["cycle"][-1]) - 1.0
+
+    full = final(np.arange(n))
+    phases = [final(np.unique(np.minimum(rows + o, n - 1))) - full for o in range(k)]
+    return {"stride": k, "full": full, "thinned": phases[0], "lowest": min(phases),
+            "highest": max(phases)}
+
+
+def thinning_table(runs: list[Path]) -> str:
+    """:func:`thinning_bias` of the histories of run folders, a Markdown table (points)."""
+    lines = ["| run | lam | rows | stride | r - 1, whole history | thinned - whole, points "
+             "| over the phases |", "|---|---|---|---|---|---|---|"]
+    for run in runs:
+        lam = float(json.loads((run / "config.json").read_text())["lam"])
+        h = A.read_csv(run / "history.csv")
+        b = thinning_bias(h, lam)
+        lines.append(f"| {run} | {lam:g} | {len(h['t'])} | {b['stride']} | "
+                     f"{100 * b['full']:+.2f} % | {100 * b['thinned']:+.2f} | "
+                     f"{100 * b['lowest']:+.2f} to {100 * b['highest']:+.2f} |")
+    return "\n".join(lines) + "\n"
+
+
 def record(run: str | Path, data: str | Path, time_log: str | Path | None = None,
            progress_log: str | Path | None = None) -> Path:
     """Copy the small data of the finished run ``run`` to ``data/lam=LAM/`` (module docstring).
@@ -74,7 +129,7 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
     lam = float(json.loads((run / "config.json").read_text())["lam"])
     dest = Path(data) / f"lam={lam:g}"
     dest.mkdir(parents=True, exist_ok=True)
-    A.write_csv(dest / "history.csv", A.thin_rows(A.read_csv(run / "history.csv")))
+    A.write_csv(dest / "history.csv", record_history(A.read_csv(run / "history.csv")))
     wall = A.progress_wall(progress_log) if progress_log is not None else None
     work = [{"min_particles": n, **row} for n in WORK_MIN_PARTICLES
             for row in A.history_segments(run, n, wall=wall)]
@@ -248,9 +303,21 @@ def main(argv: list[str] | None = None) -> int:
                    help="the run's progress log (its stderr), kept as progress.log")
     p.add_argument("--compare", type=Path, nargs="+", metavar="OLD NEW",
                    help="compare records DATA/lam=LAM in pairs OLD NEW (a table)")
+    p.add_argument("--thinning", type=Path, nargs="+", metavar="RUN",
+                   help="what thinning the histories of these run folders does to their "
+                        "final cycle-mean stress (a table)")
     args = p.parse_args(argv)
     if args.table:
         print(table(args.data), end="")
+        return 0
+    if args.thinning is not None:
+        missing = [r for r in args.thinning for f in ("history.csv", "config.json")
+                   if not (r / f).is_file()]
+        if missing:
+            print(f"records: error: {missing[0]} has no history.csv and config.json",
+                  file=sys.stderr)
+            return 2
+        print(thinning_table(args.thinning), end="")
         return 0
     try:
         if args.compare is not None:

@@ -281,3 +281,31 @@ def test_colony_260_record_gives_its_readme_numbers(capsys):
         assert row in text and row in readme
     assert "15 sessions: 14.78 h wall, 17.04 CPU h, peak 1078 MB" in text
     assert "particles 2610.4 +- 4.2, continuum 2482.6" in text and "+5.1 %." in text
+
+
+def test_a_record_keeps_the_last_division_period_whole():
+    """Thinned rows alias division waves; the record's last period is every step's."""
+    from cases.studies import ensemble
+
+    period, steps, t = ensemble.DIVISION_PERIOD, [], 0.0
+    while t < 5.0:  # small steps just after each wave, as the engine takes them
+        steps.append(t)
+        t += 5e-4 if (t % period) < 0.05 else 1e-2
+    t = np.array(steps)
+    radius = np.exp(t / 2)
+    dip = np.exp(-(t % period) / 0.01)  # the stress collapses at each wave and recovers
+    history = {"step": np.arange(1, t.size + 1), "t": t, "radius": radius,
+               "mean_stress": ensemble.continuum_mean_pressure(radius, 0.0) * (1.08 - 0.8 * dip)}
+    kept = records.record_history(history)
+    last = kept["t"] >= t[-1] - period
+    assert t.size > 1000 and kept["t"].size < 400 + np.count_nonzero(t >= t[-1] - period) + 2
+    assert np.all(np.diff(kept["step"][last]) == 1)  # every step of the last period
+    whole = ensemble.mean_stress_ratio(history, 0.0)["cycle"][-1]
+    assert ensemble.mean_stress_ratio(kept, 0.0)["cycle"][-1] == pytest.approx(whole, abs=1e-13)
+    bias = records.thinning_bias(history, 0.0)
+    assert bias["full"] == pytest.approx(whole - 1.0, abs=1e-15) and bias["stride"] > 1
+    assert bias["lowest"] <= bias["thinned"] <= bias["highest"]
+    assert bias["highest"] - bias["lowest"] > 1e-3  # how the rows fall on the waves matters
+    smooth = dict(history, mean_stress=1.08 * ensemble.continuum_mean_pressure(radius, 0.0))
+    spread = bias["highest"] - bias["lowest"]  # a smooth stress thins 100 times better
+    assert abs(records.thinning_bias(smooth, 0.0)["thinned"]) < 1e-2 * spread
