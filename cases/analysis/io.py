@@ -122,20 +122,13 @@ def markdown_rows(header: Sequence[str], rows: Iterable[Sequence]) -> str:
     return "\n".join(lines + ["| " + " | ".join(map(str, r)) + " |" for r in rows])
 
 
-def thin_rows(columns: Mapping[str, np.ndarray], max_rows: int = 400,
-              keep: np.ndarray | None = None) -> dict[str, np.ndarray]:
-    """Every k-th row (k the smallest giving <= max_rows) plus the last: small CSVs for figures.
-
-    ``keep``: a boolean mask of rows kept besides these (so the table may exceed ``max_rows``).
-    """
+def thin_rows(columns: Mapping[str, np.ndarray], max_rows: int = 400) -> dict[str, np.ndarray]:
+    """Every k-th row (k the smallest giving <= max_rows) plus the last: small CSVs for figures."""
     n = len(next(iter(columns.values())))
     if n <= max_rows:
         return {k: np.asarray(v) for k, v in columns.items()}
     k = math.ceil(n / (max_rows - 1))
-    idx = np.append(np.arange(0, n, k), n - 1)
-    if keep is not None:
-        idx = np.append(idx, np.flatnonzero(keep))
-    idx = np.unique(idx)
+    idx = np.unique(np.append(np.arange(0, n, k), n - 1))
     return {name: np.asarray(v)[idx] for name, v in columns.items()}
 
 

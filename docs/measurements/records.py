@@ -6,21 +6,22 @@ under the sweep's name (``colony case NAME --scale paper --print-runs``), where 
 it as finished when its ``run.json`` says so and its configuration is the sweep's
 (``cases.sweep.is_done``). What the repository keeps of it:
 
-1. :func:`record`: its small data (history thinned by :func:`record_history`, the final
-   profile, the profile pooled over the last frames as the figures draw it
-   (``profile_pooled.csv``, ``cases.analysis.final_particle_profile``), the configuration and
-   the ``/usr/bin/time -v`` reports of its segments) copied
-   to ``DATA/lam=LAM/``, with ``work.csv``: the solver work of every step-policy segment, over
-   all steps and over those with N >= 6e4 (``cases.analysis.history_segments``; the sums the
-   thinned history cannot give).
+1. :func:`record`: its small data copied to ``DATA/lam=LAM/``: the history, every step (about
+   190 kB packed at radius 150; records before 2026-12-05 kept every k-th step, which aliases
+   the division waves: :func:`thinning_bias`), the final profile, the profile pooled over the
+   last frames as the figures draw it (``profile_pooled.csv``,
+   ``cases.analysis.final_particle_profile``), the configuration, the ``/usr/bin/time -v``
+   reports of its segments, and ``work.csv``: the solver work of every step-policy segment,
+   over all steps and over those with N >= 6e4 (``cases.analysis.history_segments``; the sums
+   a thinned history cannot give).
 2. :func:`table`: the recorded one-command runs (those with ``work.csv``) as a Markdown table:
    size, time, steps, wall and CPU time, memory, overlap, solver work (:func:`summary`).
 3. :func:`compare`: two records of one lam (e.g. a colony and the one it replaces, the earlier
    taken from git) side by side: size and time at radius 150, the first times at radii 50,
    100 and 150, the central stress and the mean differences of the final profiles.
 4. :func:`thinning_table`: what thinning a full history would do to the whole colony's
-   stress averaged over the last division period (:func:`thinning_bias`; why
-   :func:`record_history` keeps that period whole).
+   stress averaged over the last division period (:func:`thinning_bias`; why a record keeps
+   every step).
 
 Command line::
 
@@ -48,11 +49,11 @@ from cases import analysis as A
 from cases.rundir import read_record
 from cases.studies import ensemble as E
 
-__all__ = ["compare", "compare_table", "record", "record_history", "summary", "table",
-           "thinning_bias", "thinning_table", "time_reports"]
+__all__ = ["compare", "compare_table", "record", "summary", "table", "thinning_bias",
+           "thinning_table", "time_reports"]
 
 SMALL_FILES = ("profile.csv", "config.json")
-"""Files copied as they are by :func:`record` (besides the thinned history)."""
+"""Files copied as they are by :func:`record` (besides the history)."""
 
 WORK_MIN_PARTICLES = (0, 60_000)
 """``work.csv`` holds the segments' solver work over all steps and over N >= 6e4."""
@@ -68,25 +69,12 @@ def time_reports(text: str, lines: int = 23) -> str:
                    for b in blocks)
 
 
-def record_history(history: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
-    """The history a record keeps: thinned, and whole over the last division period.
-
-    ``cases.analysis.thin_rows`` plus every row from the one before t_end - P on, P the
-    division period (``cases.studies.ensemble.DIVISION_PERIOD``). So the whole colony's
-    stress averaged over the last period (``cycle_mean``) is the full history's: the rows of a
-    thinned history alone sample the division waves too coarsely (:func:`thinning_bias`).
-    """
-    t = np.asarray(history["t"], dtype=float)
-    first = max(int(np.searchsorted(t, t[-1] - E.DIVISION_PERIOD)) - 1, 0)
-    return A.thin_rows(history, keep=np.arange(t.size) >= first)
-
-
 def thinning_bias(history: dict[str, np.ndarray], lam: float) -> dict[str, float]:
     """What thinning does to the final cycle-mean stress ratio r = mean stress / continuum's.
 
     ``full``: r - 1 of the whole history (``cases.studies.ensemble.mean_stress_ratio``),
     ``thinned``: of ``thin_rows(history)`` (every k-th row from the first: the records before
-    :func:`record_history`) less ``full``, ``lowest`` and ``highest``: that difference over
+    2026-12-05) less ``full``, ``lowest`` and ``highest``: that difference over
     the k phases (rows o, o + k, ... and the last, o < k), ``stride``: k.
     """
     n = len(history["t"])
@@ -129,7 +117,7 @@ def record(run: str | Path, data: str | Path, time_log: str | Path | None = None
     lam = float(json.loads((run / "config.json").read_text())["lam"])
     dest = Path(data) / f"lam={lam:g}"
     dest.mkdir(parents=True, exist_ok=True)
-    A.write_csv(dest / "history.csv", record_history(A.read_csv(run / "history.csv")))
+    A.write_csv(dest / "history.csv", A.read_csv(run / "history.csv"))  # every step
     wall = A.progress_wall(progress_log) if progress_log is not None else None
     work = [{"min_particles": n, **row} for n in WORK_MIN_PARTICLES
             for row in A.history_segments(run, n, wall=wall)]

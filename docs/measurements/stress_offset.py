@@ -28,7 +28,8 @@ import numpy as np
 
 from cases import analysis as A
 
-__all__ = ["profile_estimators", "estimator_table", "paper_growth", "main"]
+__all__ = ["profile_estimators", "estimator_table", "growth_histories", "paper_growth",
+           "main"]
 
 DATA = Path(__file__).resolve().parents[2] / "cases" / "data"
 
@@ -76,15 +77,71 @@ def estimator_table(fig3_data: Path) -> dict[str, np.ndarray]:
 PAPER_RADII = np.geomspace(10.0, 150.0, 9)
 
 
-def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA / "fig3_paper",
-                 fig4: Path = DATA / "fig4_paper", radii: np.ndarray = PAPER_RADII
-                 ) -> dict[str, np.ndarray]:
-    """The committed paper-scale colonies against the continuum as they grow (radius 10 to 150).
+#: The whole history of a paper colony whose record is thinned: lam = 1e-3's grew on to radius
+#: 260 (``cases/data/colony_260``), so its history there holds every step of seed 0's.
+WHOLE_HISTORIES = {1e-3: DATA / "colony_260" / "particles_lam=0.001" / "history.csv"}
 
-    From each lam's particle history (``particles_paper/lam=*/history.csv``, thinned to ~400
-    rows) and the continuum's R(t) (``fig3_paper/radius_continuum_lam=*.csv``):
+
+def _stride(history: dict[str, np.ndarray]) -> int:
+    """1 for a history of every step, else the typical step between its rows (a thinned one)."""
+    return int(np.median(np.diff(history["step"])))
+
+
+def _same_colony(record: dict[str, np.ndarray], whole: dict[str, np.ndarray]) -> bool:
+    """Whether the rows of ``record`` are those of ``whole`` at the same steps (8 digits)."""
+    at = np.searchsorted(whole["step"], record["step"])
+    if at[-1] >= whole["step"].size or np.any(whole["step"][at] != record["step"]):
+        return False
+    return all(np.allclose(whole[k][at], record[k], rtol=1e-7, atol=0)
+               for k in ("t", "radius", "mean_stress"))
+
+
+def growth_histories(particles: Path = DATA / "particles_paper",
+                     seeds: Path = DATA / "ensemble_paper",
+                     whole: dict[float, Path] = WHOLE_HISTORIES
+                     ) -> list[tuple[float, int, dict, dict | None]]:
+    """(lam, seed, history, thinned) of the paper colonies the growth table reads.
+
+    Seed 0 of every lam (``particles/lam=LAM``), by its whole history where ``whole`` has one
+    of the same colony (:func:`_same_colony`, else ValueError), and every other seed whose
+    record holds every step (``seeds/seed=S/lam=LAM``, recorded since 2026-12-05).
+    ``thinned``: for a history of every step, the colony's thinned record where it had one,
+    else ``cases.analysis.thin_rows`` of it (as records were thinned); None for a thinned one.
+    """
+    out = []
+    for folder in sorted(particles.glob("lam=*"), key=lambda f: float(f.name[4:])):
+        lam = float(folder.name[4:])
+        history = A.read_csv(folder / "history.csv")
+        if lam in whole:
+            full = A.read_csv(whole[lam])
+            if not _same_colony(history, full):
+                raise ValueError(f"{whole[lam]} is not the history of {folder}'s colony")
+            history, thinned = full, history
+        else:
+            thinned = A.thin_rows(history) if _stride(history) == 1 else None
+        out.append((lam, 0, history, thinned))
+    for folder in sorted(seeds.glob("seed=*/lam=*")):
+        history = A.read_csv(folder / "history.csv")
+        if _stride(history) == 1:
+            out.append((float(folder.name[4:]), int(folder.parent.name[5:]), history,
+                        A.thin_rows(history)))
+    return sorted(out, key=lambda x: x[:2])
+
+
+def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA / "fig3_paper",
+                 fig4: Path = DATA / "fig4_paper", radii: np.ndarray = PAPER_RADII,
+                 seeds: Path = DATA / "ensemble_paper") -> dict[str, np.ndarray]:
+    """The paper-scale colonies against the continuum as they grow (radius 10 to 150).
+
+    From each colony's history (:func:`growth_histories`) and the continuum's R(t)
+    (``fig3_paper/radius_continuum_lam=*.csv``):
     :func:`cases.studies.ensemble.history_growth` at ``radii`` (mean stress over the
-    continuum's mean pressure - 1, cycle-averaged; time to reach the radius - 1) and, for the
+    continuum's mean pressure - 1, cycle-averaged; time to reach the radius - 1);
+    ``stride``: the steps between the history's rows (1: every step; records before
+    2026-12-05 kept every k-th, which aliases the division waves by up to 6 points at R < 50),
+    ``thinning_error``: for a history of every step, what thinning it as those records were
+    does to the mean stress (its thinned history of :func:`growth_histories`; nan for a
+    thinned one); for seed 0 of the
     lam of Fig 4, the ring wavelength at every frame of both models
     (``fig4_paper/wavelength_*_lam=*.csv``) compared at the same radius (each interpolated
     linearly in R between its frames with two rings; nan elsewhere). No particle profiles at
@@ -93,18 +150,21 @@ def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA /
     from cases.studies.ensemble import history_growth
 
     rows: dict[str, list] = {}
-    for folder in sorted(particles.glob("lam=*"), key=lambda f: float(f.name[4:])):
-        lam = float(folder.name[4:])
+    for lam, seed, history, thinned in growth_histories(particles, seeds):
         cont = fig3 / f"radius_continuum_lam={lam:g}.csv"
         if not cont.exists():
             continue
         hc = A.read_csv(cont)
-        g = history_growth(A.read_csv(folder / "history.csv"), hc["t"], hc["radius"], lam,
-                           radii)
-        w = _wavelength_at(fig4, lam, radii)
+        g = history_growth(history, hc["t"], hc["radius"], lam, radii)
+        stride = _stride(history)
+        error = (history_growth(thinned, hc["t"], hc["radius"], lam, radii)["mean_stress"]
+                 - g["mean_stress"] if thinned is not None else np.full(radii.shape, np.nan))
+        w = _wavelength_at(fig4, lam, radii) if seed == 0 else np.full(radii.shape, np.nan)
         for i, R in enumerate(radii):
-            for k, v in (("lam", lam), ("radius", R), ("rel_mean_stress", g["mean_stress"][i]),
-                         ("rel_t", g["t"][i]), ("rel_wavelength", w[i])):
+            for k, v in (("lam", lam), ("seed", seed), ("radius", R),
+                         ("rel_mean_stress", g["mean_stress"][i]), ("rel_t", g["t"][i]),
+                         ("rel_wavelength", w[i]), ("stride", stride),
+                         ("thinning_error", error[i])):
                 rows.setdefault(k, []).append(v)
     return {k: np.asarray(v, dtype=float) for k, v in rows.items()}
 
@@ -159,18 +219,28 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def _growth_markdown(g: dict[str, np.ndarray]) -> str:
-    """Rows lam, columns radii: mean stress / continuum - 1 and t / continuum - 1 (%)."""
+    """Rows (lam, seed), columns radii: mean stress / continuum - 1 and t / continuum - 1 (%).
+
+    A colony's history of every step adds a row of its thinning error (points); a thinned
+    history is marked with its stride.
+    """
     from cases.studies.ensemble import trailing_rate
 
     radii = np.unique(g["radius"])
     rows = []
-    for lam in np.unique(g["lam"]):
-        sel = g["lam"] == lam
+    for lam, seed in dict.fromkeys(zip(g["lam"], g["seed"], strict=True)):
+        sel = (g["lam"] == lam) & (g["seed"] == seed)
+        stride = int(g["stride"][sel][0])
+        label = f"{lam:g}" + (f", seed {seed:.0f}" if seed else "") + (
+            f" (1 step in {stride})" if stride > 1 else "")
         cells = [f"{100 * m:+.1f} / {100 * t:+.1f}" if math.isfinite(m) else
                  f"- / {100 * t:+.1f}" for m, t in zip(g["rel_mean_stress"][sel],
                                                        g["rel_t"][sel], strict=True)]
         a_m, a_t = (trailing_rate(radii, g[k][sel]) for k in ("rel_mean_stress", "rel_t"))
-        rows.append([f"{lam:g}", *cells, f"{a_m:.2f} / {a_t:.2f}".replace("nan", "-")])
+        rows.append([label, *cells, f"{a_m:.2f} / {a_t:.2f}".replace("nan", "-")])
+        if stride == 1:
+            rows.append([f"{label}: thinned - whole", *[f"{100 * x:+.1f}" for x in
+                                                          g["thinning_error"][sel]], "-"])
         wl = g["rel_wavelength"][sel]
         if np.isfinite(wl).any():
             rows.append([f"{lam:g} wavelength", *[f"{100 * x:+.0f}" if math.isfinite(x) else "-"
