@@ -138,7 +138,7 @@ def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA /
     :func:`cases.studies.ensemble.history_growth` at ``radii`` (mean stress over the
     continuum's mean pressure - 1, cycle-averaged; time to reach the radius - 1);
     ``stride``: the steps between the history's rows (1: every step; records before
-    2026-12-05 kept every k-th, which aliases the division waves by up to 6 points at R < 50),
+    2026-12-05 kept every k-th, which aliases the division waves by up to 7.5 points),
     ``thinning_error``: for a history of every step, what thinning it as those records were
     does to the mean stress (its thinned history of :func:`growth_histories`; nan for a
     thinned one); for seed 0 of the
