@@ -22,6 +22,8 @@ it as finished when its ``run.json`` says so and its configuration is the sweep'
 4. :func:`thinning_table`: what thinning a full history would do to the whole colony's
    stress averaged over the last division period (:func:`thinning_bias`; why a record keeps
    every step).
+5. :func:`make_whole`: an older record's thinned history replaced by every step of the same
+   colony (:func:`same_colony`), where one exists.
 
 Command line::
 
@@ -30,6 +32,7 @@ Command line::
     python docs/measurements/records.py --table [--data cases/data/particles_paper]
     python docs/measurements/records.py --compare OLD NEW [OLD NEW ...]
     python docs/measurements/records.py --thinning RUN [RUN ...]
+    python docs/measurements/records.py --make-whole RECORD HISTORY
 
 Nothing is written when a check fails (a one-line error, exit status 2).
 """
@@ -49,8 +52,8 @@ from cases import analysis as A
 from cases.rundir import read_record
 from cases.studies import ensemble as E
 
-__all__ = ["compare", "compare_table", "record", "summary", "table", "thinning_bias",
-           "thinning_table", "time_reports"]
+__all__ = ["compare", "compare_table", "make_whole", "record", "same_colony", "summary",
+           "table", "thinning_bias", "thinning_table", "time_reports"]
 
 SMALL_FILES = ("profile.csv", "config.json")
 """Files copied as they are by :func:`record` (besides the history)."""
@@ -67,6 +70,32 @@ def time_reports(text: str, lines: int = 23) -> str:
     blocks = text.split("\tCommand being timed")[1:]
     return "".join("\tCommand being timed" + "\n".join(b.splitlines()[:lines]) + "\n"
                    for b in blocks)
+
+
+def same_colony(record: dict[str, np.ndarray], whole: dict[str, np.ndarray]) -> bool:
+    """Whether every row of ``record`` is ``whole``'s row of the same step (8 digits)."""
+    at = np.searchsorted(whole["step"], record["step"])
+    if at[-1] >= whole["step"].size or np.any(whole["step"][at] != record["step"]):
+        return False
+    return all(np.allclose(whole[k][at], record[k], rtol=1e-7, atol=0)
+               for k in ("t", "radius", "n_particles", "mean_stress", "max_stress"))
+
+
+def make_whole(dest: str | Path, history: str | Path) -> Path:
+    """Give the record ``dest`` (``DATA/lam=LAM``) of a thinned history its whole history.
+
+    ``history``: every step of the same colony, from a run grown on (colony_260's) or grown
+    again by an engine that reproduces it; taken up to the record's last step, after
+    :func:`same_colony` checks every recorded row. Raises ValueError when it is another colony.
+    """
+    dest = Path(dest)
+    record = A.read_csv(dest / "history.csv")
+    whole = A.read_csv(history)
+    if not same_colony(record, whole):
+        raise ValueError(f"{history} is not the history of {dest}'s colony")
+    last = int(np.searchsorted(whole["step"], record["step"][-1]))
+    A.write_csv(dest / "history.csv", {k: v[:last + 1] for k, v in whole.items()})
+    return dest
 
 
 def thinning_bias(history: dict[str, np.ndarray], lam: float) -> dict[str, float]:
@@ -276,6 +305,22 @@ def compare_table(pairs: list[tuple[Path, Path]]) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _repair_command(make: list[Path] | None, thinning: list[Path] | None) -> str:
+    """What ``--make-whole RECORD HISTORY`` and ``--thinning RUN ...`` do and print.
+
+    ValueError on a missing file or (:func:`make_whole`) another colony's history.
+    """
+    needed = ([(make[0], "history.csv"), (make[1], "")] if make else []) + [
+        (r, f) for r in thinning or () for f in ("history.csv", "config.json")]
+    for folder, name in needed:
+        if not (folder / name if name else folder).is_file():
+            raise ValueError(f"no file {folder / name if name else folder}")
+    if make:
+        make_whole(*make)
+        return f"{make[0]}/history.csv: every step, from {make[1]}\n"
+    return thinning_table(thinning)
+
+
 def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python docs/measurements/records.py",
                                 description=__doc__.split("\n\n")[0])
@@ -291,6 +336,9 @@ def main(argv: list[str] | None = None) -> int:
                    help="the run's progress log (its stderr), kept as progress.log")
     p.add_argument("--compare", type=Path, nargs="+", metavar="OLD NEW",
                    help="compare records DATA/lam=LAM in pairs OLD NEW (a table)")
+    p.add_argument("--make-whole", type=Path, nargs=2, metavar=("RECORD", "HISTORY"),
+                   help="replace the thinned history of RECORD by HISTORY, every step of the "
+                        "same colony (checked)")
     p.add_argument("--thinning", type=Path, nargs="+", metavar="RUN",
                    help="what thinning the histories of these run folders does to their "
                         "final cycle-mean stress (a table)")
@@ -298,16 +346,10 @@ def main(argv: list[str] | None = None) -> int:
     if args.table:
         print(table(args.data), end="")
         return 0
-    if args.thinning is not None:
-        missing = [r for r in args.thinning for f in ("history.csv", "config.json")
-                   if not (r / f).is_file()]
-        if missing:
-            print(f"records: error: {missing[0]} has no history.csv and config.json",
-                  file=sys.stderr)
-            return 2
-        print(thinning_table(args.thinning), end="")
-        return 0
     try:
+        if args.make_whole is not None or args.thinning is not None:
+            print(_repair_command(args.make_whole, args.thinning), end="")
+            return 0
         if args.compare is not None:
             if len(args.compare) % 2:
                 p.error("--compare takes pairs of record folders: OLD NEW [OLD NEW ...]")

@@ -77,54 +77,30 @@ def estimator_table(fig3_data: Path) -> dict[str, np.ndarray]:
 PAPER_RADII = np.geomspace(10.0, 150.0, 9)
 
 
-#: The whole history of a paper colony whose record is thinned: lam = 1e-3's grew on to radius
-#: 260 (``cases/data/colony_260``), so its history there holds every step of seed 0's.
-WHOLE_HISTORIES = {1e-3: DATA / "colony_260" / "particles_lam=0.001" / "history.csv"}
-
-
 def _stride(history: dict[str, np.ndarray]) -> int:
     """1 for a history of every step, else the typical step between its rows (a thinned one)."""
     return int(np.median(np.diff(history["step"])))
 
 
-def _same_colony(record: dict[str, np.ndarray], whole: dict[str, np.ndarray]) -> bool:
-    """Whether the rows of ``record`` are those of ``whole`` at the same steps (8 digits)."""
-    at = np.searchsorted(whole["step"], record["step"])
-    if at[-1] >= whole["step"].size or np.any(whole["step"][at] != record["step"]):
-        return False
-    return all(np.allclose(whole[k][at], record[k], rtol=1e-7, atol=0)
-               for k in ("t", "radius", "mean_stress"))
-
-
 def growth_histories(particles: Path = DATA / "particles_paper",
-                     seeds: Path = DATA / "ensemble_paper",
-                     whole: dict[float, Path] = WHOLE_HISTORIES
+                     seeds: Path = DATA / "ensemble_paper"
                      ) -> list[tuple[float, int, dict, dict | None]]:
     """(lam, seed, history, thinned) of the paper colonies the growth table reads.
 
-    Seed 0 of every lam (``particles/lam=LAM``), by its whole history where ``whole`` has one
-    of the same colony (:func:`_same_colony`, else ValueError), and every other seed whose
-    record holds every step (``seeds/seed=S/lam=LAM``, recorded since 2026-12-05).
-    ``thinned``: for a history of every step, the colony's thinned record where it had one,
-    else ``cases.analysis.thin_rows`` of it (as records were thinned); None for a thinned one.
+    Seed 0 of every lam (``particles/lam=LAM``) and every other seed whose record holds every
+    step (``seeds/seed=S/lam=LAM``, recorded since 2026-12-05). ``thinned``: for a history of
+    every step, ``cases.analysis.thin_rows`` of it, as the older records were thinned (their
+    rows exactly, for the records made whole by ``records.py --make-whole``); None for a
+    thinned history.
     """
     out = []
-    for folder in sorted(particles.glob("lam=*"), key=lambda f: float(f.name[4:])):
-        lam = float(folder.name[4:])
+    folders = [(f, 0) for f in particles.glob("lam=*")]
+    folders += [(f, int(f.parent.name[5:])) for f in seeds.glob("seed=*/lam=*")]
+    for folder, seed in folders:
         history = A.read_csv(folder / "history.csv")
-        if lam in whole:
-            full = A.read_csv(whole[lam])
-            if not _same_colony(history, full):
-                raise ValueError(f"{whole[lam]} is not the history of {folder}'s colony")
-            history, thinned = full, history
-        else:
-            thinned = A.thin_rows(history) if _stride(history) == 1 else None
-        out.append((lam, 0, history, thinned))
-    for folder in sorted(seeds.glob("seed=*/lam=*")):
-        history = A.read_csv(folder / "history.csv")
-        if _stride(history) == 1:
-            out.append((float(folder.name[4:]), int(folder.parent.name[5:]), history,
-                        A.thin_rows(history)))
+        if seed == 0 or _stride(history) == 1:
+            out.append((float(folder.name[4:]), seed, history,
+                        A.thin_rows(history) if _stride(history) == 1 else None))
     return sorted(out, key=lambda x: x[:2])
 
 

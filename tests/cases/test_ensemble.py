@@ -193,23 +193,6 @@ def test_plot_and_offset_tables_from_committed_data(tmp_path):
         assert (tmp_path / name).read_bytes() == (data / name).read_bytes()
 
 
-def test_the_growth_table_reads_a_whole_history_only_of_the_same_colony():
-    """Seed 0 of lam = 1e-3 from colony_260 (every step), checked against its thinned record."""
-    from pathlib import Path
-
-    stress_offset = measurement("stress_offset")
-    histories = {(lam, seed): (h, th) for lam, seed, h, th in stress_offset.growth_histories()}
-    whole, record = histories[(1e-3, 0)]
-    assert np.all(np.diff(whole["step"]) == 1) and whole["radius"][-1] > 259.9
-    assert np.all(np.diff(record["step"]) > 1) and stress_offset._same_colony(record, whole)
-    assert histories[(0.0, 0)][1] is None  # a thinned record, no whole history
-    assert np.all(np.diff(histories[(0.0, 1)][0]["step"]) == 1)  # seed 1: recorded whole
-    other = (Path(ensemble.__file__).resolve().parents[1] / "data" / "ensemble_paper" / "seed=1"
-             / "lam=0.001" / "history.csv")
-    with pytest.raises(ValueError, match="is not the history"):
-        stress_offset.growth_histories(whole={1e-3: other})
-
-
 # ------------------------------------------------------------------ partial-lam merge
 
 

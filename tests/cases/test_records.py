@@ -306,3 +306,30 @@ def test_thinning_a_history_aliases_the_division_waves():
     assert spread > 1e-3  # how the rows fall on the waves matters
     smooth = dict(history, mean_stress=1.08 * ensemble.continuum_mean_pressure(radius, 0.0))
     assert abs(records.thinning_bias(smooth, 0.0)["thinned"]) < 1e-2 * spread
+
+
+def test_make_whole_takes_only_the_same_colonys_history(tmp_path, capsys):
+    """A thinned record gets every step of its colony; another colony's is refused."""
+    n = np.arange(1, 1201)
+    whole = {"step": n, "t": 0.01 * n, "radius": np.sqrt(n), "n_particles": n // 7 + 1.0,
+             "mean_stress": np.sin(n) + 2.0, "max_stress": np.cos(n) + 3.0}
+    A.write_csv(tmp_path / "whole.csv", whole)
+    dest = tmp_path / "lam=0"
+    dest.mkdir()
+    A.write_csv(dest / "history.csv", A.thin_rows({k: v[:1000] for k, v in whole.items()}))
+    thinned = (dest / "history.csv").read_bytes()
+    other = dict(whole, mean_stress=whole["mean_stress"] * (1 + 1e-6))
+    A.write_csv(tmp_path / "other.csv", other)
+    assert records.main(["--make-whole", str(dest), str(tmp_path / "other.csv")]) == 2
+    assert "is not the history of" in capsys.readouterr().err
+    assert (dest / "history.csv").read_bytes() == thinned  # untouched
+    assert records.main(["--make-whole", str(dest), str(tmp_path / "whole.csv")]) == 0
+    made = A.read_csv(dest / "history.csv")
+    np.testing.assert_array_equal(made["step"], n[:1000])
+    A.write_csv(tmp_path / "again.csv", A.thin_rows(made))
+    assert (tmp_path / "again.csv").read_bytes() == thinned  # the old record, row for row
+
+    data = Path(records.__file__).resolve().parents[2] / "cases" / "data"
+    record = A.read_csv(data / "particles_paper" / "lam=0.001" / "history.csv")
+    grown_on = A.read_csv(data / "colony_260" / "particles_lam=0.001" / "history.csv")
+    assert np.all(np.diff(record["step"]) == 1) and records.same_colony(record, grown_on)
