@@ -44,12 +44,13 @@ import json
 import re
 import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
 from cases import analysis as A
-from cases.rundir import read_record
+from cases.rundir import read_record, replace_file
 from cases.studies import ensemble as E
 
 __all__ = ["compare", "compare_table", "make_whole", "record", "same_colony", "summary",
@@ -94,7 +95,14 @@ def make_whole(dest: str | Path, history: str | Path) -> Path:
     if not same_colony(record, whole):
         raise ValueError(f"{history} is not the history of {dest}'s colony")
     last = int(np.searchsorted(whole["step"], record["step"][-1]))
-    A.write_csv(dest / "history.csv", {k: v[:last + 1] for k, v in whole.items()})
+
+    def write(fh):  # the CSV of write_csv, replacing the record's at once (replace_file)
+        with tempfile.TemporaryDirectory() as tmp:
+            path = A.write_csv(Path(tmp) / "history.csv",
+                               {k: v[:last + 1] for k, v in whole.items()})
+            fh.write(path.read_bytes())
+
+    replace_file(dest, "history.csv", write)
     return dest
 
 
