@@ -471,8 +471,7 @@ class Simulation:
         if self.output is not None and path == self.output.checkpoint:
             self.output.ensure_space(self)
             self.output.write_history(self)
-            history = history_record(self.output.out / HISTORY,
-                                                len(self.history))
+            history = history_record(self.output.out / HISTORY, len(self.history))
         checkpoint.save_checkpoint(path, checkpoint.Checkpoint(
             self.config, self.state, history, frame_times, self.solver.amg_state(), next_frame,
             self._reached(self.config.radius, self.config.time)))

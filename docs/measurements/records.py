@@ -313,7 +313,7 @@ def compare_table(pairs: list[tuple[Path, Path]]) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _repair_command(make: list[Path] | None, thinning: list[Path] | None) -> str:
+def _history_command(make: list[Path] | None, thinning: list[Path] | None) -> str:
     """What ``--make-whole RECORD HISTORY`` and ``--thinning RUN ...`` do and print.
 
     ValueError on a missing file or (:func:`make_whole`) another colony's history.
@@ -356,7 +356,7 @@ def main(argv: list[str] | None = None) -> int:
         return 0
     try:
         if args.make_whole is not None or args.thinning is not None:
-            print(_repair_command(args.make_whole, args.thinning), end="")
+            print(_history_command(args.make_whole, args.thinning), end="")
             return 0
         if args.compare is not None:
             if len(args.compare) % 2:

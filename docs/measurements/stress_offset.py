@@ -83,25 +83,16 @@ def _stride(history: dict[str, np.ndarray]) -> int:
 
 
 def growth_histories(particles: Path = DATA / "particles_paper",
-                     seeds: Path = DATA / "ensemble_paper"
-                     ) -> list[tuple[float, int, dict, dict | None]]:
-    """(lam, seed, history, thinned) of the paper colonies the growth table reads.
+                     seeds: Path = DATA / "ensemble_paper") -> list[tuple[float, int, dict]]:
+    """(lam, seed, history) of the paper colonies the growth table reads, by lam and seed.
 
     Seed 0 of every lam (``particles/lam=LAM``) and every other seed whose record holds every
-    step (``seeds/seed=S/lam=LAM``, recorded since 2026-12-05). ``thinned``: for a history of
-    every step, ``cases.analysis.thin_rows`` of it, as the older records were thinned (their
-    rows exactly, for the records made whole by ``records.py --make-whole``); None for a
-    thinned history.
+    step (``seeds/seed=S/lam=LAM``, recorded since 2026-12-05).
     """
-    out = []
     folders = [(f, 0) for f in particles.glob("lam=*")]
     folders += [(f, int(f.parent.name[5:])) for f in seeds.glob("seed=*/lam=*")]
-    for folder, seed in folders:
-        history = A.read_csv(folder / "history.csv")
-        if seed == 0 or _stride(history) == 1:
-            out.append((float(folder.name[4:]), seed, history,
-                        A.thin_rows(history) if _stride(history) == 1 else None))
-    return sorted(out, key=lambda x: x[:2])
+    out = [(float(f.name[4:]), seed, A.read_csv(f / "history.csv")) for f, seed in folders]
+    return sorted((x for x in out if x[1] == 0 or _stride(x[2]) == 1), key=lambda x: x[:2])
 
 
 def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA / "fig3_paper",
@@ -116,8 +107,8 @@ def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA /
     ``stride``: the steps between the history's rows (1: every step; records before
     2026-12-05 kept every k-th, which aliases the division waves by up to 7.5 points),
     ``thinning_error``: for a history of every step, what thinning it as those records were
-    does to the mean stress (its thinned history of :func:`growth_histories`; nan for a
-    thinned one); for seed 0 of the
+    (``cases.analysis.thin_rows``: for a record made whole by ``records.py --make-whole``, its
+    old rows exactly) does to the mean stress (nan for a thinned one); for seed 0 of the
     lam of Fig 4, the ring wavelength at every frame of both models
     (``fig4_paper/wavelength_*_lam=*.csv``) compared at the same radius (each interpolated
     linearly in R between its frames with two rings; nan elsewhere). No particle profiles at
@@ -126,15 +117,16 @@ def paper_growth(particles: Path = DATA / "particles_paper", fig3: Path = DATA /
     from cases.studies.ensemble import history_growth
 
     rows: dict[str, list] = {}
-    for lam, seed, history, thinned in growth_histories(particles, seeds):
+    for lam, seed, history in growth_histories(particles, seeds):
         cont = fig3 / f"radius_continuum_lam={lam:g}.csv"
         if not cont.exists():
             continue
         hc = A.read_csv(cont)
         g = history_growth(history, hc["t"], hc["radius"], lam, radii)
         stride = _stride(history)
-        error = (history_growth(thinned, hc["t"], hc["radius"], lam, radii)["mean_stress"]
-                 - g["mean_stress"] if thinned is not None else np.full(radii.shape, np.nan))
+        error = (history_growth(A.thin_rows(history), hc["t"], hc["radius"], lam,
+                                radii)["mean_stress"] - g["mean_stress"]
+                 if stride == 1 else np.full(radii.shape, np.nan))
         w = _wavelength_at(fig4, lam, radii) if seed == 0 else np.full(radii.shape, np.nan)
         for i, R in enumerate(radii):
             for k, v in (("lam", lam), ("seed", seed), ("radius", R),
