@@ -9,7 +9,9 @@ checkpoint is verified when packed).
     python -m cases.carry pack DIR.partial FOLDER     # FOLDER: e.g. in a git repository
     python -m cases.carry unpack FOLDER DIR           # makes DIR.partial; then the run's command
 
-``pack`` replaces FOLDER as a whole (written beside it, then renamed) and adds ``carry.json``:
+``pack`` writes FOLDER whole (beside it, then renamed). FOLDER is new or one an earlier
+``pack`` wrote, which is replaced; anything else there is the user's and refused, and so is a
+FOLDER that is the stage or inside it. It adds ``carry.json``, which records
 each file's bytes and sha256 (and, for a file stored compressed, its ``stored`` name and
 ``stored_bytes``), the cells and step of the checkpoint, and its bytes per cell as it is and as
 stored (``checkpoint_bytes_per_cell``, ``stored_bytes_per_cell``).
@@ -28,11 +30,12 @@ import json
 import lzma
 import os
 import shutil
+import tempfile
 from pathlib import Path
 
 import numpy as np
 
-from cases.rundir import hold, partial_of
+from cases.rundir import OWN_SUFFIXES, absolute, hold, partial_of
 
 #: What a stopped run needs to resume, from its stage folder.
 RESUME_FILES = ("run.json", "config.json", "history.csv", "checkpoint.npz")
@@ -74,23 +77,53 @@ def _store(source: Path, target: Path, compressed: bool) -> dict:
     return {"bytes": size, "sha256": digest.hexdigest()}
 
 
-def pack(stage: str | os.PathLike, folder: str | os.PathLike) -> dict:
-    """Copy the resume state of ``stage`` into ``folder`` (replaced whole); its carry.json.
+def _packed_names() -> set[str]:
+    """Every name a folder ``pack`` wrote may hold (of this version or an earlier one)."""
+    return {CARRY} | set(RESUME_FILES) | {name + COMPRESSED.get(name, "") for name in RESUME_FILES}
 
-    The stage is held (:func:`cases.rundir.hold`) while it is read, so the stage of a run still
-    going (or still writing its last checkpoint after a stop) is refused in one line; each
-    file's digest is of the bytes stored, and the stage's files are checked against them after.
+
+def _check_destination(stage: Path, folder: Path, shown) -> None:
+    """Refuse a ``folder`` that is the stage or lies inside it, or exists and is not a pack's.
+
+    A folder ``pack`` wrote (``carry.json`` and only the names of :func:`_packed_names`) may be
+    replaced; anything else that exists, a link, a file or another folder, is the user's.
     """
-    stage, folder = Path(stage), Path(folder)
+    real_stage, real_folder = stage.resolve(), folder.resolve()
+    if real_folder == real_stage or real_stage in real_folder.parents:
+        raise ValueError(f"refusing {shown}: it is the stage {stage} or inside it; give a folder "
+                         "elsewhere")
+    if folder.is_symlink():
+        raise ValueError(f"refusing {shown}: it is a symbolic link; give the folder itself")
+    if not folder.exists():
+        return
+    if not folder.is_dir():
+        raise ValueError(f"refusing {shown}: it is a file; give a new folder")
+    names = {p.name for p in folder.iterdir()}
+    if CARRY not in names or not names <= _packed_names():
+        raise ValueError(f"refusing {shown}: it exists and is not a folder pack wrote (one "
+                         f"holding {CARRY}); give a new folder, or remove it yourself")
+
+
+def pack(stage: str | os.PathLike, folder: str | os.PathLike) -> dict:
+    """Copy the resume state of ``stage`` into ``folder``; its carry.json.
+
+    ``folder`` is new, or one an earlier ``pack`` wrote, which is replaced whole; anything else
+    is refused before any work (:func:`_check_destination`). The copy is written into a fresh
+    temporary folder beside ``folder`` and renamed to it once complete, so ``folder`` is never
+    half-written and an old one is removed only after the new one stands. The stage is held
+    (:func:`cases.rundir.hold`) while it is read, so the stage of a run still going (or still
+    writing its last checkpoint after a stop) is refused in one line; each file's digest is of
+    the bytes stored, and the stage's files are checked against them after.
+    """
+    shown, stage, folder = folder, Path(stage), absolute(folder)
     missing = [name for name in RESUME_FILES if not (stage / name).is_file()]
     if missing:
         raise ValueError(f"{stage} is not a stopped run's stage: no {', '.join(missing)}")
-    tmp = folder.with_name(folder.name + ".tmp")
+    _check_destination(stage, folder, shown)
+    folder.parent.mkdir(parents=True, exist_ok=True)
     with hold(stage):
         cells, step = checkpoint_size(stage / "checkpoint.npz")
-        if tmp.exists():
-            shutil.rmtree(tmp)
-        tmp.mkdir(parents=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".tmp", dir=folder.parent))
         try:
             files = {}
             for name in RESUME_FILES:
@@ -109,26 +142,60 @@ def pack(stage: str | os.PathLike, folder: str | os.PathLike) -> dict:
                       "stored_bytes_per_cell": round(checkpoint["stored_bytes"] / max(cells, 1),
                                                      1)}
             (tmp / CARRY).write_text(json.dumps(record, indent=2) + "\n")
-        except BaseException:
+            os.chmod(tmp, 0o777 & ~_umask())
+            _check_destination(stage, folder, shown)  # again: it may have changed meanwhile
+            _replace_folder(tmp, folder)
+        finally:
             shutil.rmtree(tmp, ignore_errors=True)
-            raise
-    if folder.exists():
-        shutil.rmtree(folder)
-    tmp.rename(folder)
+    return record
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def _replace_folder(new: Path, folder: Path) -> None:
+    """Rename ``new`` to ``folder``; an old ``folder`` goes aside first, removed once replaced."""
+    if not folder.exists():
+        new.rename(folder)
+        return
+    old = Path(tempfile.mkdtemp(prefix=f".{folder.name}.", suffix=".old", dir=folder.parent))
+    folder.rename(old / folder.name)
+    new.rename(folder)
+    shutil.rmtree(old)
+
+
+def _read_record(folder: Path) -> dict:
+    """The carry.json of ``folder``: a JSON object with ``files``; one line naming it otherwise."""
+    path = folder / CARRY
+    try:
+        record = json.loads(path.read_text())
+    except FileNotFoundError:
+        raise ValueError(f"{folder} holds no {CARRY}: not a folder pack wrote") from None
+    except (OSError, ValueError) as error:
+        raise ValueError(f"{path} is damaged: {str(error).splitlines()[0]}") from None
+    if not isinstance(record, dict) or not isinstance(record.get("files"), dict) or not all(
+            isinstance(v, dict) and isinstance(v.get("sha256"), str)
+            for v in record["files"].values()):
+        raise ValueError(f"{path} is damaged: not a record of files with their sha256")
     return record
 
 
 def unpack(folder: str | os.PathLike, out: str | os.PathLike) -> Path:
     """Make ``out.partial`` from a packed resume state (digests checked); returns it."""
-    folder, out = Path(folder), Path(out)
-    record = json.loads((folder / CARRY).read_text())
+    shown, folder, out = out, Path(folder), Path(os.path.normpath(out))
+    if not absolute(out).name or out.name.endswith(OWN_SUFFIXES):
+        raise ValueError(f"refusing {shown}: give the run's --out (a new DIR, not the root nor "
+                         "DIR.partial)")
+    record = _read_record(folder)
     partial = partial_of(out)
     for existing in (out, partial):
-        if existing.exists():
+        if existing.exists() or existing.is_symlink():
             raise ValueError(f"{existing} exists; move it away first")
-    tmp = partial.with_name(partial.name + ".tmp")
-    shutil.rmtree(tmp, ignore_errors=True)
-    tmp.mkdir(parents=True)
+    partial.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{partial.name}.", suffix=".tmp", dir=partial.parent))
     try:
         for name, expected in record["files"].items():
             stored = folder / expected.get("stored", name)
@@ -147,10 +214,11 @@ def unpack(folder: str | os.PathLike, out: str | os.PathLike) -> Path:
                     raise ValueError(f"{stored} does not decompress ({error})") from None
             if _sha256(tmp / name) != expected["sha256"]:
                 raise ValueError(f"{stored} differs from what {CARRY} recorded")
+        os.chmod(tmp, 0o777 & ~_umask())
+        tmp.rename(partial)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
-    tmp.rename(partial)
     return partial
 
 

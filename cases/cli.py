@@ -49,6 +49,7 @@ from cases.rundir import (
     RECORD,
     RunFolderError,
     RunPaused,
+    check_output,
     describe,
     is_no_space,
     no_space_message,
@@ -283,9 +284,22 @@ def _verbosity(p: argparse.ArgumentParser) -> None:
     p.add_argument("--verbose", action="store_true", help="log every stage (INFO, DEBUG)")
 
 
+class OneLineParser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line, ``colony: error: ...``, exit status 2.
+
+    argparse prints its usage block first; the line names the sub-command's ``--help``
+    instead. Sub-parsers are of the same class.
+    """
+
+    def error(self, message: str):
+        """Exit with one line: the message and where the help is."""
+        name = self.prog.split()[0]
+        self.exit(2, f"{name}: error: {message} (see {self.prog} --help)\n")
+
+
 def parser() -> argparse.ArgumentParser:
     """The ``colony`` argument parser."""
-    top = argparse.ArgumentParser(prog="colony", description=__doc__.split("\n")[0])
+    top = OneLineParser(prog="colony", description=__doc__.split("\n")[0])
     sub = top.add_subparsers(dest="command", required=True)
 
     c = sub.add_parser("continuum", help="2D moving-boundary continuum colony")
@@ -551,7 +565,9 @@ def _dispatch(args) -> int:
         main_fit(args)
     else:
         module = importlib.import_module(CASES[args.name])
-        out = Path(args.out or f"runs/case-{args.name}-{args.scale}")
+        out = check_output(args.out or f"runs/case-{args.name}-{args.scale}")
+        if args.runs is not None:
+            args.runs = str(check_output(args.runs, flag="--runs"))
         if not (args.from_data or args.print_runs):  # the runs go to Dask: check it first
             if args.scheduler is None:
                 check_workers(args.workers)

@@ -94,7 +94,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy import optimize, stats
 
 from cases.analysis.statistics import ecoli_lambda
-from cases.rundir import check_output_folder, replace_file
+from cases.rundir import check_output, replace_file
 from continuum import radial
 
 __all__ = [
@@ -1086,8 +1086,7 @@ def lam_from_speed(
 
 
 def _out_folder(out: str | os.PathLike) -> Path:
-    folder = Path(out)
-    check_output_folder(folder)
+    folder = check_output(out)
     folder.mkdir(parents=True, exist_ok=True)
     return folder
 
@@ -1188,6 +1187,10 @@ def main_fit(args) -> int:
     """
     if (args.data is None) == (args.speed is None):
         raise ValueError("give DATA.csv or --speed V (um/s), not both and not neither")
+    if args.out is None and args.data is not None:
+        args.out = f"fit-{Path(args.data).stem}"
+    if args.out is not None:
+        check_output(args.out)  # before any work (write_fit checks again)
     if args.data is None:
         if args.speed_radius is not None:
             radius = args.speed_radius * RADIUS_UNITS[args.radius_unit]
@@ -1205,8 +1208,6 @@ def main_fit(args) -> int:
         raise ValueError("--speed-radius goes with --speed")
     _check_options(args.tau_minutes, args.cell_length_um, args.time_unit, args.radius_unit,
                    args.tau_prior_sd, args.interval, args.bootstrap, 0.95)  # before any work
-    if args.out is None:
-        args.out = f"fit-{Path(args.data).stem}"
     result = fit_file(args.data, time_column=args.time_column,
                       radius_column=args.radius_column, tau_minutes=args.tau_minutes,
                       cell_length_um=args.cell_length_um, time_unit=args.time_unit,

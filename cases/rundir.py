@@ -129,6 +129,9 @@ class RunPaused(Exception):  # noqa: N818 (not an error: a pause)
 
 #: Longest suffix colony appends to ``DIR`` (``DIR.replaced``; ``DIR.partial`` is shorter).
 LONGEST_SUFFIX = ".replaced"
+#: Suffixes of the folders colony keeps beside ``DIR``: its stage and the run it replaces. No
+#: ``--out`` may end in one (a later run of ``DIR`` would take that folder for its own).
+OWN_SUFFIXES = (".partial", LONGEST_SUFFIX)
 
 
 def _written_by_us(name: str) -> bool:
@@ -202,9 +205,10 @@ def check_target(out: Path, overwrite: bool) -> Path:
     without ``overwrite``, or exists with ``overwrite`` but holds entries this tool did not
     write; or when its parent cannot be written.
     """
-    target = Path(os.path.abspath(out))
+    target = absolute(out)
     target = target.parent.resolve() / target.name if target.name else target.resolve()
     _check_name_length(out, target)  # first: a longer name cannot even be looked up
+    _check_own_suffix(out, target)
     if target.is_symlink():
         raise RunFolderError(
             f"refusing --out {out}: it is a symbolic link (to {os.readlink(target)}); colony "
@@ -226,6 +230,57 @@ def check_target(out: Path, overwrite: bool) -> Path:
     if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
         raise RunFolderError(f"cannot write the output folder {out}: {parent} is not writable")
     return target
+
+
+def absolute(path: str | os.PathLike) -> Path:
+    """``path`` made absolute with its ``..`` taken lexically (``a/x/../b`` is ``a/b``).
+
+    Every folder colony creates is created from this form, so ``a/x/..`` never leaves a stray
+    ``a/x`` behind.
+    """
+    return Path(os.path.abspath(path))
+
+
+def _check_own_suffix(out, target: Path, flag: str = "--out") -> None:
+    """Refuse a name ending in one of :data:`OWN_SUFFIXES` (one line)."""
+    if target.name.endswith(OWN_SUFFIXES):
+        raise RunFolderError(
+            f"refusing {flag} {out}: names ending in {' or '.join(OWN_SUFFIXES)} are colony's "
+            "own (a run's stage, a run being replaced); give another name")
+
+
+def check_output(out: str | os.PathLike, source: str | os.PathLike | None = None,
+                 flag: str = "--out") -> Path:
+    """The one rule for every folder a command writes into besides a run's own ``--out``.
+
+    Pictures, a movie, a fit, a case's folder or its ``--runs``: returns ``out`` with its
+    ``..`` taken lexically (``os.path.normpath``: relative stays relative). Refused in one
+    line, before any work: a link, a file, a name ending in one of :data:`OWN_SUFFIXES`, a
+    protected folder (:func:`_protected`: the root, the home
+    folder, the working directory or one of its parents), and a folder that is, or lies inside,
+    a run folder (one holding ``run.json``) other than ``source``, the run being drawn.
+    """
+    target = absolute(out)
+    source = None if source is None else Path(source).resolve()
+    if target.is_symlink():
+        raise RunFolderError(f"refusing {flag} {out}: it is a symbolic link; colony never writes "
+                             "through links: give the folder itself")
+    if target.exists() and not target.is_dir():
+        raise RunFolderError(f"refusing {flag} {out}: it is a file, not a folder")
+    resolved = target.resolve()
+    if resolved != source:
+        why = _protected(resolved)
+        if why:
+            raise RunFolderError(f"refusing {flag} {out}: {why}; give a folder of its own")
+        _check_own_suffix(out, target, flag)
+    for folder in (resolved, *resolved.parents):
+        if folder != source and (folder / RECORD).is_file():
+            check_source(folder)  # a run writing there: say so first
+            own = "" if source is None else f" (or none: {source})"
+            which = "a run" if source is None else "another run"
+            raise RunFolderError(f"refusing to write into {folder}: it is the folder of "
+                                 f"{which} ({flag} {out}); give a folder of its own{own}")
+    return Path(os.path.normpath(out))
 
 
 def _check_name_length(out, target: Path) -> None:
@@ -380,6 +435,10 @@ def _check_stage(partial: Path, overwrite: bool, engine: str, config, resumable,
         raise RunFolderError(
             f"{partial} holds {_names(foreign)}, which colony did not write; move them away or "
             "choose another --out")
+    if "files" in (read_record(partial) or {}) and not overwrite:  # only publish lists them
+        raise RunFolderError(
+            f"{partial} is a finished run's folder, not a stage; move it away, or give "
+            "--overwrite to start this run afresh (removes it)")
     saved_engine, saved = _stage_identity(partial)
     checkpoint = any((partial / name).is_file() for name in resumable)
     if saved_engine is not None and not overwrite:
@@ -454,34 +513,6 @@ def check_source(folder: Path) -> None:
         shape = _record_shape(_load_record(folder))
         if shape:
             raise RunFolderError(f"{folder / RECORD} is damaged: {shape}")
-
-
-def check_output_folder(folder: Path) -> None:
-    """Refuse an output folder (of pictures, a movie, a fit) that is a link or a file.
-
-    One line naming it: colony never writes through a link.
-    """
-    folder = Path(folder)
-    if folder.is_symlink():
-        raise RunFolderError(f"{folder} is a symbolic link; colony never writes through links: "
-                             "give the folder itself")
-    if folder.exists() and not folder.is_dir():
-        raise RunFolderError(f"{folder} is a file, not a folder")
-
-
-def check_output_of(source: Path, out: Path) -> None:
-    """Refuse pictures or a movie of ``source`` written into another run's folder.
-
-    ``out`` (a folder) and the folders above it may not be a run folder (one holding
-    ``run.json``) other than ``source`` itself: colony's pictures in another run's folder would
-    make it refuse ``--overwrite``.
-    """
-    source = Path(source).resolve()
-    for folder in (Path(out).resolve(), *Path(out).resolve().parents):
-        if folder != source and (folder / RECORD).is_file():
-            check_source(folder)  # a run writing there: say so first
-            raise RunFolderError(f"refusing to write into {folder}: it is the folder of another "
-                                 f"run; give a folder of its own (or none: {source})")
 
 
 def is_held(folder: Path) -> bool:

@@ -17,7 +17,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from cases.rundir import RunPaused, partial_of, publish, record, stage
+from cases.rundir import RunPaused, check_target, partial_of, publish, record, stage
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
 CONTINUUM_EDGE_WIDTH = 0.05
@@ -78,7 +78,7 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
 
     check_memory(config)  # before the stage is touched (the engine checks again on a fresh start)
     if not overwrite:  # a stopped run resumes from its own start only
-        check_resume(partial_of(Path(os.path.abspath(out))), None if start is None else start[1])
+        check_resume(partial_of(check_target(out, overwrite)), None if start is None else start[1])
     return _staged_run("continuum", config, Path(out), overwrite, body,
                        resumable=CHECKPOINTS, other_engine=other_engine)
 

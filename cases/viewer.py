@@ -136,7 +136,7 @@ def _continuum_field(vtu: Path, data: dict, transported: bool) -> np.ndarray:
 def _writing_into(folder: Path) -> Iterator[Path]:
     """A temporary folder whose files replace their namesakes in ``folder`` when the body ends.
 
-    ``folder`` (not a link, :func:`cases.rundir.check_output_folder`) is created when missing,
+    ``folder`` (checked by the caller, :func:`cases.rundir.check_output`) is created when missing,
     with its missing parents, which are removed again when the body fails. Its lock is held
     meanwhile
     (cases.rundir.hold: a run still writing into it, or another ``colony plot|movie``, is
@@ -146,7 +146,6 @@ def _writing_into(folder: Path) -> Iterator[Path]:
     replaced, never followed; a folder of that name is refused first). The temporary folder
     is always removed.
     """
-    rundir.check_output_folder(folder)
     created = [p for p in (folder, *folder.parents) if not p.exists()]
     folder.mkdir(parents=True, exist_ok=True)
     try:
@@ -184,8 +183,7 @@ def plot_run(run_dir: str | Path, out: str | Path | None = None) -> list[Path]:
     d = Path(run_dir)
     rundir.check_source(d)
     kind = run_kind(d)
-    o = d if out is None else Path(out)
-    rundir.check_output_of(d, o)
+    o = rundir.check_output(d if out is None else out, source=d)
     with _writing_into(o) as staging:
         lam = _lam(d)
         hist = _history(d)
@@ -364,8 +362,8 @@ def movie_run(run_dir: str | Path, out_path: str | Path, fps: float = 12.0,
     d = Path(run_dir)
     rundir.check_source(d)
     kind = run_kind(d)
-    rundir.check_output_of(d, out_path.parent)
-    with _writing_into(out_path.parent) as staging:
+    folder = rundir.check_output(out_path.parent, source=d)
+    with _writing_into(folder) as staging:
         _write_movie(d, kind, staging / out_path.name, fps, max_frames, pixels, progress)
     return out_path
 

@@ -8,6 +8,7 @@ Runs go through ``cases.cli.main`` in this process (fast) unless a signal is inv
 
 import errno
 import json
+import shutil
 import signal
 import subprocess
 import sys
@@ -429,3 +430,155 @@ def test_a_layout_outside_the_colony_warns(colony, tmp_path, engine, caplog):
                            if engine == "continuum" else "seed=0", "--out", str(tmp_path / "s"))
     assert status == 0
     assert any("strain(s) 1 absent from the initial colony" in r.message for r in caplog.records)
+
+
+# --------------------------------------------------------------------------- round four (issue 54)
+
+
+def _stage(folder: Path) -> Path:
+    """A stopped run's stage as ``carry.pack`` reads it (four resume files)."""
+    folder.mkdir(parents=True)
+    np.savez(folder / "checkpoint.npz", meta=json.dumps({"step": 7}), x=np.arange(5.0))
+    for name in ("run.json", "config.json", "history.csv"):
+        (folder / name).write_text(name)
+    return folder
+
+
+def test_carry_pack_never_replaces_what_it_did_not_write(tmp_path, monkeypatch, capsys):
+    """A folder pack did not write, or the stage: refused in one line, every file as it was.
+
+    A user's folder, a run folder, the stage itself, a folder inside it, the working
+    directory, a file. A pack's own folder is replaced whole, with nothing left beside it.
+    """
+    from cases import carry
+
+    monkeypatch.chdir(tmp_path)
+    stage = _stage(tmp_path / "q.partial")
+    thesis = tmp_path / "thesis"
+    thesis.mkdir()
+    (thesis / "chapter1.tex").write_text("precious")
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "run.json").write_text("{}")
+    before = tree(tmp_path)
+    for dest, why in ((thesis, "is not a folder pack wrote"), (run, "is not a folder pack wrote"),
+                      (stage, "is the stage"), (stage / "inner", "is the stage"),
+                      (Path("."), "is not a folder pack wrote"), (thesis / "chapter1.tex",
+                                                                  "is a file")):
+        with pytest.raises(SystemExit) as exit_:
+            carry.main(["pack", str(stage), str(dest)])
+        err = capsys.readouterr().err
+        assert exit_.value.code == 2 and err.count("\n") == 1, err
+        assert f"error: refusing {dest}: " in err and why in err, err
+        assert tree(tmp_path) == before
+    carry.pack(stage, tmp_path / "repo" / "resume")
+    (stage / "history.csv").write_text("history, one leg later")
+    carry.pack(stage, tmp_path / "repo" / "resume")  # a pack's folder: replaced
+    assert sorted(p.name for p in (tmp_path / "repo").iterdir()) == ["resume"]
+    out = carry.unpack(tmp_path / "repo" / "resume", tmp_path / "again")
+    assert (out / "history.csv").read_text() == "history, one leg later"
+    assert oct((tmp_path / "repo" / "resume").stat().st_mode & 0o777) == oct(
+        out.stat().st_mode & 0o777) == oct(thesis.stat().st_mode & 0o777)
+
+
+def test_carry_refuses_a_damaged_record_naming_it_and_a_stage_name(tmp_path):
+    from cases import carry
+
+    packed = tmp_path / "resume"
+    carry.pack(_stage(tmp_path / "q.partial"), packed)
+    with pytest.raises(ValueError, match="give the run's --out"):
+        carry.unpack(packed, tmp_path / "r.partial")
+    with pytest.raises(ValueError, match="give the run's --out"):
+        carry.unpack(packed, "/")
+    (packed / "carry.json").write_text("{")
+    with pytest.raises(ValueError, match=f"{packed / 'carry.json'} is damaged"):
+        carry.unpack(packed, tmp_path / "r")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["q.partial", "resume"]
+
+
+@pytest.mark.parametrize("name", ["o.partial", "o.replaced"])
+@pytest.mark.parametrize("engine", [SMALL_CONTINUUM, SMALL_PARTICLES])
+def test_out_named_like_a_stage_is_refused(colony, tmp_path, engine, name):
+    status, err = colony(*engine, "--out", str(tmp_path / name))
+    one_line_error(status, err, f"refusing --out {tmp_path / name}: names ending in .partial")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_finished_run_in_the_stage_place_is_never_cleared(colony, tmp_path):
+    """A finished run as ``o.partial``: a run of ``o`` refuses it instead of clearing it.
+
+    An older version let ``--out o.partial`` make one; here another configuration is run.
+    """
+    assert colony(*SMALL_CONTINUUM, "--out", str(tmp_path / "x"))[0] == 0
+    (tmp_path / "x").rename(tmp_path / "o.partial")
+    before = tree(tmp_path)
+    status, err = colony(*SMALL_CONTINUUM[:-1], "n_nodes=300", "--out", str(tmp_path / "o"))
+    one_line_error(status, err, "o.partial is a finished run's folder, not a stage")
+    assert tree(tmp_path) == before and not (tmp_path / "o").exists()
+
+
+def _fit_data(folder: Path) -> Path:
+    data = folder / "colony.csv"
+    data.write_text("t,radius\n0,10\n60,12\n120,15\n")
+    return data
+
+
+@pytest.mark.parametrize("command", ["plot", "fit", "case"])
+@pytest.mark.parametrize("where", ["root", "working directory", "another run", "stage name"])
+def test_every_writing_command_follows_the_run_folder_rules(colony, particle_run, tmp_path,
+                                                            monkeypatch, command, where):
+    """One rule (rundir.check_output) refuses, in one line, with nothing written.
+
+    ``/``, the working directory, a run's folder other than the one drawn, a name ending in
+    .partial.
+    """
+    monkeypatch.chdir(tmp_path)
+    other = tmp_path / "other"
+    assert colony(*SMALL_CONTINUUM, "--out", str(other))[0] == 0
+    out = {"root": "/", "working directory": ".", "another run": str(other / "sub"),
+           "stage name": "p.partial"}[where]
+    why = {"root": "it is the root folder", "working directory": "it is the working directory",
+           "another run": f"refusing to write into {other}: it is the folder of a",
+           "stage name": "names ending in .partial"}[where]
+    before = tree(tmp_path)
+    args = {"plot": ["plot", str(particle_run), "--out", out],
+            "fit": ["fit", str(_fit_data(tmp_path.parent)), "--tau-minutes", "30",
+                    "--cell-length-um", "2", "--out", out],
+            "case": ["case", "convergence", "--out", out, "--workers", "1"]}[command]
+    status, err = colony(*args)
+    one_line_error(status, err, why)
+    assert tree(tmp_path) == before
+
+
+def test_case_runs_into_a_run_folder_is_refused(colony, tmp_path):
+    other = tmp_path / "other"
+    assert colony(*SMALL_CONTINUUM, "--out", str(other))[0] == 0
+    before = tree(tmp_path)
+    status, err = colony("case", "fig2", "--out", str(tmp_path / "c"), "--runs", str(other),
+                         "--workers", "1")
+    one_line_error(status, err, f"refusing to write into {other}: it is the folder of a run "
+                   f"(--runs {other})")
+    assert tree(tmp_path) == before and not (tmp_path / "c").exists()
+
+
+def test_plot_out_with_dot_dots_leaves_no_stray_folder(colony, particle_run, tmp_path,
+                                                       monkeypatch):
+    work = tmp_path / "work"
+    work.mkdir()
+    monkeypatch.chdir(work)
+    shutil.copytree(particle_run, "a")
+    names = sorted(p.name for p in Path("a").iterdir())
+    assert colony("plot", "a", "--out", "ab/../a/x/../../b")[0] == 0
+    assert sorted(p.name for p in Path("a").iterdir()) == names
+    assert sorted(p.name for p in work.iterdir()) == ["a", "b"]
+    assert (work / "b" / "colony.png").is_file()
+
+
+def test_the_api_refuses_the_root_folder_in_one_line(tmp_path):
+    import continuum
+    import particles
+    from cases import runs
+
+    for config in (continuum.Config(lam=1e-2, radius=1.2), particles.Config(lam=1e-2, radius=2)):
+        with pytest.raises(rundir.RunFolderError, match="refusing --out /: it is the root folder"):
+            runs.run(config, "/")
