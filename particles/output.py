@@ -245,8 +245,24 @@ def make_frame(state: ParticleState, step: int, t: float | None = None) -> gsd.h
 
 def append_frame(path: Path, state: ParticleState, step: int, t: float | None = None) -> None:
     """Append a frame to trajectory.gsd (created when missing)."""
+    _append(path, make_frame(state, step, t))
+
+
+def _append(path: Path, frame: gsd.hoomd.Frame) -> None:
+    """Append ``frame`` to the gsd file ``path`` in an open of its own (created when missing).
+
+    gsd lays out its index by the opens that wrote a file, so one open per frame, here and in
+    :func:`truncate_trajectory`, gives a file the same bytes however its frames were written.
+    A file gsd creates is 0640 whatever the umask: it gets the umask's mode, as every other
+    file of a run folder does.
+    """
+    created = not path.exists()
     with gsd.hoomd.open(str(path), mode="a") as traj:
-        traj.append(make_frame(state, step, t))
+        traj.append(frame)
+    if created:
+        mask = os.umask(0)
+        os.umask(mask)
+        os.chmod(path, 0o666 & ~mask)
 
 
 def truncate_trajectory(path: Path, n_frames: int, size: int | None = None) -> None:
@@ -256,7 +272,8 @@ def truncate_trajectory(path: Path, n_frames: int, size: int | None = None) -> N
     of that size is kept as it is, any other is rewritten with its first n_frames frames, one
     at a time (a run killed while appending a frame leaves the new frame's bytes after the last
     frame gsd indexes; the rewrite drops them).  None (older checkpoints): rewritten only when
-    it holds more frames.
+    it holds more frames. The rewrite appends each frame in an open of its own, as the run
+    wrote them (:func:`_append`), so the file's bytes are those of an uninterrupted run.
     """
     if not path.exists() or (size is not None and path.stat().st_size == size):
         return
@@ -264,9 +281,10 @@ def truncate_trajectory(path: Path, n_frames: int, size: int | None = None) -> N
     with gsd.hoomd.open(str(path), mode="r") as t:
         if len(t) < n_frames or (size is None and len(t) == n_frames):
             return
-        with gsd.hoomd.open(str(tmp), mode="w") as out:
-            for i in range(n_frames):
-                out.append(t[i])
+        if tmp.exists():
+            tmp.unlink()
+        for i in range(n_frames):
+            _append(tmp, t[i])
     os.replace(tmp, path)
 
 

@@ -394,3 +394,30 @@ def test_a_stopped_sweep_ends_its_runs_after_a_step_with_a_checkpoint(tmp_path):
             os.killpg(sweep.pid, signal.SIGKILL)
         except ProcessLookupError:
             pass
+
+
+def test_a_trajectory_rewritten_on_resume_has_the_uninterrupted_bytes(colony, tmp_path):
+    """Killed after frames the last checkpoint does not hold: the rewrite gives the same bytes.
+
+    151 frames, a checkpoint after every step, a kill after the 120th frame: the resume rewrites trajectory.gsd with the frames of
+    its checkpoint (particles.output.truncate_trajectory), frame by frame as the run wrote
+    them; a rewrite in one open of gsd laid the index out otherwise (issue 54: 3,163,816
+    against 3,188,392 bytes).
+    """
+    args = ["particles", "--lam", "1e-2", "--time", "3", "--quiet", "--set",
+            "output_every=0.01", "--set", "checkpoint_seconds=0"]
+    assert colony(*args, "--out", str(tmp_path / "one"))[0] == 0
+    out = tmp_path / "run"
+    killed = subprocess.run([sys.executable, str(KILLPOINT), "trajectory", "120", "renamed",
+                             *args, "--out", str(out)], capture_output=True, text=True,
+                            timeout=600)
+    assert killed.returncode == -9, killed.stderr
+    stage = rundir.partial_of(out)
+    with np.load(stage / "checkpoint.npz") as checkpoint:
+        frames = json.loads(str(checkpoint["meta"]))["frames"]
+    assert frames[2] != (stage / "trajectory.gsd").stat().st_size  # the rewrite will be needed
+    assert colony(*args, "--out", str(out))[0] == 0
+    assert (out / "trajectory.gsd").read_bytes() == (tmp_path / "one" / "trajectory.gsd"
+                                                     ).read_bytes()
+    assert oct((out / "trajectory.gsd").stat().st_mode & 0o777) == oct(
+        (out / "history.csv").stat().st_mode & 0o777)
