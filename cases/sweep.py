@@ -381,26 +381,36 @@ def legs(hours: float | None):
         _LEG_HOURS[0] = before
 
 
-def _client(scheduler: str | None, n_workers: int):
-    """A client of the scheduler at ``scheduler`` (checked first), or of a new LocalCluster.
+def local_cluster(n_workers: int):
+    """A new LocalCluster of ``n_workers`` (:func:`check_workers`) processes of one thread each.
 
-    The LocalCluster has ``n_workers`` (:func:`check_workers`) processes of one thread each;
-    it keeps quiet unless the logging level is DEBUG (:func:`_quiet_dask`) and serves its HTTP
+    It keeps quiet unless the logging level is DEBUG (:func:`_quiet_dask`) and serves its HTTP
     routes on a free port of 127.0.0.1 (the default, port 8787, warns when taken).
     """
     import logging
 
-    from dask.distributed import Client, LocalCluster
+    from dask.distributed import LocalCluster
 
     verbose = _quiet_dask()
+    check_workers(n_workers)
+    return LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                        dashboard_address=None,
+                        silence_logs=False if verbose else logging.WARNING,
+                        scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+
+
+def _client(scheduler: str | None, n_workers: int):
+    """(client, cluster) of the scheduler at ``scheduler`` (checked first) or a new cluster.
+
+    The cluster is None for a scheduler given, else a :func:`local_cluster`.
+    """
+    from dask.distributed import Client
+
     if scheduler is not None:
+        _quiet_dask()
         check_scheduler(scheduler)
         return Client(scheduler, timeout=CONNECT_TIMEOUT), None
-    check_workers(n_workers)
-    cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                           dashboard_address=None,
-                           silence_logs=False if verbose else logging.WARNING,
-                           scheduler_kwargs={"dashboard_address": "127.0.0.1:0"})
+    cluster = local_cluster(n_workers)
     return Client(cluster), cluster
 
 

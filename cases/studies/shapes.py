@@ -62,7 +62,7 @@ from cases.handoff import (
     polygon_moments,
 )
 from cases.studies.stability import area_centroid
-from cases.sweep import is_done, run_engine, run_name, sweep
+from cases.sweep import is_done, local_cluster, run_engine, run_name, sweep
 from continuum.mesh import polygon_area
 from particles import B
 
@@ -321,10 +321,7 @@ def compute(scale: str = "smoke", out: str | Path = "runs/case-shapes-smoke",
     cluster = None
     if scheduler is None and not all(is_done(root / run_name(p), p)
                                      for p in [*plain, seed, *pairs["handoff"]]):
-        from dask.distributed import LocalCluster  # one cluster for both sweeps
-
-        cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None)
+        cluster = local_cluster(n_workers)  # one cluster for both sweeps
         scheduler = cluster.scheduler_address
     try:
         folders = sweep(run_shape, [*plain, seed], root, scheduler=scheduler,
