@@ -25,7 +25,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["LN2", "growth_rate", "mean_length", "ring_index"]
+__all__ = ["LN2", "growth_rate", "mean_length", "ring_index", "uptake", "uptake_slope"]
 
 LN2 = math.log(2.0)
 """ln 2: the growth phase of one cell cycle (length 1 to 2)."""
@@ -47,6 +47,27 @@ def growth_rate(p: ArrayLike, lam: float) -> NDArray:
         g, the shape of ``p``.
     """
     return np.exp(-lam * p)
+
+
+def uptake(c: ArrayLike, K: float) -> NDArray:
+    """The nutrient factor of growth, f(c) = (1 + K) c / (K + c) (model.md, "Nutrient limitation").
+
+    Monod uptake normalised so that f(1) = 1 (growth at the reservoir's level is the model
+    without nutrients); K > 0 the half-saturation level over the reservoir's; K = inf gives
+    f(c) = c (first order). The growth rate with nutrients is g = exp(-lam p) f(c).
+    """
+    c = np.asarray(c, dtype=float)
+    if math.isinf(K):
+        return c.copy()
+    return (1.0 + K) * c / (K + c)
+
+
+def uptake_slope(c: ArrayLike, K: float) -> NDArray:
+    """f'(c) = (1 + K) K / (K + c)^2 of :func:`uptake` (1 for K = inf)."""
+    c = np.asarray(c, dtype=float)
+    if math.isinf(K):
+        return np.ones_like(c)
+    return (1.0 + K) * K / (K + c) ** 2
 
 
 def mean_length(G: ArrayLike, phase0: float = 0.0) -> NDArray:
