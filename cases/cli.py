@@ -9,7 +9,7 @@
     colony particles --lam LAM (--radius R | --time T) [--init FILE.csv | --shape SHAPE]
                      [--fill-orientation tangent|rows] [--seed S] [--dt DT]
                      [--step-control overlap|fixed|cost] [--division-noise EPS]
-                     [--solver bbpgd|apgd] [--threads N] [--change-step-policy]
+                     [--solver bbpgd|apgd|bbpgd-cuda] [--threads N] [--change-step-policy]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
@@ -45,6 +45,7 @@ import tomllib
 from pathlib import Path
 
 from cases.rundir import (
+    CHECKPOINTS,
     PAUSED_STATUS,
     RECORD,
     RunFolderError,
@@ -56,7 +57,7 @@ from cases.rundir import (
     partial_of,
     stop_signals_exit,
 )
-from cases.runs import CHECKPOINTS, ENGINES
+from cases.runs import ENGINES
 from cases.sweep import check_scheduler, check_workers, legs, select_lams
 
 #: ``colony case NAME``: the module of each case (``compute``, ``plot``; docs/DESIGN.md).
@@ -323,6 +324,8 @@ def parser() -> argparse.ArgumentParser:
                    help="node count while the colony is small (default 2000)")
     c.add_argument("--element", help="pressure element: P1 (default) or P2")
 
+    from particles.config import SOLVERS
+
     p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
     _common(p, "runs/particles", "0.2")
     p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length "
@@ -343,7 +346,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--division-noise", type=float,
                    help="amplitude eps of the daughters' angle noise theta + eps U(-1, 1), in "
                    "radians (default 0.02)")
-    p.add_argument("--solver", help="contact solver: bbpgd (default) or apgd")
+    p.add_argument("--solver", help="contact solver: " + ", ".join(SOLVERS) + f" (default "
+                   f"{SOLVERS[0]}; {SOLVERS[-1]} needs an NVIDIA GPU and pip install '.[gpu]')")
     p.add_argument("--threads", type=_threads,
                    help="threads of the contact solver: a number or auto (the default: one "
                    "thread below 2e4 particles, every core above; give 1 when runs share the "

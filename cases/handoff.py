@@ -72,6 +72,7 @@ __all__ = [
     "particle_outline",
     "length_shares",
     "size_distribution",
+    "check_bandwidth",
     "final_particles",
     "particle_lam",
     "continuum_start",
@@ -90,6 +91,11 @@ ALPHA = 2.0 * B
 
 BANDWIDTH = 4.0 * B
 """Default kernel bandwidth h of Psi0: four rod widths (length 2)."""
+
+MAX_BANDWIDTH = 10.0
+"""Largest kernel bandwidth h of Psi0 (20 rod widths, 5 times the default): the kernel reaches
+4 h, so each mesh node weighs about 0.9 pi (4 h)^2 particles, 4,500 at 10 (180 at the default),
+and a wider kernel smooths away the radial profile of the lengths the hand-off carries."""
 
 HANDOFF = "handoff.json"
 OUTLINE = "outline.csv"
@@ -248,14 +254,22 @@ def length_shares(length: np.ndarray, grid: LengthGrid) -> tuple[np.ndarray, np.
     return k, w
 
 
+def check_bandwidth(bandwidth: float) -> None:
+    """ValueError (one line, with the valid range) unless 0 < ``bandwidth`` <= MAX_BANDWIDTH."""
+    if not (math.isfinite(bandwidth) and 0 < bandwidth <= MAX_BANDWIDTH):
+        raise ValueError(f"bandwidth must be a positive number at most {MAX_BANDWIDTH:g}, got "
+                         f"{bandwidth:g} (the kernel of Psi0 reaches 4 bandwidths: about 4,500 "
+                         f"particles a mesh node at {MAX_BANDWIDTH:g}, 180 at the default "
+                         f"{BANDWIDTH:g})")
+
+
 def size_distribution(x, y, length, grid: LengthGrid, bandwidth: float = BANDWIDTH):
     """Psi0 of a particle colony: a function of the nodes xy (n, 2) -> (n, grid.n_cells).
 
     n(x, s_i) = rho(x) p(x, i) / ds with the kernel-weighted histogram p and rho = 1 / (b lbar)
     (module docstring). Raises ValueError at a node with no particle within 4 ``bandwidth``.
     """
-    if not (math.isfinite(bandwidth) and bandwidth > 0):
-        raise ValueError(f"bandwidth must be a positive number, got {bandwidth!r}")
+    check_bandwidth(bandwidth)
     centres = np.column_stack([np.asarray(x, float), np.asarray(y, float)])
     k, w = length_shares(length, grid)
     n_particles = len(centres)
@@ -356,6 +370,7 @@ def continuum_start(run_dir: str | os.PathLike, config, alpha: float = ALPHA,
     if config.initial_sizes != "histogram":
         raise ValueError(f"a hand-off starts from the particles' size histogram: give "
                          f"initial_sizes='histogram' (got {config.initial_sizes!r})")
+    check_bandwidth(bandwidth)  # before the particle run is read
     frame = final_particles(run_dir)
     if not (math.isfinite(alpha) and alpha > 0):
         raise ValueError(f"alpha must be a positive number, got {alpha!r}")

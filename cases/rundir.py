@@ -74,6 +74,9 @@ OUTPUT_NAMES = frozenset({
     "checkpoint.npz", "checkpoint.prev.npz", "radius.png", "profile.png", "movie.mp4",
     "handoff.json", "outline.csv",
 })
+#: Checkpoint files of either engine in a stage (a stopped run resumes from them; from the
+#: previous one when the last is damaged, or its process died while replacing it).
+CHECKPOINTS = ("checkpoint.npz", "checkpoint.prev.npz")
 #: Suffixes of the temporary files a writer replaces atomically (``x.tmp``, ``x.tmp.npz``).
 TEMPORARY_SUFFIXES = (".tmp", ".tmp.npz", ".gsd.tmp")
 #: A run refuses to start with less free space than this on the output's file system.
@@ -155,12 +158,34 @@ def read_record(folder: Path) -> dict | None:
     return record if isinstance(record, dict) else None
 
 
+class _Unparsable:
+    """A ``run.json`` that is not JSON (:func:`_load_record`); ``why`` in a few words."""
+
+    def __init__(self, why: str):
+        self.why = why
+
+
 def _load_record(folder: Path):
-    """The parsed ``run.json`` of ``folder`` whatever its shape; None when unreadable."""
+    """The parsed ``run.json`` of ``folder`` whatever its shape; None when it cannot be read.
+
+    A file that reads but does not parse (not text, not JSON, nested too deeply for the
+    parser: RecursionError, which is no ValueError) is an :class:`_Unparsable`, which
+    :func:`_record_shape` reports as damage.
+    """
     try:
-        return json.loads((Path(folder) / RECORD).read_text())
-    except (OSError, ValueError):
+        text = (Path(folder) / RECORD).read_bytes()
+    except OSError:
         return None
+    try:
+        return json.loads(text.decode())
+    except UnicodeDecodeError:
+        return _Unparsable("not UTF-8 text")
+    except json.JSONDecodeError as err:
+        return _Unparsable(f"not JSON ({err.msg} at line {err.lineno} column {err.colno})")
+    except RecursionError:
+        return _Unparsable("JSON nested too deeply to read")
+    except ValueError as err:  # any other refusal of the parser, in one line
+        return _Unparsable(f"not JSON ({' '.join(str(err).split())})")
 
 
 def foreign_entries(folder: Path, follow: bool = True) -> list[str]:
@@ -266,7 +291,9 @@ def check_output(out: str | os.PathLike, source: str | os.PathLike | None = None
         raise RunFolderError(f"refusing {flag} {out}: it is a symbolic link; colony never writes "
                              "through links: give the folder itself")
     if target.exists() and not target.is_dir():
-        raise RunFolderError(f"refusing {flag} {out}: it is a file, not a folder")
+        raise RunFolderError(f"{flag} {out} is a file, not a folder")
+    if is_held(target):  # a run writing there: say so first
+        check_source(target)
     resolved = target.resolve()
     if resolved != source:
         why = _protected(resolved)
@@ -449,7 +476,10 @@ def _check_stage(partial: Path, overwrite: bool, engine: str, config, resumable,
         diff = config_differences(saved, asdict(config), ignore=step_policy)
         if diff and checkpoint:
             hint = (" or --change-step-policy to resume it with the new step"
-                    if engine == "particles" and set(diff) <= {"dt", "step_control"} else "")
+                    if engine == "particles" and set(diff) <= {"dt", "step_control"} else
+                    " (its goal is part of it: resume it to that goal, then grow further "
+                    "from its final state, --init DIR/particles.csv for particles)"
+                    if set(diff) <= {"radius", "time"} else "")
             raise RunFolderError(
                 f"{partial} holds a stopped run whose configuration differs in "
                 f"{', '.join(diff)}; give its command to resume it{hint}, or --overwrite to "
@@ -509,8 +539,9 @@ def check_source(folder: Path) -> None:
     if is_held(folder):
         raise FolderInUseError(f"{folder} is in use by {holder(folder)}; wait for it to end or "
                                "stop it (a stopped run resumes with its command)")
-    if (folder / RECORD).is_file():
-        shape = _record_shape(_load_record(folder))
+    run = _load_record(folder) if (folder / RECORD).is_file() else None
+    if run is not None:
+        shape = _record_shape(run)
         if shape:
             raise RunFolderError(f"{folder / RECORD} is damaged: {shape}")
 
@@ -813,8 +844,11 @@ def describe(folder: Path) -> str:
         raise RunFolderError(f"{folder / RECORD} is damaged: {shape}")
     status = f"{run.get('status')}" + (f": {run['error']}" if run.get("error") else "")
     if run.get("status") == "running" and not is_held(folder):
+        resume = ("resume it from the last checkpoint" if any(
+            (folder / name).is_file() for name in CHECKPOINTS) else
+                  "start it afresh (it wrote no checkpoint)")
         status = ("died: its process ended without a word (killed, out of memory); give its "
-                  "command to resume it from the last checkpoint")
+                  f"command to {resume}")
     lines = [f"run folder      {folder}",
              f"engine          {run.get('engine')}",
              f"status          {status}",
@@ -838,6 +872,8 @@ def describe(folder: Path) -> str:
 
 def _record_shape(run) -> str | None:
     """What is wrong with the shape of a ``run.json`` (None: an object as :func:`record`)."""
+    if isinstance(run, _Unparsable):
+        return run.why
     if not isinstance(run, dict):
         return f"expected a JSON object, found {type(run).__name__}"
     if not isinstance(run.get("config", {}), dict):

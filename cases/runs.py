@@ -17,7 +17,15 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from cases.rundir import RunPaused, check_target, partial_of, publish, record, stage
+from cases.rundir import (
+    CHECKPOINTS,
+    RunPaused,
+    check_target,
+    partial_of,
+    publish,
+    record,
+    stage,
+)
 
 #: Equal-area annuli no wider than this at the edge (continuum: resolves the rings, model.md).
 CONTINUUM_EDGE_WIDTH = 0.05
@@ -159,9 +167,6 @@ def engine_of(config) -> Engine:
     return engine
 
 
-#: Checkpoint files of either engine in a stage (a stopped run resumes from them; from the
-#: previous one when the last is damaged, or its process died while replacing it).
-CHECKPOINTS = ("checkpoint.npz", "checkpoint.prev.npz")
 
 
 def _check_paused(sim, partial: Path) -> None:
@@ -169,7 +174,8 @@ def _check_paused(sim, partial: Path) -> None:
     if not sim.paused:
         return
     row = sim.history[-1]
-    cells = f", {row['n_particles']:,} cells" if "n_particles" in row else ""
+    n = row.get("n_particles")
+    cells = "" if n is None else f", {n:,} cell{'' if n == 1 else 's'}"
     raise RunPaused(
         f"paused at max_hours = {sim.config.max_hours:g}: t = {row['t']:.4g}, radius "
         f"{row['radius']:.2f}{cells}; the checkpoint is kept in {partial}, give the same "

@@ -56,6 +56,15 @@ def _count(n: int, noun: str) -> str:
     return f"{n:,} {noun}{'' if n == 1 else 's'}"
 
 
+def duration(seconds: float) -> str:
+    """A wall time as people read it: "40 s", "12.5 min", "3.21 h" (never "0.00 h")."""
+    if seconds < 60:
+        return f"{seconds:.0f} s"
+    if seconds < 3600:
+        return f"{seconds / 60:.1f} min"
+    return f"{seconds / 3600:.2f} h"
+
+
 def wall_spent(run: dict, until: datetime) -> float:
     """Wall seconds of a run's sessions; a session still running counts until ``until``."""
     total = 0.0
@@ -92,10 +101,10 @@ def standing(folder: Path, run: dict) -> list[str]:
     wall = wall_spent(run, datetime.fromtimestamp(written, UTC))
     lines = [f"stands at       {variable} {now:.4g} of {goal:g}{cells}, t = "
              f"{float(history['t'][-1]):.4g}, step {len(history[variable])}; wall spent "
-             f"{wall / 3600:.2f} h in {_count(len(run.get('sessions', [])), 'session')}"]
+             f"{duration(wall)} in {_count(len(run.get('sessions', [])), 'session')}"]
     projection = projected_wall(history, variable, float(goal), wall)
     if projection is not None and math.isfinite(projection[0]):
-        lines.append(f"projected       {projection[0] / 3600:.2f} h more wall to {variable} "
+        lines.append(f"projected       {duration(projection[0])} more wall to {variable} "
                      f"{goal:g} (work ~ {variable}^{projection[1]:.2f} fitted on this run's "
                      "steps, at its wall per unit of work so far; cases/standing.py)")
     return lines

@@ -305,6 +305,8 @@ def load_checkpoint(path: Path, config: Config | None = None, *,
     ------
     CheckpointError
         The file is damaged (or its history.csv does not hold the rows it recorded).
+    NotCheckpointError
+        The file is no checkpoint, or the particle engine's (runfiles.read_arrays, read_meta).
     ValueError
         ``config`` differs from the saved one (:func:`check_resumable`).
     """

@@ -16,12 +16,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from continuum import mesh, shapes
+from continuum import mesh, radial, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
 from continuum.runfiles import check_types, type_mismatch
 from continuum.sizes import INITIAL_SIZES, REMOVED_TRANSPORTS, TRANSPORTS
-from continuum.strains import as_strains, parse_layout
+from continuum.strains import LAM_CAP_WHY, MAX_LAM, as_strains, parse_layout
 
 __all__ = ["Config"]
 
@@ -56,7 +56,9 @@ class Config:
     Attributes
     ----------
     lam : float
-        Stress sensitivity lambda (finite); required.
+        Stress sensitivity lambda, in [-strains.MAX_LAM, strains.MAX_LAM]; required. lam < 0
+        has no pressure solution beyond a critical size (a disc's radius ``sqrt(2/|lam|)``,
+        continuum.radial): a disc whose goal lies there is refused when made.
     radius, time : float or None
         The goal of a run: the colony radius sqrt(area/pi) or the time t to reach. At most one;
         :func:`~continuum.simulation.run` needs one, a
@@ -179,6 +181,12 @@ class Config:
         check_types(self)
         if self.radius is not None and self.time is not None:
             raise ValueError("give at most one of radius and time, not both")
+        if not -MAX_LAM <= self.lam <= MAX_LAM:
+            why = LAM_CAP_WHY if self.lam > 0 else (
+                f"below -{MAX_LAM:g} the critical radius sqrt(2/|lam|) of a colony with a "
+                "pressure solution is below 0.015, far less than a cell")
+            raise ValueError(f"lam must be in [-{MAX_LAM:g}, {MAX_LAM:g}], got {self.lam:g} "
+                             f"({why})")
         positive = ["initial_radius", "h_max", "courant", "bump_width", "grading"]
         positive += [name for name in ("radius", "time") if getattr(self, name) is not None]
         rules = [(name, lambda v: v > 0, "a positive number") for name in positive]
@@ -199,6 +207,34 @@ class Config:
                 raise ValueError(
                     f"radius {self.radius} is smaller than the initial radius {r_init:.6g}"
                 )
+        self._check_critical_size(polygon)
+
+    def _check_critical_size(self, polygon: np.ndarray) -> None:
+        """Refuse a disc's goal at or beyond the critical radius (lam < 0, one strain).
+
+        Beyond R_crit = ``sqrt(2/|lam|)`` a disc has no pressure solution (continuum.radial, the
+        Bratu problem): the run would fail there (PressureDivergence). The time the disc takes
+        to reach it is radial.critical_time. Other shapes of the same area have a solution
+        beyond it and are left to the run.
+        """
+        if self.lam >= 0 or self.strains or shapes.parse(self.shape).kind != "circle":
+            return
+        r_crit = radial.critical_radius(self.lam)
+        r_init = mesh.colony_radius(polygon)
+        why = (f"lam = {self.lam:g} < 0: a disc has no pressure solution beyond the critical "
+               f"radius sqrt(2/|lam|) = {r_crit:.4g}")
+        if r_init >= r_crit:
+            raise ValueError(f"{why}, and the initial disc's radius is {r_init:.4g}; give "
+                             "lam >= 0, a lam nearer 0 or a smaller disc")
+        if self.radius is not None and self.radius >= r_crit:
+            raise ValueError(f"{why}: radius {self.radius:g} lies beyond it; give lam >= 0 or "
+                             f"a radius below {r_crit:.4g}")
+        if self.time is not None:
+            t_crit = radial.critical_time(self.lam, r_init)
+            if self.time >= t_crit:
+                raise ValueError(f"{why}, which the disc reaches at t = {t_crit:.4g}: time "
+                                 f"{self.time:g} lies beyond it; give lam >= 0 or a time "
+                                 f"below {t_crit:.4g}")
 
     @classmethod
     def type_mismatch(cls, name: str, value) -> str | None:

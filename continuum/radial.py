@@ -58,6 +58,7 @@ __all__ = [
     "radius",
     "time_to_radius",
     "critical_radius",
+    "critical_time",
     "characteristics",
     "growth_phase",
     "mean_length_profile",
@@ -200,6 +201,18 @@ def time_to_radius(R: ArrayLike, lam: float, R0: float = R0) -> NDArray | float:
     _radius_array(R0)
     t = _F(np.log(R), lam) - _F(np.log(np.asarray(float(R0))), lam)
     return t if t.ndim else float(t)
+
+
+def critical_time(lam: float, R0: float = R0) -> float:
+    """Time at which the disc from R0 < R_crit reaches the critical radius: F(R_crit) - F(R0).
+
+    w(R_crit) = 0, so F(R_crit) = 2 ln R_crit. Infinity for lam >= 0 (no critical radius).
+    """
+    lam = _check_lam(lam)
+    if lam >= 0:
+        return math.inf
+    _radius_array(R0)
+    return 2.0 * math.log(critical_radius(lam)) - float(_F(np.asarray(math.log(R0)), lam))
 
 
 def radius(t: ArrayLike, lam: float, R0: float = R0) -> NDArray | float:

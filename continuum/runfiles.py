@@ -9,12 +9,14 @@ all the others (:func:`arrays_digest`). :func:`write_arrays` writes it to a temp
 flushes, reads it back and verifies it; only then the run folder's ``checkpoint.npz``, when
 intact, becomes ``checkpoint.prev.npz`` and the new file takes its name (os.replace).
 :func:`read_arrays` never unpickles (allow_pickle=False), verifies the checksum and refuses
-anything damaged with one :class:`CheckpointError` line. :func:`resume_from` falls back to
-``checkpoint.prev.npz`` (with a warning) when ``checkpoint.npz`` is damaged. A run folder's
-checkpoint keeps of the history only ``{"rows": n, "sha256": ...}`` of the history.csv written
-just before it (:func:`history_record`), checked and read back by :func:`read_history`. What a
-checkpoint contains is each engine's (``continuum.checkpoint``, ``particles.checkpoint``). A run
-keeps RESERVE_BYTES free on its file system (:func:`ensure_space`).
+anything damaged with one :class:`CheckpointError` line; a file that is no checkpoint, or one of
+the other engine, with one :class:`NotCheckpointError` line (never advising its removal).
+:func:`resume_from` falls back to ``checkpoint.prev.npz`` (with a warning) when
+``checkpoint.npz`` is damaged. A run folder's checkpoint keeps of the history only
+``{"rows": n, "sha256": ...}`` of the history.csv written just before it
+(:func:`history_record`), checked and read back by :func:`read_history`. What a checkpoint
+contains is each engine's (``continuum.checkpoint``, ``particles.checkpoint``). A run keeps
+RESERVE_BYTES free on its file system (:func:`ensure_space`).
 
 Controls. :class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step,
 so that a run writes a checkpoint of a whole step before it stops; :class:`WallLimit` pauses a
@@ -46,7 +48,8 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "CheckpointError", "damaged",
+__all__ = ["ENGINE", "CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "CheckpointError", "damaged",
+           "NotCheckpointError",
            "arrays_digest", "read_arrays", "read_meta", "checked", "write_arrays",
            "history_record", "read_history", "checkpoint_files", "resume_from",
            "RESERVE_BYTES", "ensure_space",
@@ -55,6 +58,9 @@ __all__ = ["CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "CheckpointError", "
            "require_goal"]
 
 log = logging.getLogger(__name__)
+
+ENGINE = __name__.partition(".")[0]
+"""The engine of this copy of the module: ``continuum`` or ``particles``."""
 
 CHECKPOINT = "checkpoint.npz"
 """File name of the checkpoint in a run folder."""
@@ -90,6 +96,34 @@ def damaged(path: Path, why: str, checkpoint: Path | None = None) -> CheckpointE
                            [path if checkpoint is None else checkpoint])
 
 
+class NotCheckpointError(ValueError):
+    """A file given as a checkpoint that is none of this engine's (one line; nothing removed).
+
+    Not a checkpoint at all (:func:`read_arrays`), or a checkpoint of the other engine
+    (:func:`read_meta`).  Unlike :class:`CheckpointError`, it never advises removing the file.
+    """
+
+
+#: Entries and meta keys that mark a checkpoint of each engine (:func:`read_meta`).
+_ENGINE_MARKS = {"continuum": ({"points", "tris"}, {"colony"}),
+                 "particles": ({"theta", "warm_keys"}, {"next_id", "rng"})}
+
+
+def _refused(path: Path, why: str, any_npz: bool = True) -> ValueError:
+    """A damaged checkpoint (CheckpointError) when ``path`` is named as one, else no checkpoint.
+
+    Named as a checkpoint: a run folder's (CHECKPOINT, PREVIOUS), and with ``any_npz`` (a
+    file that is no readable npz archive) any name ending in ``.npz``.  Anything else
+    (history.csv, a picture, a folder, an npz of other arrays) is :class:`NotCheckpointError`:
+    it may be good data, so its removal is never advised.
+    """
+    name = Path(path).name
+    if name in (CHECKPOINT, PREVIOUS) or (any_npz and name.endswith(".npz")):
+        return damaged(path, why)
+    return NotCheckpointError(f"{path} is not a {ENGINE} checkpoint ({why}); give a "
+                              f"checkpoint.npz written by a {ENGINE} run or Simulation.save")
+
+
 def arrays_digest(arrays: dict[str, np.ndarray]) -> str:
     """sha256 (hex) of the arrays' names, dtypes, shapes and bytes, in the order of the names."""
     h = hashlib.sha256()
@@ -114,7 +148,7 @@ def _read_file(path: Path, follow: bool = True) -> bytes:
         raise
     if not stat.S_ISREG(os.fstat(fd).st_mode):
         os.close(fd)
-        raise damaged(path, "not a regular file")
+        raise _refused(path, "not a regular file", any_npz=False)
     with os.fdopen(fd, "rb") as fh:
         return fh.read()
 
@@ -138,18 +172,23 @@ def read_arrays(path: Path, follow: bool = True) -> dict[str, np.ndarray]:
 
     Read with allow_pickle=False; the checksum (entry CHECKSUM) is checked and removed;
     a checkpoint written before checksums has none (its zip CRCs are checked).  ``follow``
-    False: a symbolic link is refused.
+    False: a symbolic link is refused.  A file that is no checkpoint is NotCheckpointError,
+    not damaged (:func:`_refused`): no readable npz archive and a name not ending in ``.npz``,
+    or a folder, or an intact archive with neither CHECKSUM nor ``meta``, not named as a run
+    folder's checkpoint.
     """
     data = _read_file(path, follow)
     if not data:
-        raise damaged(path, "empty file")
+        raise _refused(path, "empty file")
     if not data.startswith(b"PK\x03\x04"):  # else np.load tries an npy file, or a pickle
-        raise damaged(path, "not an npz archive")
+        raise _refused(path, "not an npz archive")
     try:
         with np.load(io.BytesIO(data), allow_pickle=False) as z:
             arrays = {name: z[name] for name in z.files}
     except Exception as err:  # anything numpy or zipfile raises on a damaged archive
-        raise damaged(path, _why(err)) from None
+        raise _refused(path, _why(err)) from None
+    if CHECKSUM not in arrays and "meta" not in arrays:
+        raise _refused(path, "an npz archive without a checkpoint's entries", any_npz=False)
     saved = arrays.pop(CHECKSUM, None)
     if saved is not None and (saved.shape != () or saved.dtype.kind != "U"
                               or str(saved) != arrays_digest(arrays)):
@@ -158,7 +197,11 @@ def read_arrays(path: Path, follow: bool = True) -> dict[str, np.ndarray]:
 
 
 def read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict:
-    """The JSON ``meta`` entry of a checkpoint's arrays (CheckpointError when unreadable)."""
+    """The JSON ``meta`` entry of a checkpoint's arrays (CheckpointError when unreadable).
+
+    NotCheckpointError for a checkpoint of the other engine (its entries and meta keys,
+    _ENGINE_MARKS), before anything of its content is taken for this engine's.
+    """
     meta = arrays.get("meta")
     if meta is None or meta.shape != () or meta.dtype.kind != "U":
         raise damaged(path, "no meta entry")
@@ -168,6 +211,11 @@ def read_meta(path: Path, arrays: dict[str, np.ndarray]) -> dict:
         raise damaged(path, "meta is not JSON") from None
     if not isinstance(meta, dict):
         raise damaged(path, "meta is not a JSON object")
+    engines = [engine for engine, (entries, keys) in _ENGINE_MARKS.items()
+               if entries & arrays.keys() or keys & meta.keys()]
+    if len(engines) == 1 and engines[0] != ENGINE:  # of both: left to the engine's checks
+        raise NotCheckpointError(f"{path} is a {engines[0]} checkpoint, not a {ENGINE} one "
+                                 f"({engines[0]}.Simulation.load reads it)")
     return meta
 
 
@@ -175,7 +223,7 @@ def checked(path: Path, build: Callable):
     """``build()``; a KeyError, TypeError, ValueError... of unexpected content: CheckpointError."""
     try:
         return build()
-    except CheckpointError:
+    except (CheckpointError, NotCheckpointError):
         raise
     except KeyError as err:
         raise damaged(path, f"no entry {err.args[0]}") from None

@@ -166,6 +166,16 @@ def _target_spacing(config: Config, area: float) -> float:
     return mesh.target_spacing(area, config.h_max, config.n_nodes)
 
 
+def _check_state_type(state) -> None:
+    """TypeError (one line) unless ``state`` is a State or None."""
+    if state is not None and not isinstance(state, State):
+        kind = type(state)
+        name = kind.__qualname__ if kind.__module__ == "builtins" else (
+            f"{kind.__module__}.{kind.__qualname__}")
+        raise TypeError(f"state must be a continuum.State (e.g. of continuum.state_from; or "
+                        f"None: the configured shape), got {name}")
+
+
 class Simulation:
     """A growing continuum colony that a script steps, inspects and saves.
 
@@ -214,6 +224,8 @@ class Simulation:
     ------
     ValueError, BudgetError
         Bad checkpoint, or a mesh too large for the memory (continuum.budget).
+    TypeError
+        ``state`` is not a State.
     PressureDivergence
         No pressure solution on the initial shape.
 
@@ -228,17 +240,20 @@ class Simulation:
     def __init__(self, config: Config, state: State | None = None,
                  out: Path | str | None = None, *, layout=None):
         limit_blas_threads(1)
+        _check_state_type(state)
         self.config = config
         self.finished, self.paused = True, False
+        resume = out is not None and Path(out).is_dir() and checkpoint_files(Path(out))
+        if not resume:  # before any file: the fields/ folder of the outputs included
+            check_memory(config, start=None if state is None else (state.boundary, state.t))
         self.output = None if out is None else _Outputs(config, Path(out))
-        if self.output is not None and checkpoint_files(self.output.out):
+        if resume:
             path, saved = checkpoint.resume_checkpoint(self.output.out, config)
             self._restore(saved.state, saved.amg, saved.history)
             self.output.resume(saved.frames, saved.next_frame)
             log.info("resuming from %s at t = %.6g (step %d)", path, saved.state.t,
                      saved.state.step)
             return
-        check_memory(config)
         self.solver = _solver(config)
         self.state = initial_state(config) if state is None else state.copy()
         initial_fractions(config, self.state, layout)
@@ -431,12 +446,18 @@ class Simulation:
         ------
         ValueError
             No goal (:meth:`done`).
+        BudgetError
+            The mesh at the goal would not fit in memory (continuum.budget.check_memory from
+            the current state), before any step.
         RuntimeError
             ``config.step_limit`` steps taken.
         PressureDivergence
             No pressure solution (e.g. lam < 0 beyond the critical size).
         """
         radius, time = self._goal(radius, time)
+        if not self._reached(radius, time):  # a goal beyond the memory: refused before a step
+            check_memory(self.config, start=(self.state.boundary, self.state.t),
+                         goal=(radius, time))
         with _ProgressBar(self, radius, time, progress) as bar:
             while not self._reached(radius, time):
                 self._check_step_limit()

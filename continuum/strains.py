@@ -75,12 +75,22 @@ follows the fastest strain (the particle engine's twin constant is the same)."""
 MAX_STRAINS = 64
 """Most strains of a colony: each carries its own fields (75 bytes per node and strain)."""
 
+MAX_LAM = 1e4
+"""Largest stress sensitivity lam (``Config.lam``, a strain's lam): beyond it growth all but
+stops. A disc's edge moves at dR/dt = R / (1 + sqrt(1 + lam R^2 / 2)) < sqrt(2 / lam)
+(continuum.radial), 0.014 at 1e4: a cell length in 70 doubling times; the paper's lam are 0 to
+0.1 (the particle engine's twin constant is the same)."""
+
+LAM_CAP_WHY = (f"beyond {MAX_LAM:g} growth all but stops: a colony's edge moves at most "
+               "sqrt(2/lam) per unit time, a cell length in 70 doubling times")
+"""Why lam is capped at MAX_LAM, as the refusals say it."""
+
 
 @dataclass(frozen=True)
 class Strain:
     """An inherited trait: growth rate g(p) = a exp(-lam p) (a: ``growth``, lam: ``lam``).
 
-    Validated when made: lam finite and >= 0, growth in (0, MAX_GROWTH] (one-line ValueError).
+    Validated when made: lam in [0, MAX_LAM], growth in (0, MAX_GROWTH] (one-line ValueError).
     """
 
     lam: float
@@ -94,6 +104,9 @@ class Strain:
             object.__setattr__(self, name, float(v))
         if not (math.isfinite(self.lam) and self.lam >= 0):
             raise ValueError(f"a strain's lam must be finite and >= 0, got {self.lam!r}")
+        if self.lam > MAX_LAM:
+            raise ValueError(f"a strain's lam must be in [0, {MAX_LAM:g}], got {self.lam!r} "
+                             f"({LAM_CAP_WHY})")
         if not (math.isfinite(self.growth) and 0 < self.growth <= MAX_GROWTH):
             raise ValueError(f"a strain's growth must be in (0, {MAX_GROWTH:g}], got "
                              f"{self.growth!r}")

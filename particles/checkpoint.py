@@ -207,10 +207,11 @@ def load_checkpoint(path: Path, config: Config | None = None, *, follow: bool = 
     ``config``: the configuration to continue with, equal to the checkpoint's up to
     ``EXECUTION_FIELDS`` (and ``STEP_POLICY_FIELDS`` with ``change_step_policy``; ValueError
     otherwise); None: the checkpoint's.  Raises CheckpointError when the file is damaged (or
-    its history.csv does not hold the rows it recorded).  A checkpoint written before the
-    lineage was tracked has no ``parent`` and ``generation`` arrays: the particles then
-    present are loaded as initial ones (parent -1, generation 0), and their daughters count
-    generations from them.  With ``change_step_policy`` the next step follows ``config``'s
+    its history.csv does not hold the rows it recorded), NotCheckpointError when it is no
+    checkpoint, or the continuum's (runfiles.read_arrays, read_meta).  A checkpoint written
+    before the lineage was tracked has no ``parent`` and ``generation`` arrays: the particles
+    then present are loaded as initial ones (parent -1, generation 0), and their daughters
+    count generations from them.  With ``change_step_policy`` the next step follows ``config``'s
     policy: ``dt_next`` is ``config.dt`` with a fixed step, else the saved ``dt_next`` capped
     at ``config.dt``.  ``follow`` False: a symbolic link is refused.
     """

@@ -17,7 +17,7 @@ import numba
 
 from .geometry import B
 from .runfiles import check_types, type_mismatch
-from .strains import as_strains
+from .strains import LAM_CAP_WHY, MAX_LAM, as_strains
 
 __all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "REMOVED_SOLVERS",
            "SOLVERS", "STEP_CONTROLS", "STEP_POLICY_FIELDS"]
@@ -61,7 +61,8 @@ class Config:
     Parameters
     ----------
     lam : float
-        Stress sensitivity lambda >= 0 of the growth law dl/dt = l exp(-lam sigma); required.
+        Stress sensitivity lambda of the growth law dl/dt = l exp(-lam sigma), in
+        [0, strains.MAX_LAM]; required.
     radius, time : float or None
         The goal of a run: the colony radius (the enclosing radius,
         measures.enclosing_radius) or the time t to reach.  At most one; :func:`particles.run`
@@ -122,10 +123,11 @@ class Config:
     max_particles : int
         Guard: a run whose colony exceeds this raises ParticleLimitError.
     solver_tol : float or None
-        Residual tolerance of each solve (a gap, see solvers.problem); None (the default):
-        ``solver_tol_factor`` times tol.
+        Residual tolerance of each solve (a gap, see solvers.problem), in (0, tol]; None (the
+        default): ``solver_tol_factor`` times tol.
     solver_tol_factor : float
-        The solver's residual tolerance in units of tol when ``solver_tol`` is None: 1 since
+        The solver's residual tolerance in units of tol when ``solver_tol`` is None, in
+        (0, 1] (a looser solve leaves overlaps the re-solve passes do not remove): 1 since
         issue 18, 1/2 before (the value of older runs' configurations, LEGACY_CONFIG).  The
         passes hold the real overlap within tol either way.  Measured: at paper scale (lam = 0,
         32,768 particles) 1 takes 0.64x the solver iterations of 1/2; at radius 40 it moves
@@ -203,6 +205,8 @@ class Config:
         check_types(self)
         if self.lam < 0:
             raise ValueError(f"lam must be a finite number >= 0 for particles, got {self.lam}")
+        if self.lam > MAX_LAM:
+            raise ValueError(f"lam must be in [0, {MAX_LAM:g}], got {self.lam:g} ({LAM_CAP_WHY})")
         if self.radius is not None and self.time is not None:
             raise ValueError("give at most one of radius and time, not both")
         if self.init is not None and self.shape is not None:
@@ -213,6 +217,9 @@ class Config:
             v = getattr(self, name)
             if not ok(v):
                 raise ValueError(message(v))
+        if self.solver_tol is not None and self.solver_tol > self.tol:
+            raise ValueError(f"solver_tol must be in (0, tol = {self.tol:g}], got "
+                             f"{self.solver_tol:g}: {_LOOSE_SOLVE}")
 
     def check_budget(self, initial_radius: float | None = None) -> None:
         """Raise ValueError (one line, with the estimate) for a run this machine cannot do.
@@ -274,6 +281,10 @@ diameters, far beyond any pair a step can bring into contact (the default is 0.1
 MIN_OUTPUT_EVERY = 1e-6
 """Shortest time between frames (far below any step; t / output_every stays a finite float)."""
 
+_LOOSE_SOLVE = ("a solve looser than tol leaves overlaps above tol that re-solves as loose do "
+                "not remove (measured: 2 tol stops a run at its second cell)")
+"""Why a solve's tolerance may not exceed tol (``solver_tol``, ``solver_tol_factor``)."""
+
 _RULES = [  # (field, test, message of a failed test), checked in order by Config.validate
     # after the types (Config.type_mismatch): a test may compare its number
     ("radius", lambda v: v is None or v > 0,
@@ -286,8 +297,8 @@ _RULES = [  # (field, test, message of a failed test), checked in order by Confi
      lambda v: f"tol must be in (0, b = {B}), got {v}"),
     ("solver_tol", lambda v: v is None or v > 0,
      lambda v: f"solver_tol must be positive, got {v}"),
-    ("solver_tol_factor", lambda v: v > 0,
-     lambda v: f"solver_tol_factor must be positive, got {v}"),
+    ("solver_tol_factor", lambda v: 0 < v <= 1,
+     lambda v: f"solver_tol_factor must be positive and at most 1, got {v:g}: {_LOOSE_SOLVE}"),
     ("seed", lambda v: v >= 0,
      lambda v: f"seed must be a non-negative integer, got {v}"),
     ("division_noise", lambda v: 0 <= v <= 0.5,

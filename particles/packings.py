@@ -46,6 +46,12 @@ LAYER_SHIFT = 0.5
 FILL_SECONDS = (9.2e-7, 0.017)
 #: Longest fill :func:`fill_outline` starts (its estimate, :func:`fill_estimate`).
 MAX_FILL_SECONDS = 3600.0
+#: Largest |x|, |y| of a rod's centre and largest rod length in an init file (:func:`from_csv`):
+#: the neighbour search's grid covers the rods' bounding box in cells of about a rod length
+#: (neighbours.py), 3e6 cells for centres within +-1000; a colony of the default max_particles
+#: (500,000) has a radius of about 420. A rod divides at length 2 (division.py): one of length
+#: 1000 becomes 512 cells on a line in its first 9 steps.
+INIT_SIZE = 1e3
 
 
 def single_cell() -> ParticleState:
@@ -77,9 +83,9 @@ def from_csv(path: str | os.PathLike) -> ParticleState:
     ------
     ValueError
         With one line naming the file, when it is missing, not text, lacks a column, holds a
-        non-numeric or non-finite value, a length <= b, or more rods about one place than
-        fit there (:func:`_check_crowding`: before the overlap check, which would compare
-        every pair of them).
+        non-numeric or non-finite value, a length <= b or above INIT_SIZE, a centre beyond
+        +-INIT_SIZE, or more rods about one place than fit there (:func:`_check_crowding`:
+        before the overlap check, which would compare every pair of them).
     """
     try:
         arrays = read_init(path)
@@ -87,10 +93,27 @@ def from_csv(path: str | os.PathLike) -> ParticleState:
         raise ValueError(f"init file {path} is not a text CSV file") from None
     try:
         state = ParticleState.from_arrays(*arrays)
+        _check_sizes(state.x, state.y, state.length)
         _check_crowding(state.x, state.y, state.length)
     except ValueError as err:
         raise ValueError(f"init file {path}: {err}") from None
     return state
+
+
+def _check_sizes(x: np.ndarray, y: np.ndarray, length: np.ndarray) -> None:
+    """ValueError naming the first row with a length or a centre beyond INIT_SIZE."""
+    long = np.flatnonzero(length > INIT_SIZE)
+    if long.size:
+        k = int(long[0])
+        raise ValueError(f"row {k + 1} has a rod of length {length[k]:g}; lengths must be in "
+                         f"(b = {B}, {INIT_SIZE:g}] (a rod divides at length 2, one of "
+                         f"{INIT_SIZE:g} into 512 cells in its first 9 steps)")
+    far = np.flatnonzero(np.maximum(np.abs(x), np.abs(y)) > INIT_SIZE)
+    if far.size:
+        k = int(far[0])
+        raise ValueError(f"row {k + 1} has a rod centred at ({x[k]:g}, {y[k]:g}); centres must "
+                         f"lie within +-{INIT_SIZE:g} of the origin (the neighbour search's "
+                         "grid covers the rods' bounding box, a cell per rod length)")
 
 
 def _check_crowding(x: np.ndarray, y: np.ndarray, length: np.ndarray) -> None:

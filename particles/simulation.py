@@ -82,6 +82,16 @@ def initial_state(config: Config) -> ParticleState:
     return single_cell() if config.init is None else from_csv(config.init)
 
 
+def _check_state_type(state) -> None:
+    """TypeError (one line) unless ``state`` is a ParticleState or None."""
+    if state is not None and not isinstance(state, ParticleState):
+        kind = type(state)
+        name = kind.__qualname__ if kind.__module__ == "builtins" else (
+            f"{kind.__module__}.{kind.__qualname__}")
+        raise TypeError(f"state must be a particles.ParticleState (or None: config.init or one "
+                        f"cell), got {name}")
+
+
 def check_initial(config: Config, require_stop: bool = True,
                   state: ParticleState | None = None) -> ParticleState:
     """The initial state of ``config``, checked before any step.
@@ -111,7 +121,10 @@ def check_initial(config: Config, require_stop: bool = True,
     ------
     ValueError
         With a one-line message, when a check fails.
+    TypeError
+        ``state`` is not a ParticleState (:func:`_check_state_type`).
     """
+    _check_state_type(state)
     if require_stop:
         require_goal(config)
     check_device(config.solver)  # a GPU solver on a machine without one
@@ -220,6 +233,7 @@ class Simulation:
                  out: str | Path | None = None, *, change_step_policy: bool = False,
                  layout=None):
         check_device(config.solver)
+        _check_state_type(state)
         self.config = config
         self.history: list[dict] = []
         self.finished, self.paused = True, False

@@ -41,11 +41,21 @@ the fastest strain (the continuum engine's twin constant is the same)."""
 MAX_STRAINS = 64
 """Most strains of a colony (one particle type each in the trajectory)."""
 
+MAX_LAM = 1e4
+"""Largest stress sensitivity lam (``Config.lam``, a strain's lam): beyond it growth all but
+stops. A disc colony's edge moves at most sqrt(2 / lam) per unit time (continuum.radial), 0.014
+at 1e4: a cell length in 70 doubling times; the paper's lam are 0 to 0.1 (the continuum
+engine's twin constant is the same)."""
+
+LAM_CAP_WHY = (f"beyond {MAX_LAM:g} growth all but stops: a colony's edge moves at most "
+               "sqrt(2/lam) per unit time, a cell length in 70 doubling times")
+"""Why lam is capped at MAX_LAM, as the refusals say it."""
+
 
 def as_strains(value) -> tuple[tuple[float, float], ...]:
     """The strains as a tuple of (lam_i, a_i) floats, checked (one-line ValueError).
 
-    Each entry (lam,), (lam, growth) or {"lam": .., "growth": ..}; lam finite >= 0, growth
+    Each entry (lam,), (lam, growth) or {"lam": .., "growth": ..}; lam in [0, MAX_LAM], growth
     in (0, MAX_GROWTH] (default 1); at most MAX_STRAINS of them.
     """
     if isinstance(value, (str, bytes)) or not isinstance(value, (tuple, list)):
@@ -68,6 +78,9 @@ def _strain(entry) -> tuple[float, float]:
                              f"got {v!r}")
     if lam < 0:
         raise ValueError(f"strains must be valid: a strain's lam must be >= 0, got {lam!r}")
+    if lam > MAX_LAM:
+        raise ValueError(f"strains must be valid: a strain's lam must be in [0, {MAX_LAM:g}], "
+                         f"got {lam!r} ({LAM_CAP_WHY})")
     if not 0 < growth <= MAX_GROWTH:
         raise ValueError(f"strains must be valid: a strain's growth must be in "
                          f"(0, {MAX_GROWTH:g}], got {growth!r}")

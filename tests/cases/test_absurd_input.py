@@ -264,3 +264,61 @@ def test_random_polygon_files_never_a_traceback(tmp_path_factory, xy, close):
     else:
         assert len(polygon) >= 3 and mesh.polygon_area(polygon) > 0
         assert math.isfinite(mesh.polygon_area(polygon))
+
+
+# --------------------------------------------------------------------------- issue 54
+
+
+@pytest.mark.parametrize("args,needles", [
+    (("continuum", "--lam", "-1", "--radius", "5", "--quiet"),
+     ("critical radius sqrt(2/|lam|) = 1.414: radius 5 lies beyond it",)),
+    (("continuum", "--lam", "-1", "--time", "5", "--quiet"),
+     ("which the disc reaches at t = 2.244: time 5 lies beyond it",)),
+    (("continuum", "--lam", "1e300", "--time", "1", "--quiet"),
+     ("lam must be in [-10000, 10000], got 1e+300", "growth all but stops")),
+    (("particles", "--lam", "1e300", "--time", "1", "--quiet"),
+     ("lam must be in [0, 10000], got 1e+300", "growth all but stops")),
+    ((*P, "--time", "1", "--set", "solver_tol=1e300"),
+     ("solver_tol must be in (0, tol = 0.001], got 1e+300", "looser than tol")),
+    ((*P, "--time", "1", "--set", "solver_tol_factor=1e300"),
+     ("solver_tol_factor must be positive and at most 1, got 1e+300",)),
+    (("continuum", "--time", "1", "--strains", "1e300,0", "--layout", "core:0.3", "--quiet"),
+     ("a strain's lam must be in [0, 10000], got 1e+300",)),
+    (("particles", "--time", "1", "--strains", "1e300,0", "--layout", "core:0.3", "--quiet"),
+     ("a strain's lam must be in [0, 10000], got 1e+300",)),
+    ((*C, "--time", "1000"),
+     ("mesh nodes at its final size (time 1000), a radius of at least 1.36e+04", "GiB")),
+])
+def test_bad_values_refused_before_any_work(colony, tmp_path, args, needles):
+    """Issue 54: each started a run that failed late (or never ended) and left DIR.partial."""
+    status, err = colony(*args, "--out", str(tmp_path / "run"))
+    one_line_error(status, err, *needles)
+    assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("rows,needles", [
+    ("0,0,0,1e300\n", ("row 1 has a rod of length 1e+300", "(b = 0.5, 1000]")),
+    ("0,0,0,1\n1e300,0,0,1\n", ("row 2 has a rod centred at (1e+300, 0)", "within +-1000")),
+])
+def test_init_file_of_absurd_sizes(colony, tmp_path, rows, needles):
+    """Issue 54: a rod of length 1e300 divided into max_particles cells; x = 1e300 crashed."""
+    f = tmp_path / "init.csv"
+    f.write_text("x,y,theta,length\n" + rows)
+    status, err = colony(*P, "--radius", "5", "--init", str(f), "--out", str(tmp_path / "run"))
+    one_line_error(status, err, f"init file {f}: ", *needles)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["init.csv"]
+
+
+def test_bandwidth_beyond_its_range(colony, tmp_path, particle_run):
+    """Issue 54: --bandwidth 1e300 was a 35-line OverflowError traceback."""
+    status, err = colony("continuum", "--from-particles", str(particle_run), "--radius", "3",
+                         "--bandwidth", "1e300", "--quiet", "--out", str(tmp_path / "run"))
+    one_line_error(status, err, "bandwidth must be a positive number at most 10, got 1e+300")
+    assert not any(tmp_path.iterdir())
+    from cases import handoff
+
+    handoff.check_bandwidth(handoff.MAX_BANDWIDTH)
+    with pytest.raises(ValueError, match="at most 10"):
+        handoff.continuum_start(particle_run, continuum.Config(lam=0.01, radius=3.0,
+                                                               initial_sizes="histogram"),
+                                bandwidth=1e300)

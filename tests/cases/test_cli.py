@@ -280,3 +280,12 @@ def test_from_data_reads_a_given_data_folder(tmp_path):
     res = _colony("case", "fig2", "--from-data", "--data", str(tmp_path / "none"),
                   "--out", str(tmp_path / "out2"))
     assert res.returncode == 2 and "no committed data for case fig2" in res.stderr
+
+
+def test_the_solver_help_names_every_solver(capsys):
+    from particles.config import SOLVERS
+
+    with pytest.raises(SystemExit):
+        cli.main(["particles", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert all(name in text for name in SOLVERS) and "bbpgd-cuda needs an NVIDIA GPU" in text

@@ -8,6 +8,7 @@ Runs go through ``cases.cli.main`` in this process (fast) unless a signal is inv
 
 import errno
 import json
+import os
 import shutil
 import signal
 import subprocess
@@ -420,6 +421,22 @@ def test_a_run_json_of_the_wrong_shape(colony, particle_run, tmp_path, command):
     one_line_error(status, err, "run.json is damaged: expected a JSON object, found list")
 
 
+@pytest.mark.parametrize("command", [["info"], ["plot"], ["movie", "--quiet"]])
+@pytest.mark.parametrize("text,why", [
+    ("[" * 100_000 + "]" * 100_000, "JSON nested too deeply to read"),
+    ('{"engine": ', "not JSON (Expecting value at line 1 column 12)"),
+    ("\udcff", "not UTF-8 text")])
+def test_a_run_json_that_does_not_parse(colony, tmp_path, command, text, why):
+    """Issue 54: a deep run.json said "maximum recursion depth"; one not JSON "NoneType"."""
+    folder = tmp_path / "r"
+    folder.mkdir()
+    (folder / "run.json").write_bytes(text.encode(errors="surrogateescape"))
+    before = tree(tmp_path)
+    status, err = colony(command[0], str(folder), *command[1:])
+    one_line_error(status, err, f"colony: error: {folder / 'run.json'} is damaged: {why}\n")
+    assert tree(tmp_path) == before
+
+
 @pytest.mark.parametrize("engine", ["continuum", "particles"])
 def test_a_layout_outside_the_colony_warns(colony, tmp_path, engine, caplog):
     polygon = tmp_path / "far.csv"
@@ -494,6 +511,28 @@ def test_carry_refuses_a_damaged_record_naming_it_and_a_stage_name(tmp_path):
     with pytest.raises(ValueError, match=f"{packed / 'carry.json'} is damaged"):
         carry.unpack(packed, tmp_path / "r")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["q.partial", "resume"]
+
+
+@pytest.mark.parametrize("size", [248, 255])
+@pytest.mark.parametrize("engine", [SMALL_CONTINUUM, SMALL_PARTICLES])
+def test_out_name_too_long_for_the_stage_is_refused_by_both_engines(colony, tmp_path,
+                                                                    monkeypatch, engine, size):
+    """A name of 248 to 255 bytes fits the file system, ``DIR.partial`` does not.
+
+    Issue 54: the continuum said "[Errno 36] File name too long" (cases.handoff.check_resume
+    looked into ``DIR.partial`` before rundir.check_target); both engines give the line.
+    """
+    if os.pathconf(tmp_path, "PC_NAME_MAX") != 255:
+        pytest.skip("a file system whose names are not limited to 255 bytes")
+    ran = []
+    monkeypatch.setattr("continuum.simulation.run", lambda *a, **k: ran.append(1))
+    monkeypatch.setattr("particles.run", lambda *a, **k: ran.append(1))
+    for overwrite in ((), ("--overwrite",)):
+        status, err = colony(*engine, "--out", str(tmp_path / ("x" * size)), *overwrite)
+        one_line_error(status, err, f"colony: error: --out name too long: {size} bytes, at most "
+                       "246 (the file system allows 255, colony adds '.replaced'); give a "
+                       "shorter name\n")
+    assert not ran and list(tmp_path.iterdir()) == []
 
 
 @pytest.mark.parametrize("name", ["o.partial", "o.replaced"])

@@ -230,7 +230,31 @@ def test_info_says_where_a_paused_run_stands(colony, capsys, tmp_path):
     text = capsys.readouterr().out
     assert "status          paused" in text
     assert "stands at       radius 0.5101 of 3, 1 cell, t = 0.02, step 1; wall spent" in text
-    assert " h in 1 session\n" in text  # one session, one cell: the singular
+    assert " s in 1 session\n" in text  # one session, one cell: the singular; seconds
+
+
+def test_durations_read_as_people_read_them():
+    from cases.standing import duration
+
+    assert [duration(s) for s in (0.004, 40, 750, 11_556)] == ["0 s", "40 s", "12.5 min",
+                                                               "3.21 h"]
+
+
+def test_info_of_a_run_that_died_before_its_first_checkpoint(colony, capsys, tmp_path):
+    """A dead run with no checkpoint is not offered a resume: its command starts afresh."""
+    out = tmp_path / "run"
+    stage = rundir.partial_of(out)
+    assert colony("particles", "--lam", "1e-2", "--radius", "3", "--quiet", "--out", str(out),
+                  "--max-hours", "1e-9")[0] == rundir.PAUSED_STATUS
+    record = json.loads((stage / rundir.RECORD).read_text())
+    (stage / rundir.RECORD).write_text(json.dumps(record | {"status": "running"}))
+    assert cli.main(["info", str(out)]) == 0
+    assert "give its command to resume it from the last checkpoint" in capsys.readouterr().out
+    for name in rundir.CHECKPOINTS:
+        (stage / name).unlink(missing_ok=True)
+    assert cli.main(["info", str(out)]) == 0
+    assert "give its command to start it afresh (it wrote no checkpoint)" in \
+        capsys.readouterr().out
 
 
 # --------------------------------------------------------------------------- carry
@@ -399,10 +423,11 @@ def test_a_stopped_sweep_ends_its_runs_after_a_step_with_a_checkpoint(tmp_path):
 def test_a_trajectory_rewritten_on_resume_has_the_uninterrupted_bytes(colony, tmp_path):
     """Killed after frames the last checkpoint does not hold: the rewrite gives the same bytes.
 
-    151 frames, a checkpoint after every step, a kill after the 120th frame: the resume rewrites trajectory.gsd with the frames of
-    its checkpoint (particles.output.truncate_trajectory), frame by frame as the run wrote
-    them; a rewrite in one open of gsd laid the index out otherwise (issue 54: 3,163,816
-    against 3,188,392 bytes).
+    151 frames, a checkpoint after every step, a kill after the 120th frame: the resume
+    rewrites trajectory.gsd with the frames of its checkpoint
+    (particles.output.truncate_trajectory), frame by frame as the run wrote them; a rewrite
+    in one open of gsd laid the index out otherwise (issue 54: 3,163,816 against 3,188,392
+    bytes).
     """
     args = ["particles", "--lam", "1e-2", "--time", "3", "--quiet", "--set",
             "output_every=0.01", "--set", "checkpoint_seconds=0"]
@@ -421,3 +446,12 @@ def test_a_trajectory_rewritten_on_resume_has_the_uninterrupted_bytes(colony, tm
                                                      ).read_bytes()
     assert oct((out / "trajectory.gsd").stat().st_mode & 0o777) == oct(
         (out / "history.csv").stat().st_mode & 0o777)
+
+
+def test_a_paused_run_given_a_farther_goal_says_what_to_do(colony, tmp_path):
+    out = tmp_path / "run"
+    args = ["particles", "--lam", "1e-2", "--quiet", "--out", str(out)]
+    assert colony(*args, "--radius", "3", "--max-hours", "1e-9")[0] == rundir.PAUSED_STATUS
+    status, err = colony(*args, "--radius", "4")
+    assert status == 2 and "differs in radius; give its command to resume it (its goal is " \
+        "part of it: resume it to that goal, then grow further from its final state" in err

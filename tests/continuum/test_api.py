@@ -170,6 +170,26 @@ def test_goals_and_configuration():
         sim.save()
 
 
+@pytest.mark.parametrize("state", ["garbage", {"points": []}, 3, "a ParticleState"])
+def test_a_state_of_another_type_is_refused_in_one_line(tmp_path, state):
+    """Issue 54: state="garbage" raised AttributeError; a particle state is refused too."""
+    name = type(state).__name__
+    if state == "a ParticleState":
+        import particles
+
+        state = particles.Simulation(particles.Config(lam=1e-2)).state
+        name = "particles.state.ParticleState"
+    cfg = small_config()
+    for make in (lambda s: Simulation(cfg, state=s),
+                 lambda s: Simulation(cfg, state=s, out=tmp_path),
+                 lambda s: run(cfg, state=s)):
+        with pytest.raises(TypeError) as err:
+            make(state)
+        assert str(err.value) == ("state must be a continuum.State (e.g. of continuum.state_from;"
+                                  f" or None: the configured shape), got {name}")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_growth_law_is_the_pressure_solvers():
     """The growth rate of the state is exp(-lam p) (continuum.growth.growth_rate), bit for bit."""
     sim = Simulation(Config(lam=0.3, **{k: v for k, v in SMALL.items() if k != "lam"}))
@@ -208,3 +228,37 @@ def test_progress_lines_in_a_log(monkeypatch, caplog, capfd):
         continuum.run(small_config(), progress=True)  # a short run: no line within the hour
         continuum.run(small_config())  # progress off
     assert not [r for r in caplog.records if r.name == "continuum.simulation"]
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(lam=1e300, time=1.0), r"lam must be in \[-10000, 10000\], got 1e\+300"),
+    (dict(lam=-1e5, time=1.0), r"lam must be in \[-10000, 10000\]"),
+    (dict(lam=0.0, time=1.0, strains=[(1e300, 1.0), (0.0, 1.0)]),
+     r"a strain's lam must be in \[0, 10000\], got 1e\+300"),
+    (dict(lam=-1.0, radius=5.0), r"critical radius sqrt\(2/\|lam\|\) = 1.414: radius 5"),
+    (dict(lam=-1.0, time=5.0), r"reaches at t = 2.244: time 5 lies beyond it"),
+    (dict(lam=-100.0, time=0.1), r"the initial disc's radius is 0.39"),
+])
+def test_absurd_lam_refused_when_made(kw, match):
+    """Issue 54: lam in [-MAX_LAM, MAX_LAM]; lam < 0 and a disc's goal beyond its critical size."""
+    with pytest.raises(ValueError, match=match):
+        Config(**kw)
+
+
+def test_a_negative_lam_short_of_the_critical_size_runs():
+    sim = run(Config(lam=-1.0, time=1.0, n_nodes=100, write_fields=False))
+    assert sim.state.radius < continuum.radial.critical_radius(-1.0)
+
+
+def test_a_time_goal_beyond_the_memory_is_refused_before_any_file(tmp_path):
+    """Issue 54: lam = 1e-2 to time 1e300 ran for ever (a radius ~1.4e300); fields/ was made."""
+    with pytest.raises(continuum.BudgetError, match=r"final size \(time 1e\+300\)"):
+        run(Config(lam=1e-2, time=1e300), tmp_path)
+    assert list(tmp_path.iterdir()) == []
+    sim = Simulation(Config(lam=1e-2))
+    for goal in (dict(time=1e300), dict(time=1000.0), dict(radius=1e5)):
+        with pytest.raises(continuum.BudgetError, match="mesh nodes at its final size"):
+            sim.advance(**goal)
+    assert sim.state.step == 0
+    sim.advance(time=0.2)  # a near goal still steps
+    assert sim.state.t == 0.2

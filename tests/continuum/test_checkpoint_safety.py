@@ -21,11 +21,24 @@ import numpy as np
 import pytest
 
 import continuum.runfiles as runfiles
+import particles
 from continuum import Simulation, run
-from continuum.checkpoint import load_checkpoint
+from continuum.checkpoint import checkpoint_config, load_checkpoint
 from continuum.output import remove_frames_from
-from continuum.runfiles import CHECKPOINT, PREVIOUS, RESERVE_BYTES, CheckpointError
-from tests.particles.test_checkpoint_safety import BYTES, assert_one_line, rewrite
+from continuum.runfiles import (
+    CHECKPOINT,
+    PREVIOUS,
+    RESERVE_BYTES,
+    CheckpointError,
+    NotCheckpointError,
+)
+from tests.particles.test_checkpoint_safety import (
+    BYTES,
+    assert_not_a_checkpoint,
+    assert_one_line,
+    no_checkpoint,
+    rewrite,
+)
 
 from .conftest import small_config
 from .test_restart import assert_same_run
@@ -114,6 +127,44 @@ def test_a_damaged_checkpoint_is_refused_in_one_line(folder, kind):
             attempt()
         assert_one_line(err, path)
     assert tree(folder) == before
+
+
+@pytest.mark.parametrize("name", ["history.csv", "config.json", "fields.pvd", "fields",
+                                  "data.npz", "notes.zip"])
+def test_a_file_that_is_no_checkpoint_is_not_called_damaged(folder, name):
+    """Issue 54: Simulation.load(history.csv) said "damaged ... remove it" of good data."""
+    path = no_checkpoint(folder, name)
+    before = tree(folder)
+    for load in (lambda: Simulation.load(path), lambda: load_checkpoint(path, small_config()),
+                 lambda: checkpoint_config(path)):
+        with pytest.raises(NotCheckpointError) as err:
+            load()
+        assert_not_a_checkpoint(err, path, "continuum")
+    assert tree(folder) == before
+
+
+def test_a_checkpoint_of_the_other_engine_is_named_as_such(folder, tmp_path):
+    """Issue 54: a particle checkpoint given to the continuum was "a removed transport"."""
+    theirs = tmp_path / "p"
+    theirs.mkdir()
+    particle_config = particles.Config(lam=1e-2, time=1.0, dt=0.02, seed=3)
+    particles.run(particle_config, theirs, max_steps=2)
+    saved = particles.Simulation(particle_config).save(tmp_path / "p.npz")
+    for path in (theirs / CHECKPOINT, saved):
+        for load in (Simulation.load, checkpoint_config):
+            with pytest.raises(NotCheckpointError) as err:
+                load(path)
+            assert str(err.value) == (f"{path} is a particles checkpoint, not a continuum one "
+                                      "(particles.Simulation.load reads it)")
+    with pytest.raises(NotCheckpointError, match="is a particles checkpoint, not a continuum"):
+        run(small_config(), out=theirs)
+    ours = folder / CHECKPOINT
+    for load in (lambda: particles.Simulation.load(ours),
+                 lambda: particles.run(particle_config, folder)):
+        with pytest.raises(particles.runfiles.NotCheckpointError) as err:
+            load()
+        assert str(err.value) == (f"{ours} is a continuum checkpoint, not a particles one "
+                                  "(continuum.Simulation.load reads it)")
 
 
 def test_history_that_does_not_match_the_checkpoint_is_refused(folder):

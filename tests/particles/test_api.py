@@ -139,6 +139,27 @@ def test_particle_limit_is_refused():
         run(Config(lam=0.0, time=3.0, max_particles=4))
 
 
+@pytest.mark.parametrize("state", ["garbage", {"x": [0.0]}, 3, "a continuum State"])
+def test_a_state_of_another_type_is_refused_in_one_line(tmp_path, state):
+    """Issue 54: state="garbage" raised AttributeError; a continuum State is refused too."""
+    name = type(state).__name__
+    if state == "a continuum State":
+        import continuum
+
+        state = continuum.Simulation(continuum.Config(lam=1e-2, n_nodes=100)).state
+        name = "continuum.state.State"
+    cfg = Config(lam=1e-2, time=1.0)
+    for make in (lambda s: Simulation(cfg, state=s),
+                 lambda s: Simulation(cfg, state=s, out=tmp_path),
+                 lambda s: run(cfg, state=s),
+                 lambda s: particles.simulation.check_initial(cfg, state=s)):
+        with pytest.raises(TypeError) as err:
+            make(state)
+        assert str(err.value) == ("state must be a particles.ParticleState (or None: "
+                                  f"config.init or one cell), got {name}")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_step_returns_a_frozen_record_and_divides_inside():
     sim = Simulation(Config(lam=1e-2, seed=1, dt=0.01))
     record = sim.step()

@@ -19,7 +19,7 @@ import pytest
 
 from particles import Config, Simulation, run
 from particles.checkpoint import checkpoint_config, load_checkpoint
-from particles.runfiles import CHECKPOINT, PREVIOUS, CheckpointError
+from particles.runfiles import CHECKPOINT, PREVIOUS, CheckpointError, NotCheckpointError
 
 CFG = Config(lam=1e-2, time=1.2, dt=0.02, seed=3, output_every=0.04)
 """A small colony: 60 steps, a frame every 2 steps, well under a second."""
@@ -189,6 +189,46 @@ def test_a_checkpoint_that_is_no_file_is_refused(folder, tmp_path, entry):
     with pytest.raises(CheckpointError) as err:
         run(CFG, folder)
     assert_one_line(err, path)
+
+
+def no_checkpoint(folder: Path, name: str) -> Path:
+    """A file of ``folder`` (a run's) that is no checkpoint, made when the run has none."""
+    path = folder / name
+    if name == "data.npz":  # an npz of other arrays
+        np.savez(path, x=np.arange(3.0))
+    elif name == "a folder":
+        path.mkdir()
+    elif name == "notes.zip":
+        with zipfile.ZipFile(path, "w") as z:
+            z.writestr("notes.txt", "kept")
+    return path
+
+
+NO_CHECKPOINTS = ["history.csv", "config.json", "trajectory.gsd", "data.npz", "a folder",
+                  "notes.zip"]
+"""Files that are no checkpoint (:func:`no_checkpoint`)."""
+
+
+def assert_not_a_checkpoint(err: pytest.ExceptionInfo, path: Path, engine: str) -> None:
+    """One line saying ``path`` is no checkpoint of ``engine``, never advising its removal."""
+    text = str(err.value)
+    assert err.type.__name__ == "NotCheckpointError", text  # either engine's runfiles
+    assert "\n" not in text and text.startswith(f"{path} is not a {engine} checkpoint ("), text
+    assert "damaged" not in text and "remove" not in text and "--overwrite" not in text, text
+    assert not any(word in text for word in NOT_SHOWN), text
+
+
+@pytest.mark.parametrize("name", NO_CHECKPOINTS)
+def test_a_file_that_is_no_checkpoint_is_not_called_damaged(folder, name):
+    """Issue 54: Simulation.load(history.csv) said "damaged ... remove it" of good data."""
+    path = no_checkpoint(folder, name)
+    before = digest(folder)
+    for load in (lambda: Simulation.load(path), lambda: load_checkpoint(path, CFG),
+                 lambda: checkpoint_config(path)):
+        with pytest.raises(NotCheckpointError) as err:
+            load()
+        assert_not_a_checkpoint(err, path, "particles")
+    assert digest(folder) == before
 
 
 @pytest.mark.parametrize("change", ["a row changed", "rows missing", "missing"])

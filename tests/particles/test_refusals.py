@@ -1,5 +1,7 @@
 """From Python, the engine refuses what the CLI refuses, before any work, in one line."""
 
+import re
+
 import numpy as np
 import pytest
 
@@ -73,3 +75,34 @@ def test_advance_refuses_what_run_refuses():
 def test_contact_margin_within_its_range(margin):
     with pytest.raises(ValueError, match=r"contact_margin must be in \[0, 10\]"):
         Config(lam=0.0, radius=3.0, contact_margin=margin)
+
+
+@pytest.mark.parametrize("kw,match", [
+    (dict(lam=1e300), r"lam must be in \[0, 10000\], got 1e\+300"),
+    (dict(lam=0.0, strains=[(1e300, 1.0), (0.0, 1.0)]),
+     r"a strain's lam must be in \[0, 10000\], got 1e\+300"),
+    (dict(lam=0.0, solver_tol=1e300), r"solver_tol must be in \(0, tol = 0.001\], got 1e\+300"),
+    (dict(lam=0.0, solver_tol=2e-3), r"solver_tol must be in \(0, tol = 0.001\]"),
+    (dict(lam=0.0, solver_tol_factor=1e300), "solver_tol_factor must be positive and at most 1"),
+])
+def test_absurd_values_refused_when_made(kw, match):
+    """Issue 54: each ran and failed late (OverlapError, a colony of max_particles)."""
+    with pytest.raises(ValueError, match=match):
+        Config(time=1.0, **kw)
+    Config(lam=0.0, time=1.0, solver_tol=1e-3, solver_tol_factor=0.5)  # the bounds themselves
+
+
+@pytest.mark.parametrize("rows,match", [
+    ("0,0,0,1e300\n", r"row 1 has a rod of length 1e\+300"),
+    ("0,0,0,1\n0,1e300,0,1\n", r"row 2 has a rod centred at \(0, 1e\+300\)"),
+])
+def test_init_file_of_absurd_sizes_named(tmp_path, rows, match):
+    f = tmp_path / "init.csv"
+    f.write_text("x,y,theta,length\n" + rows)
+    with pytest.raises(ValueError, match=f"^init file {re.escape(str(f))}: {match}"):
+        particles.from_csv(f)
+    out = tmp_path / "out"
+    out.mkdir()
+    with pytest.raises(ValueError, match=match):
+        run(Config(lam=0.0, time=1.0, init=str(f)), out)
+    assert list(out.iterdir()) == []
