@@ -533,8 +533,9 @@ def _dispatch(args) -> int:
         config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
         _check_layout(config)
         start = None if handoff is None else _handoff_start(config, *handoff)
-        ENGINES[args.command].run(config, Path(args.out), args.overwrite, progress, start,
-                                  other_engine=args.other_engine, started=args.started)
+        ENGINES[args.command].run(config, Path(args.out), overwrite=args.overwrite,
+                                  progress=progress, other_engine=args.other_engine,
+                                  started=args.started, start=start)
         print(f"continuum run written to {args.out}")
     elif args.command == "particles":
         flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
@@ -547,9 +548,9 @@ def _dispatch(args) -> int:
                  "output_every": _finite("output-every", args.output_every)}
         config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
         _check_layout(config)
-        ENGINES[args.command].run(config, Path(args.out), args.overwrite, progress,
-                                  args.change_step_policy, other_engine=args.other_engine,
-                                  started=args.started)
+        ENGINES[args.command].run(config, Path(args.out), overwrite=args.overwrite,
+                                  progress=progress, other_engine=args.other_engine,
+                                  started=args.started, change_step_policy=args.change_step_policy)
         print(f"particle run written to {args.out}")
     elif args.command == "info":
         print(describe(Path(args.dir)))

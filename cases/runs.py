@@ -49,9 +49,9 @@ def _staged_run(engine: str, config, out: Path, overwrite: bool, body, resumable
     return result
 
 
-def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = True,  # noqa: PLR0913
-                  start: tuple | None = None, other_engine: bool = False,
-                  started: float | None = None):
+def run_continuum(config, out: Path, *, overwrite: bool = False, progress: bool = True,
+                  other_engine: bool = False, started: float | None = None,
+                  start: tuple | None = None):
     """Run the continuum engine into ``out`` (staged), then write profile.csv and the PNG.
 
     ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage);
@@ -91,9 +91,9 @@ def run_continuum(config, out: Path, overwrite: bool = False, progress: bool = T
                        resumable=CHECKPOINTS, other_engine=other_engine)
 
 
-def run_particles(config, out: Path, overwrite: bool = False, progress: bool = True,  # noqa: PLR0913
-                  change_step_policy: bool = False, other_engine: bool = False,
-                  started: float | None = None):
+def run_particles(config, out: Path, *, overwrite: bool = False, progress: bool = True,
+                  other_engine: bool = False, started: float | None = None,
+                  change_step_policy: bool = False):
     """Run the particle engine into ``out`` (staged, resumable), then profile.csv and the PNG.
 
     ``other_engine``: resume a checkpoint another version of the engine wrote (rundir.stage);
@@ -136,7 +136,7 @@ def run(config, out: str | os.PathLike, *, overwrite: bool = False, progress: bo
     (continuum) and the picture, where the engines' own ``run(config, out)`` writes the engine's
     files into an existing folder only. Returns the final state.
     """
-    return engine_of(config).run(config, Path(out), overwrite, progress)
+    return engine_of(config).run(config, Path(out), overwrite=overwrite, progress=progress)
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,7 @@
 
 Neither engine imports the other, so each has this module as its own: ``particles/runfiles.py``
 is a symbolic link to ``continuum/runfiles.py`` (one source; a wheel holds a copy in each
-package). It imports nothing but the standard library and numpy.
+package). It imports nothing but the standard library and numpy (and tqdm, for the bar).
 
 Files. A checkpoint is an ``np.savez`` archive of named arrays with ``sha256``, the checksum of
 all the others (:func:`arrays_digest`). :func:`write_arrays` writes it to a temporary file,
@@ -21,8 +21,16 @@ RESERVE_BYTES free on its file system (:func:`ensure_space`).
 Controls. :class:`StopRequest` defers SIGINT, SIGTERM and SIGHUP to the end of the current step,
 so that a run writes a checkpoint of a whole step before it stops; :class:`WallLimit` pauses a
 run before ``Config.max_hours`` of wall while a checkpoint still fits; :func:`reached`,
-:func:`check_goal` and :func:`require_goal` are the goals' rules; :func:`is_number`,
-:func:`type_mismatch` and :func:`check_types` those of a Config's field types (both engines').
+:func:`check_goal`, :func:`goal_of` and :func:`require_goal` are the goals' rules;
+:func:`is_number`, :func:`type_mismatch` and :func:`check_types` those of a Config's field types
+(both engines').
+
+The run loop. :func:`drive` is the one loop of both engines' ``run`` (goal, progress,
+checkpoints, pause, stop, final files) and :func:`advance` the loop of ``Simulation.advance``;
+each engine's ``Simulation`` supplies only its step and its state: ``config``, ``state``,
+``output``, ``label``, ``done(radius, time)``, ``step_toward(radius, time)``,
+``check_budget(radius, time)``, ``save()``, ``finish()``, ``finished`` and ``paused``.
+:class:`ProgressBar` shows either on a terminal, or logs a line every PROGRESS_SECONDS.
 """
 
 from __future__ import annotations
@@ -40,6 +48,7 @@ import re
 import shutil
 import signal
 import stat
+import sys
 import threading
 import time
 from collections import deque
@@ -55,9 +64,11 @@ __all__ = ["ENGINE", "CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "Checkpoin
            "RESERVE_BYTES", "ensure_space",
            "STOP_SIGNALS", "StopRequest", "WallLimit", "RADIUS_RTOL", "TIME_TOL", "reached",
            "is_number", "FIELD_TYPES", "type_mismatch", "check_types", "check_goal",
-           "require_goal"]
+           "require_goal", "check_state_type", "PROGRESS_SECONDS", "goal_of", "ProgressBar",
+           "advance", "drive"]
 
 log = logging.getLogger(__name__)
+_now = time.monotonic
 
 ENGINE = __name__.partition(".")[0]
 """The engine of this copy of the module: ``continuum`` or ``particles``."""
@@ -543,7 +554,132 @@ def check_goal(radius: float | None, time: float | None) -> None:
             raise ValueError(f"{name} must be a positive finite number, got {v!r}")
 
 
+def check_state_type(state, kind: type, what: str) -> None:
+    """TypeError (one line) unless ``state`` is a ``kind`` or None; ``what`` names the choices.
+
+    E.g. "state must be a particles.ParticleState (or None: config.init or one cell), got str".
+    """
+    if state is not None and not isinstance(state, kind):
+        given = type(state)
+        name = given.__qualname__ if given.__module__ == "builtins" else (
+            f"{given.__module__}.{given.__qualname__}")
+        raise TypeError(f"state must be a {what}, got {name}")
+
+
 def require_goal(config) -> None:
     """ValueError unless ``config`` has a goal (``run`` needs one of ``radius`` and ``time``)."""
     if config.radius is None and config.time is None:
         raise ValueError("give exactly one of radius and time")
+
+
+# ---------------------------------------------------------------------- the run loop
+
+
+PROGRESS_SECONDS = 60.0
+"""With ``progress`` and stderr not a terminal (a batch job's log), a run or an ``advance``
+logs one line of progress at most this often (wall seconds)."""
+
+
+def goal_of(config, radius: float | None, time: float | None) -> tuple:
+    """The goal of ``advance`` and ``done``: the given one, else the configuration's (checked).
+
+    ValueError when neither is given nor configured, or a goal is not a positive number.
+    """
+    if radius is None and time is None:
+        radius, time = config.radius, config.time
+        if radius is None and time is None:
+            raise ValueError("give radius or time (or set one in the Config)")
+    check_goal(radius, time)
+    return radius, time
+
+
+class ProgressBar:
+    """Progress toward a goal: a tqdm bar of the radius (or the time) on a terminal.
+
+    When asked and stderr is not a terminal (a batch job's log): no bar (no carriage returns in
+    the log) but one INFO line every PROGRESS_SECONDS: where the run stands, its size (the step
+    record's ``size``, e.g. "2,048 nodes"), step, dt and the wall seconds so far.
+    """
+
+    def __init__(self, label: str, radius: float | None, time: float | None, progress: bool):
+        from tqdm import tqdm
+
+        self.by_radius = radius is not None
+        self.goal = radius if self.by_radius else time
+        self.bar = tqdm(total=self.goal, disable=not (progress and sys.stderr.isatty()),
+                        unit="R" if self.by_radius else "t", desc=label, leave=False)
+        self.log_lines = progress and self.bar.disable
+        self.started = self.last = _now()
+
+    def show(self, record) -> None:
+        """The radius or the time after the step of ``record``."""
+        if self.log_lines:
+            now = _now()
+            if now - self.last >= PROGRESS_SECONDS:
+                self.last = now
+                where = (f"radius {record.radius:.2f} of {self.goal:g}, t = {record.t:.4f}"
+                         if self.by_radius else
+                         f"t = {record.t:.4f} of {self.goal:g}, radius {record.radius:.2f}")
+                log.info("%s, %s, step %d, dt %.3g, %.0f s", where, record.size, record.step,
+                         record.dt, now - self.started)
+        if not self.bar.disable:
+            self.bar.n = min(self.goal, record.radius if self.by_radius else record.t)
+            self.bar.refresh()
+
+    def __enter__(self) -> ProgressBar:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.bar.close()
+
+
+def advance(sim, radius: float | None, time: float | None, progress: bool):
+    """Step ``sim`` until its goal (:func:`goal_of`); the engines' ``Simulation.advance``.
+
+    The engine's simulation supplies ``config``, ``state``, ``done(radius, time)``,
+    ``step_toward(radius, time)`` (one step, not past the goal) and
+    ``check_budget(radius, time)`` (a goal beyond the machine refused before any step).
+    """
+    radius, time = goal_of(sim.config, radius, time)
+    sim.check_budget(radius, time)
+    with ProgressBar(sim.label, radius, time, progress) as bar:
+        while not sim.done(radius, time):
+            bar.show(sim.step_toward(radius, time))
+    return sim.state
+
+
+def drive(sim, stop: StopRequest, max_steps: int | None = None,
+          started: float | None = None, progress: bool = False) -> None:
+    """The run loop of both engines' ``run``: step ``sim`` to its configuration's goal.
+
+    Steps until the goal, a stop request (``stop``: a signal came), ``max_steps`` steps of this
+    call, or ``config.max_hours`` (:class:`WallLimit`, from ``started``); with an output folder
+    a checkpoint (``sim.save()``, history.csv first) every ``config.checkpoint_seconds`` of wall
+    before the goal and when it stops (``finished`` False; ``paused`` True at max_hours), and
+    the final files at the end (``sim.finish()``, the engine's). Besides :func:`advance`'s, the
+    simulation supplies ``output``, ``save()``, ``finish()``, ``finished`` and ``paused``.
+    """
+    config = sim.config
+    goal = {"radius": config.radius, "time": config.time}
+    limit = WallLimit(config.max_hours, started)
+    last_checkpoint = _now()
+    steps = 0
+    with ProgressBar(sim.label, progress=progress, **goal) as bar:
+        while not sim.done(**goal):
+            bar.show(sim.step_toward(**goal))
+            limit.stepped()
+            steps += 1
+            done = sim.done(**goal)
+            asked = stop.signum is not None or (max_steps is not None and steps >= max_steps)
+            paused = not done and not asked and limit.due
+            due = not done and _now() - last_checkpoint >= config.checkpoint_seconds
+            if sim.output is not None and (asked or paused or due):
+                start = _now()
+                sim.save()
+                last_checkpoint = _now()
+                limit.saved(last_checkpoint - start)
+            if (asked or paused) and not done:
+                sim.finished, sim.paused = False, paused
+                break
+    if sim.output is not None:
+        sim.finish()

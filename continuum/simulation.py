@@ -45,7 +45,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 import time as _time
 from pathlib import Path
 
@@ -63,9 +62,12 @@ from continuum.runfiles import (
     CHECKPOINT,
     HISTORY,
     StopRequest,
-    WallLimit,
+    advance,
     check_goal,
+    check_state_type,
     checkpoint_files,
+    drive,
+    goal_of,
     history_record,
     reached,
     require_goal,
@@ -80,7 +82,7 @@ from continuum.strains import check_fractions, fractions_at, parse_layout, slope
 
 # Config lives in continuum.config; imported here for older imports
 # (``from continuum.simulation import Config``), documented there.
-__all__ = ["Simulation", "run", "PROGRESS_SECONDS"]
+__all__ = ["Simulation", "run"]
 
 log = logging.getLogger(__name__)
 
@@ -167,13 +169,9 @@ def _target_spacing(config: Config, area: float) -> float:
 
 
 def _check_state_type(state) -> None:
-    """TypeError (one line) unless ``state`` is a State or None."""
-    if state is not None and not isinstance(state, State):
-        kind = type(state)
-        name = kind.__qualname__ if kind.__module__ == "builtins" else (
-            f"{kind.__module__}.{kind.__qualname__}")
-        raise TypeError(f"state must be a continuum.State (e.g. of continuum.state_from; or "
-                        f"None: the configured shape), got {name}")
+    """TypeError (one line) unless ``state`` is a State or None (runfiles.check_state_type)."""
+    check_state_type(state, State, "continuum.State (e.g. of continuum.state_from; or None: "
+                     "the configured shape)")
 
 
 class Simulation:
@@ -397,25 +395,40 @@ class Simulation:
         ValueError
             No goal given and none in the configuration, or a goal not a positive number.
         """
-        return self._reached(*self._goal(radius, time))
+        return self._reached(*goal_of(self.config, radius, time))
 
     def _reached(self, radius: float | None, time: float | None) -> bool:
         """:func:`reached` of the current state (False without a goal)."""
         return reached(lambda: self.state.radius, self.state.t, radius, time)
 
-    def _goal(self, radius: float | None, time: float | None) -> tuple[float | None, float | None]:
-        """The goal of :meth:`advance` and :meth:`done`: the given one, else the config's."""
-        if radius is None and time is None:
-            radius, time = self.config.radius, self.config.time
-            if radius is None and time is None:
-                raise ValueError("give radius or time (or set one in the Config)")
-        check_goal(radius, time)
-        return radius, time
+    def step_toward(self, radius: float | None, time: float | None) -> StepRecord:
+        """One step of :meth:`advance` and :func:`run`: not past ``radius`` nor ``time``.
 
-    def _check_step_limit(self) -> None:
+        RuntimeError beyond ``config.step_limit`` steps.
+        """
         if len(self.history) > self.config.step_limit:
             raise RuntimeError(
                 f"step_limit={self.config.step_limit} reached at {self.state.where()}")
+        return self._step(radius, time)
+
+    def check_budget(self, radius: float | None, time: float | None) -> None:
+        """A goal whose mesh would not fit in memory refused before any step (BudgetError).
+
+        continuum.budget.check_memory from the current state; nothing when it is reached.
+        """
+        if not self._reached(radius, time):
+            check_memory(self.config, start=(self.state.boundary, self.state.t),
+                         goal=(radius, time))
+
+    @property
+    def label(self) -> str:
+        """The progress bar's label."""
+        return f"continuum lam={self.config.lam:g}"
+
+    def finish(self) -> None:
+        """The final files of :func:`run` at its goal (nothing when it stopped before)."""
+        if self.done():
+            self.output.finish(self)
 
     def advance(self, radius: float | None = None, time: float | None = None,
                 progress: bool = False) -> State:
@@ -435,7 +448,7 @@ class Simulation:
             Goal for t.
         progress : bool
             A tqdm progress bar when stderr is a terminal, else a log line every
-            PROGRESS_SECONDS.
+            runfiles.PROGRESS_SECONDS.
 
         Returns
         -------
@@ -454,15 +467,7 @@ class Simulation:
         PressureDivergence
             No pressure solution (e.g. lam < 0 beyond the critical size).
         """
-        radius, time = self._goal(radius, time)
-        if not self._reached(radius, time):  # a goal beyond the memory: refused before a step
-            check_memory(self.config, start=(self.state.boundary, self.state.t),
-                         goal=(radius, time))
-        with _ProgressBar(self, radius, time, progress) as bar:
-            while not self._reached(radius, time):
-                self._check_step_limit()
-                bar.show(self._step(radius, time))
-        return self.state
+        return advance(self, radius, time, progress)
 
     @property
     def fields(self) -> dict[str, np.ndarray]:
@@ -513,54 +518,6 @@ class Simulation:
         limit_blas_threads(1)
         sim._restore(saved.state, saved.amg, saved.history)
         return sim
-
-
-PROGRESS_SECONDS = 60.0
-"""With ``progress`` and stderr not a terminal (a batch job's log), :func:`run` and
-:meth:`Simulation.advance` log one line of progress at most this often (wall seconds)."""
-
-
-class _ProgressBar:
-    """Progress of a run: a tqdm bar of the radius or the time on a terminal.
-
-    When asked and stderr is not a terminal (a log file): no bar (no carriage returns in the
-    log) but one INFO line every PROGRESS_SECONDS, in the particle engine's format.
-    """
-
-    def __init__(self, sim: Simulation, radius: float | None, time: float | None,
-                 progress: bool):
-        from tqdm import tqdm
-
-        self.by_radius = radius is not None
-        self.start = sim.history[0]["radius"] if self.by_radius else 0.0
-        goal = radius if self.by_radius else time
-        self.goal = goal
-        self.bar = tqdm(total=round(goal - self.start, 6),
-                        disable=not (progress and sys.stderr.isatty()),
-                        unit="R" if self.by_radius else "t", leave=False)
-        self.log_lines = progress and self.bar.disable
-        self.started = self.last = _time.monotonic()
-
-    def show(self, record: StepRecord) -> None:
-        if self.log_lines:
-            now = _time.monotonic()
-            if now - self.last >= PROGRESS_SECONDS:
-                self.last = now
-                goal = (f"radius {record.radius:.2f} of {self.goal:g}, t = {record.t:.4f}"
-                        if self.by_radius else
-                        f"t = {record.t:.4f} of {self.goal:g}, radius {record.radius:.2f}")
-                log.info("%s, %d nodes, step %d, dt %.3g, %.0f s", goal, record.n_nodes,
-                         record.step, record.dt, now - self.started)
-        if self.bar.disable:
-            return
-        now = record.radius if self.by_radius else record.t
-        self.bar.update(round(now - self.start, 6) - self.bar.n)
-
-    def __enter__(self) -> _ProgressBar:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.bar.close()
 
 
 class _Outputs:
@@ -634,8 +591,8 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
         layout=None, started: float | None = None) -> Simulation:
     """Grow the colony until ``config.radius`` or ``config.time``; optionally write ``out``.
 
-    The loop over the steps of a :class:`Simulation` that hands each step to the run folder's
-    writers, the checkpointer and the progress bar, and writes the final files at the goal.
+    The run loop both engines share (runfiles.drive) over the steps of a :class:`Simulation`:
+    each step's frames, the checkpoints and the progress bar, and the final files at the goal.
 
     Parameters
     ----------
@@ -649,7 +606,7 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
         checkpoint.npz after a finished run.
     progress : bool
         A tqdm progress bar when stderr is a terminal, else a log line (INFO, the logger
-        ``continuum.simulation``) every PROGRESS_SECONDS.
+        ``continuum.runfiles``) every runfiles.PROGRESS_SECONDS.
     state : State, optional
         The state at t = 0 of a new run (:class:`Simulation`; copied); unused when ``out``
         holds a checkpoint.
@@ -688,41 +645,6 @@ def run(config: Config, out: Path | str | None = None, progress: bool = False,  
     require_goal(config)
     with StopRequest() as stop:
         sim = Simulation(config, state, out, layout=layout)
-        _steps(sim, progress, max_steps, stop, started)
+        drive(sim, stop, max_steps, started, progress)
     stop.reraise()
     return sim
-
-
-def _steps(sim: Simulation, progress: bool, max_steps: int | None,
-           stop: StopRequest, started: float | None = None) -> None:
-    """The loop of ``run``.
-
-    Step until the goal, a stop request, ``max_steps`` steps or ``config.max_hours``;
-    history.csv and a checkpoint every ``checkpoint_seconds`` and when stopping; the final
-    files at the goal.
-    """
-    config = sim.config
-    goal = {"radius": config.radius, "time": config.time}
-    last_checkpoint = _time.monotonic()
-    limit = WallLimit(config.max_hours, started)
-    steps_here = 0
-    with _ProgressBar(sim, progress=progress, **goal) as bar:
-        while not sim._reached(**goal):
-            sim._check_step_limit()
-            bar.show(sim._step(**goal))
-            limit.stepped()
-            steps_here += 1
-            done = sim._reached(**goal)
-            asked = stop.signum is not None or (max_steps is not None and steps_here >= max_steps)
-            paused = not done and not asked and limit.due
-            due = not done and _time.monotonic() - last_checkpoint >= config.checkpoint_seconds
-            if sim.output is not None and (asked or paused or due):
-                start = _time.monotonic()
-                sim.save()  # history.csv, then the checkpoint
-                last_checkpoint = _time.monotonic()
-                limit.saved(last_checkpoint - start)
-            if (asked or paused) and not done:
-                sim.finished, sim.paused = False, paused
-                break
-    if sim.output is not None and sim._reached(**goal):
-        sim.output.finish(sim)

@@ -266,6 +266,11 @@ class StepRecord:
     remesh: str | None
     strain_areas: tuple = ()
 
+    @property
+    def size(self) -> str:
+        """The colony's size in the progress lines: "N nodes"."""
+        return f"{self.n_nodes} nodes"
+
     @classmethod
     def of(cls, state: State, dt: float, remesh: str | None) -> StepRecord:
         """The record of ``state`` after a step of size dt (remeshed first for ``remesh``)."""

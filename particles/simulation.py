@@ -25,13 +25,10 @@ from __future__ import annotations
 
 import logging
 import os
-import sys
-import time as _time
 from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
-from tqdm import tqdm
 
 from .checkpoint import (
     NO_FRAMES,
@@ -47,9 +44,12 @@ from .packings import from_csv, single_cell
 from .runfiles import (
     HISTORY,
     StopRequest,
-    WallLimit,
+    advance,
     check_goal,
+    check_state_type,
     checkpoint_files,
+    drive,
+    goal_of,
     history_record,
     reached,
     require_goal,
@@ -83,13 +83,9 @@ def initial_state(config: Config) -> ParticleState:
 
 
 def _check_state_type(state) -> None:
-    """TypeError (one line) unless ``state`` is a ParticleState or None."""
-    if state is not None and not isinstance(state, ParticleState):
-        kind = type(state)
-        name = kind.__qualname__ if kind.__module__ == "builtins" else (
-            f"{kind.__module__}.{kind.__qualname__}")
-        raise TypeError(f"state must be a particles.ParticleState (or None: config.init or one "
-                        f"cell), got {name}")
+    """TypeError unless ``state`` is a ParticleState or None (runfiles.check_state_type)."""
+    check_state_type(state, ParticleState, "particles.ParticleState (or None: config.init or "
+                     "one cell)")
 
 
 def check_initial(config: Config, require_stop: bool = True,
@@ -289,7 +285,8 @@ class Simulation:
         :meth:`load` (and :func:`run` on its folder) continues from it bit-identically.  The
         run folder's checkpoint: history.csv first, which the checkpoint refers to (its size
         stays that of the colony), and the checkpoint it replaces kept as
-        checkpoint.prev.npz.  Elsewhere the checkpoint holds the history rows.
+        checkpoint.prev.npz, after output.ensure_space.  Elsewhere the checkpoint holds the
+        history rows.
         """
         if path is None:
             if self.output is None:
@@ -299,6 +296,7 @@ class Simulation:
         frames = self._frames if self.output is None else self.output.frames
         history = self.history
         if self.output is not None and path == self.output.checkpoint:
+            self.output.ensure_space(self.state)
             write_history(self.output.out, self.history)
             history = history_record(self.output.out / HISTORY, len(self.history))
         save_checkpoint(path, Checkpoint(self.config, self.state, history, frames))
@@ -315,22 +313,37 @@ class Simulation:
         ValueError
             No goal given and none in the configuration, or a goal not a positive number.
         """
-        return self._reached(*self._goal(radius, time))
+        return self._reached(*goal_of(self.config, radius, time))
 
     def _reached(self, radius: float | None, time: float | None) -> bool:
         """:func:`reached` of the current state (False without a goal)."""
         return reached(self.state.enclosing_radius, self.state.t, radius, time)
 
-    def _goal(self, radius: float | None, time: float | None) -> tuple[float | None, float | None]:
-        """The goal of :meth:`advance` and :meth:`done`: the given one, else the config's."""
-        if radius is None and time is None:
-            radius, time = self.config.radius, self.config.time
-            if radius is None and time is None:
-                raise ValueError("give radius or time (or set one in the Config)")
-        check_goal(radius, time)
-        return radius, time
+    def step_toward(self, radius: float | None, time: float | None) -> StepRecord:
+        """One step of :meth:`advance` and :func:`run`: :meth:`step`, not past ``time``.
 
-    def _check_budget(self, radius: float | None, time: float | None) -> None:
+        (A radius goal is reached at or after the step that reaches it: the step is not
+        shortened for it.)
+        """
+        return self.step(time)
+
+    @property
+    def label(self) -> str:
+        """The progress bar's label."""
+        return f"particles lam={self.config.lam:g}"
+
+    def finish(self) -> None:
+        """The final files of :func:`run`: history.csv and particles.csv.
+
+        When finished also the last frame and a checkpoint (a stop wrote its own already).
+        """
+        self.output.ensure_space(self.state)
+        if self.finished:
+            self.output.last_frame(self.state)
+            self.save()
+        self.output.results(self.state, self.history)
+
+    def check_budget(self, radius: float | None, time: float | None) -> None:
         """Config.check_budget of the way from the state to a goal of :meth:`advance`.
 
         The same one-line refusal as :func:`run`'s (e.g. dt = 1e-300), before any step.
@@ -424,7 +437,7 @@ class Simulation:
             Goal for t.
         progress : bool
             A tqdm progress bar when stderr is a terminal, else a log line every
-            PROGRESS_SECONDS.
+            runfiles.PROGRESS_SECONDS.
 
         Returns
         -------
@@ -436,12 +449,7 @@ class Simulation:
         ValueError
             No goal (:meth:`done`).
         """
-        radius, time = self._goal(radius, time)
-        self._check_budget(radius, time)
-        with _ProgressBar(self.config.lam, radius, time, progress) as bar:
-            while not self._reached(radius, time):
-                bar.show(self.step(time))
-        return self.state
+        return advance(self, radius, time, progress)
 
 
 def kernels_cached() -> bool:
@@ -458,79 +466,18 @@ def kernels_cached() -> bool:
         return True
 
 
-PROGRESS_SECONDS = 60.0
-"""With ``progress`` and stderr not a terminal (a batch job's log), :func:`run` logs one line
-of progress at most this often (wall seconds)."""
-
-
-class _ProgressBar:
-    """Progress of a run: a tqdm bar of the radius or the time on a terminal.
-
-    When stderr is not a terminal (a log file): one INFO line every PROGRESS_SECONDS.
-    """
-
-    def __init__(self, lam: float, radius: float | None, time: float | None, progress: bool):
-        self.by_time = time is not None
-        self.total = time if self.by_time else radius
-        self.bar = tqdm(total=self.total, disable=not (progress and sys.stderr.isatty()),
-                        unit="", desc=f"particles lam={lam:g}", leave=False)
-        self.log_lines = progress and self.bar.disable
-        self.started = self.last = _time.monotonic()
-
-    def show(self, record: StepRecord) -> None:
-        """The time or the radius after the step of ``record``."""
-        if self.log_lines:
-            now = _time.monotonic()
-            if now - self.last >= PROGRESS_SECONDS:
-                self.last = now
-                goal = (f"t = {record.t:.4f} of {self.total:g}, radius {record.radius:.2f}"
-                        if self.by_time else
-                        f"radius {record.radius:.2f} of {self.total:g}, t = {record.t:.4f}")
-                log.info("%s, %d particles, step %d, dt %.3g, %.0f s", goal,
-                         record.n_particles, record.step, record.dt, now - self.started)
-        if self.bar.disable:
-            return
-        self.bar.n = min(self.total, record.t if self.by_time else record.radius)
-        self.bar.refresh()
-
-    def __enter__(self) -> _ProgressBar:
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.bar.close()
-
-
-class _Checkpointer:
-    """A checkpoint (history.csv first) every ``Config.checkpoint_seconds`` of wall time.
-
-    Each write's wall seconds go to the run's WallLimit (``limit``).
-    """
-
-    def __init__(self, sim: Simulation, limit: WallLimit):
-        self.sim, self.limit = sim, limit
-        self.last = _time.monotonic()
-
-    def after_step(self) -> None:
-        now = _time.monotonic()
-        if now - self.last >= self.sim.config.checkpoint_seconds:
-            self.sim.output.ensure_space(self.sim.state)
-            self.sim.save()
-            self.last = _time.monotonic()
-            self.limit.saved(self.last - now)
-
-
 def run(config: Config, out: str | Path | None = None, progress: bool = False,  # noqa: PLR0913
         state: ParticleState | None = None, max_steps: int | None = None, *,
         change_step_policy: bool = False, layout=None, started: float | None = None
         ) -> Simulation:
     """Grow a colony until ``config.radius`` or ``config.time``.
 
-    The loop over the steps of a :class:`Simulation` that hands each step to the writers, the
-    checkpointer and the progress bar, and writes the final files.  SIGINT (Ctrl-C), SIGTERM
-    (e.g. a batch system's time limit) or SIGHUP (a closed terminal) in the main thread ends
-    the run after the current step, with a checkpoint of that step written (then
-    KeyboardInterrupt, or SystemExit(128 + signal) for SIGTERM and SIGHUP); a second signal
-    interrupts at once (runfiles.StopRequest).  Before ``config.max_hours`` of wall have
+    The run loop both engines share (runfiles.drive) over the steps of a :class:`Simulation`:
+    each step's frames, the checkpoints and the progress bar, and the final files.  SIGINT
+    (Ctrl-C), SIGTERM (e.g. a batch system's time limit) or SIGHUP (a closed terminal) in the
+    main thread ends the run after the current step, with a checkpoint of that step written
+    (then KeyboardInterrupt, or SystemExit(128 + signal) for SIGTERM and SIGHUP); a second
+    signal interrupts at once (runfiles.StopRequest).  Before ``config.max_hours`` of wall have
     passed, the run writes a checkpoint and returns paused (``.paused``; runfiles.WallLimit).
 
     Parameters
@@ -542,7 +489,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,  
         checkpoint.npz.  If it holds a checkpoint of the same configuration the run resumes from
         it, with the same result as an uninterrupted run.
     progress : bool
-        A tqdm progress bar when stderr is a terminal, else a log line every PROGRESS_SECONDS.
+        A tqdm progress bar when stderr is a terminal, else a log line every
+        runfiles.PROGRESS_SECONDS.
     state : ParticleState, optional
         Initial state of a new run (default: ``config.init`` or one cell; needed for a
         ``config.shape``; copied); unused when ``out`` holds a checkpoint.
@@ -578,29 +526,9 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,  
     if progress and not kernels_cached():
         log.info("compiling the engine's kernels (first run only, about a minute; Numba caches "
                  "them for later runs)")
-    goal = {"radius": config.radius, "time": config.time}
-    steps = 0
     with StopRequest() as stop:
         sim = Simulation(config, state, out, change_step_policy=change_step_policy,
                          layout=layout)
-        limit = WallLimit(config.max_hours, started)
-        checkpointer = None if sim.output is None else _Checkpointer(sim, limit)
-        with _ProgressBar(config.lam, progress=progress, **goal) as bar:
-            while not sim._reached(**goal):
-                bar.show(sim.step(config.time))
-                steps += 1
-                limit.stepped()
-                if checkpointer is not None:
-                    checkpointer.after_step()
-                asked = stop.signum is not None or (max_steps is not None and steps >= max_steps)
-                if (asked or limit.due) and not sim._reached(**goal):
-                    sim.finished, sim.paused = False, not asked
-                    break
-    if sim.output is not None:
-        sim.output.ensure_space(sim.state)
-        if sim.finished:
-            sim.output.last_frame(sim.state)
-        sim.save()
-        sim.output.results(sim.state, sim.history)
+        drive(sim, stop, max_steps, started, progress)
     stop.reraise()
     return sim

@@ -256,6 +256,11 @@ class StepRecord:
     max_displacement: float
     main_overlap: float
 
+    @property
+    def size(self) -> str:
+        """The colony's size in the progress lines: "N particles"."""
+        return f"{self.n_particles} particles"
+
     def row(self) -> dict:
         """The history row (a dict of the fields in their order, as checkpoints store it)."""
         return asdict(self)

@@ -204,12 +204,12 @@ def test_progress_lines_in_a_log(monkeypatch, caplog, capfd):
     One line per PROGRESS_SECONDS (0 here: every step), in the particle engine's format; no
     carriage return reaches the redirected stderr; with progress off, nothing.
     """
-    import continuum.simulation as simulation
+    import continuum.runfiles as runfiles
 
-    monkeypatch.setattr(simulation, "PROGRESS_SECONDS", 0.0)
-    with caplog.at_level("INFO", logger="continuum.simulation"):
+    monkeypatch.setattr(runfiles, "PROGRESS_SECONDS", 0.0)
+    with caplog.at_level("INFO", logger="continuum.runfiles"):
         sim = continuum.run(small_config(), progress=True)
-    lines = [r.getMessage() for r in caplog.records if r.name == "continuum.simulation"]
+    lines = [r.getMessage() for r in caplog.records if r.name == "continuum.runfiles"]
     assert len(lines) == len(sim.history) - 1
     pattern = (r"radius \d+\.\d\d of 3, t = \d+\.\d{4}, \d+ nodes, step \d+, dt [0-9.e-]+, "
                r"\d+ s")
@@ -217,17 +217,17 @@ def test_progress_lines_in_a_log(monkeypatch, caplog, capfd):
     assert lines[-1].startswith(f"radius {sim.state.radius:.2f} of 3, ")
     assert "\r" not in capfd.readouterr().err
     caplog.clear()
-    with caplog.at_level("INFO", logger="continuum.simulation"):
+    with caplog.at_level("INFO", logger="continuum.runfiles"):
         Simulation(Config(**SMALL)).advance(time=0.2, progress=True)
-    lines = [r.getMessage() for r in caplog.records if r.name == "continuum.simulation"]
+    lines = [r.getMessage() for r in caplog.records if r.name == "continuum.runfiles"]
     assert lines and all(re.fullmatch(r"t = \d+\.\d{4} of 0\.2, radius \d+\.\d\d, .* s", m)
                          for m in lines)
     caplog.clear()
-    monkeypatch.setattr(simulation, "PROGRESS_SECONDS", 3600.0)
-    with caplog.at_level("INFO", logger="continuum.simulation"):
+    monkeypatch.setattr(runfiles, "PROGRESS_SECONDS", 3600.0)
+    with caplog.at_level("INFO", logger="continuum.runfiles"):
         continuum.run(small_config(), progress=True)  # a short run: no line within the hour
         continuum.run(small_config())  # progress off
-    assert not [r for r in caplog.records if r.name == "continuum.simulation"]
+    assert not [r for r in caplog.records if r.name == "continuum.runfiles"]
 
 
 @pytest.mark.parametrize("kw,match", [

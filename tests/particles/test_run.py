@@ -393,18 +393,18 @@ def test_a_pass_longer_than_the_main_solve_fails_the_step(monkeypatch):
 
 def test_progress_lines_in_a_log(monkeypatch, caplog, tmp_path):
     """With progress on and stderr not a terminal (pytest captures it), run() logs progress."""
-    import particles.simulation as simulation
+    import particles.runfiles as runfiles
 
-    monkeypatch.setattr(simulation, "PROGRESS_SECONDS", 0.0)
-    with caplog.at_level("INFO", logger="particles.simulation"):
+    monkeypatch.setattr(runfiles, "PROGRESS_SECONDS", 0.0)
+    with caplog.at_level("INFO", logger="particles.runfiles"):
         run(Config(lam=1e-2, radius=1.5, seed=0), out=tmp_path, progress=True)
-    lines = [r.getMessage() for r in caplog.records if r.name == "particles.simulation"]
+    lines = [r.getMessage() for r in caplog.records if r.name == "particles.runfiles"]
     assert lines and all(m.startswith("radius ") and " of 1.5, t = " in m and " particles, "
                          in m for m in lines)
     caplog.clear()
-    with caplog.at_level("INFO", logger="particles.simulation"):
+    with caplog.at_level("INFO", logger="particles.runfiles"):
         Simulation(Config(lam=1e-2, seed=0)).advance(radius=1.5)  # progress off by default
-    assert not [r for r in caplog.records if r.name == "particles.simulation"]
+    assert not [r for r in caplog.records if r.name == "particles.runfiles"]
 
 
 def test_kept_detections_change_nothing(monkeypatch):
