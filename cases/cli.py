@@ -3,6 +3,7 @@
 ::
 
     colony continuum --lam LAM (--radius R | --time T) [--shape SHAPE] [--element P1|P2]
+                     [--nutrient-length ELL [--monod-k K]]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony continuum --from-particles RUN_DIR [--alpha A] [--bandwidth H] [--lam LAM]
                      (--radius R | --time T) [--out DIR] ...
@@ -323,6 +324,13 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--n-nodes", type=int,
                    help="node count while the colony is small (default 2000)")
     c.add_argument("--element", help="pressure element: P1 (default) or P2")
+    c.add_argument("--nutrient-length", type=float, metavar="ELL",
+                   help="nutrient limitation: the penetration length ell in cell lengths "
+                   "(growth exp(-lam p) f(c), Laplace c = g / ell^2, c = 1 on the edge; "
+                   "default: none)")
+    c.add_argument("--monod-k", type=float, metavar="K",
+                   help="with --nutrient-length: Monod half-saturation K, f(c) = (1 + K) c / "
+                   "(K + c) (default inf: f(c) = c)")
 
     from particles.config import SOLVERS
 
@@ -528,7 +536,8 @@ def _dispatch(args) -> int:
                  "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
                  "output_every": _finite("output-every", args.output_every),
                  "element": args.element, "strains": args.strains, "layout": args.layout,
-                 "max_hours": _finite("max-hours", args.max_hours)}
+                 "max_hours": _finite("max-hours", args.max_hours),
+                 "nutrient_length": args.nutrient_length, "monod_k": args.monod_k}
         handoff = _handoff_options(args, flags)
         config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
         _check_layout(config)

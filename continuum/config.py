@@ -140,6 +140,16 @@ class Config:
         ``core:R1``, ``sector:THETA[,DIRECTION]``, ``mixture:F0,F1``, ``polygon:FILE.csv``),
         parsed by continuum.strains.parse_layout; what ``Simulation`` uses when not given
         ``layout=``. None: given to ``Simulation``, or one strain.
+    nutrient_length : float or None
+        ell, the nutrient's penetration length in cell lengths (model.md, "Nutrient
+        limitation"): growth g = exp(-lam p) f(c), Laplace c = g / ell^2 in the colony, c = 1 on
+        its edge (a well-mixed reservoir), so that c = 1 - p / ell^2 (continuum.pressure solves
+        it); the nodal field ``c`` of the frames. None (the default): no nutrient limitation,
+        the model as before, bit for bit.
+    monod_k : float or None
+        K > 0, the Monod half-saturation level over the reservoir's:
+        f(c) = (1 + K) c / (K + c) (continuum.growth.uptake). None (or inf, stored as None):
+        first order, f(c) = c. Only with ``nutrient_length``.
     """
 
     lam: float
@@ -166,11 +176,22 @@ class Config:
     max_hours: float | None = None
     strains: tuple = ()
     layout: str | None = None
+    nutrient_length: float | None = None
+    monod_k: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
             object.__setattr__(self, "strains", as_strains(self.strains))
+        if isinstance(self.monod_k, float) and math.isinf(self.monod_k) and self.monod_k > 0:
+            object.__setattr__(self, "monod_k", None)  # first order, one spelling
         self.validate()
+
+    @property
+    def nutrient(self) -> tuple[float, float] | None:
+        """(ell, K) of the nutrient (K = inf: first order), or None without nutrients."""
+        if self.nutrient_length is None:
+            return None
+        return self.nutrient_length, math.inf if self.monod_k is None else self.monod_k
 
     def validate(self) -> None:
         """Check the values; raises ValueError with a one-line message (called when made).
@@ -196,6 +217,7 @@ class Config:
                 why = _REMOVED.get(name, {}).get(v)
                 raise ValueError(f"{name} must be {what}, got {v!r}"
                                  + (f" ({v} was removed: {why})" if why else ""))
+        self._check_nutrient()
         if self.layout is not None:
             if len(self.strains) < 2:
                 raise ValueError(f"layout {self.layout!r} needs two or more strains")
@@ -208,6 +230,25 @@ class Config:
                     f"radius {self.radius} is smaller than the initial radius {r_init:.6g}"
                 )
         self._check_critical_size(polygon)
+
+    def _check_nutrient(self) -> None:
+        """The nutrient's fields (one line each): ell > 0 and finite, K > 0, with lam >= 0."""
+        ell, K = self.nutrient_length, self.monod_k
+        if ell is None:
+            if K is not None:
+                raise ValueError(f"monod_k = {K:g} needs nutrient_length (the nutrient's "
+                                 "penetration length ell): without it there is no nutrient")
+            return
+        if not (math.isfinite(ell) and ell > 0):
+            raise ValueError(f"nutrient_length must be a positive finite number (cell lengths), "
+                             f"got {ell!r}; leave it unset for no nutrient limitation")
+        if K is not None and not K > 0:
+            raise ValueError(f"monod_k must be positive (inf: first order), got {K!r}")
+        if self.lam < 0:
+            raise ValueError(f"nutrients need lam >= 0, got lam = {self.lam:g}")
+        if self.strains:
+            raise ValueError("nutrients with strains are not supported yet in the continuum: "
+                             "give one or the other")
 
     def _check_critical_size(self, polygon: np.ndarray) -> None:
         """Refuse a disc's goal at or beyond the critical radius (lam < 0, one strain).
@@ -240,8 +281,11 @@ class Config:
     def type_mismatch(cls, name: str, value) -> str | None:
         """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
 
-        The type is the field's annotation (runfiles.type_mismatch).
+        The type is the field's annotation (runfiles.type_mismatch); ``monod_k`` also takes
+        inf (first order, stored as None).
         """
+        if name == "monod_k" and value == math.inf and not isinstance(value, bool):
+            return None
         return type_mismatch(cls.__dataclass_fields__[name].type, value)
 
     def initial_boundary(self) -> np.ndarray:

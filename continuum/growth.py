@@ -25,7 +25,8 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["LN2", "growth_rate", "mean_length", "ring_index", "uptake", "uptake_slope"]
+__all__ = ["LN2", "growth_rate", "mean_length", "ring_index", "uptake", "uptake_slope",
+           "nutrient_level", "nutrient_factor"]
 
 LN2 = math.log(2.0)
 """ln 2: the growth phase of one cell cycle (length 1 to 2)."""
@@ -68,6 +69,30 @@ def uptake_slope(c: ArrayLike, K: float) -> NDArray:
     if math.isinf(K):
         return np.ones_like(c)
     return (1.0 + K) * K / (K + c) ** 2
+
+
+def nutrient_level(p: ArrayLike, ell: float) -> NDArray:
+    """The nutrient c = 1 - p / ell^2 of a colony fed at its edge, at least 0.
+
+    With supply at the edge, p + ell^2 c is harmonic in the colony (-Laplace p = g,
+    ell^2 Laplace c = g) and ell^2 on its edge, so p = ell^2 (1 - c) for every lam, K and shape
+    (model.md, "Exact solutions with nutrients", 2); on a mesh too, the two fields sharing one
+    discretisation. c >= 0 where the solution is (p <= ell^2); the bound keeps Newton's iterates
+    in the model's range.
+    """
+    return np.maximum(1.0 - np.asarray(p, dtype=float) / (ell * ell), 0.0)
+
+
+def nutrient_factor(p: ArrayLike, ell: float, K: float) -> tuple[NDArray, NDArray]:
+    """(f(c), -d f(c) / dp) at c = :func:`nutrient_level` (p): the nutrient's factor of g.
+
+    g = exp(-lam p) f(c) with c = 1 - p / ell^2, so -df/dp = f'(c) / ell^2 >= 0 (0 where c is
+    bounded at 0): the source stays monotone in p, and Newton's Jacobian has its slope
+    (continuum.pressure).
+    """
+    c = nutrient_level(p, ell)
+    slope = np.where(c > 0.0, uptake_slope(c, K) / (ell * ell), 0.0)
+    return uptake(c, K), slope
 
 
 def mean_length(G: ArrayLike, phase0: float = 0.0) -> NDArray:

@@ -84,16 +84,21 @@ def _check_finite(name: str, values) -> None:
         raise ValueError(f"refusing to write non-finite values in {name}")
 
 
+#: Config fields of the model's extensions, written to config.json only when set.
+OPTIONAL_FIELDS = ("strains", "layout", "nutrient_length", "monod_k")
+
+
 def write_config(out: Path, config) -> Path:
     """Write config.json with the dataclass fields of ``config``.
 
-    An empty ``strains`` and a None ``layout`` (one strain) are left out, so a one-strain run
-    writes the file it wrote before strains existed (reading it back gives the same Config).
+    The fields of a model extension left at their default (OPTIONAL_FIELDS: an empty
+    ``strains``, no ``layout``, no nutrient) are left out, so a run without it writes the file
+    it wrote before the extension existed (reading it back gives the same Config).
     """
     path = Path(out) / "config.json"
     fields = dataclasses.asdict(config)
-    for name in ("strains", "layout"):  # a one-strain run's file as before strains existed
-        if name in fields and not fields[name]:
+    for name in OPTIONAL_FIELDS:
+        if name in fields and fields[name] in ((), [], None):
             del fields[name]
     path.write_text(json.dumps(fields, indent=2) + "\n")
     return path

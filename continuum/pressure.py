@@ -39,6 +39,14 @@ edge node the mean of its vertices'), and the Jacobian's part lam g becomes the 
 v = g; a node of a single strain whose lam_i is the largest has v = g bit for bit, so a
 colony of identical strains in a layout of pure regions computes the one-strain run's bits.
 
+Nutrients (``nutrient`` = (ell, K); model.md, "Nutrient limitation"): fed at the colony's edge,
+the nutrient is c = 1 - p / ell^2 exactly (p + ell^2 c is harmonic and ell^2 on the edge; on the
+mesh too, since both fields share this discretisation), so the coupled pair -Laplace p = g,
+ell^2 Laplace c = g is the one scalar problem -Laplace p = exp(-lam p) f(1 - p / ell^2)
+(continuum.growth.nutrient_factor), solved by the same Newton iteration: the source is still
+monotone in p, and its slope -dg/dp = lam g + exp(-lam p) f'(c) / ell^2 enters the Jacobian as
+``slope`` v, ``slope`` = lam + 1 / ell^2.
+
 Non-convergence (lam < 0 beyond the critical size, where ``-Laplace p = |lam|^{-1} ...`` has no
 solution, or non-finite values) raises ``PressureDivergence``.
 """
@@ -53,7 +61,7 @@ import scipy.sparse as sp
 from numba import njit
 
 from continuum.fem import LagrangeSpace, Pattern, check_element
-from continuum.growth import growth_rate
+from continuum.growth import growth_rate, nutrient_factor
 from continuum.strains import mixed_growth, slope_scale
 
 __all__ = [
@@ -418,6 +426,7 @@ class PressureSolver:
         krylov_rtol: float = 1e-10,
         reuse_factor: int = 25,
         strains: tuple | None = None,
+        nutrient: tuple[float, float] | None = None,
     ):
         if not np.isfinite(lam):
             raise ValueError(f"lam must be finite, got {lam}")
@@ -433,6 +442,10 @@ class PressureSolver:
         if self.strains is not None and self.lam != slope_scale(self.strains):
             raise ValueError(f"with strains lam must be their largest lam_i, "
                              f"{slope_scale(self.strains)!r}, got {lam!r}")
+        self.nutrient = None if nutrient is None else (float(nutrient[0]), float(nutrient[1]))
+        #: The scale of the source's slope in Newton's Jacobian: lam, or with nutrients
+        #: lam + 1 / ell^2 (positive also at lam = 0).
+        self.slope = self.lam if nutrient is None else self.lam + 1.0 / self.nutrient[0] ** 2
         self.fractions: np.ndarray | None = None
         self.assembler: P1Assembler | None = None
         self.space = None
@@ -482,12 +495,19 @@ class PressureSolver:
         """The source g(p) at the degrees of freedom and its scaled slope v = -g'(p) / lam.
 
         One strain: g = v = exp(-lam p) (continuum.growth.growth_rate); strains: the
-        mixture's (continuum.strains.mixed_growth).
+        mixture's (continuum.strains.mixed_growth). With nutrients (``nutrient`` = (ell, K)):
+        g f(c) and its slope, v = (lam v0 f + g0 (-df/dp)) / ``slope``
+        (continuum.growth.nutrient_factor).
         """
         if self.strains is None:
             g = growth_rate(p, self.lam)
-            return g, g
-        return mixed_growth(p, self.fractions, self.strains)
+            v = g
+        else:
+            g, v = mixed_growth(p, self.fractions, self.strains)
+        if self.nutrient is None:
+            return g, v
+        f, df = nutrient_factor(p, *self.nutrient)
+        return g * f, (self.lam * v * f + g * df) / self.slope
 
     def amg_state(self) -> np.ndarray | None:
         """CSR data (on the space's pattern) of the matrix the AMG hierarchy was built from.
@@ -624,7 +644,7 @@ class PressureSolver:
             if it >= 3 and st.history[-1] > 0.9 * st.history[-2] and st.history[-1] > 1e-3:
                 break  # stagnating far from the solution
             t0 = time.perf_counter()
-            Jd = ops.K_data + (0.5 * lam) * ops.M_data * (v[S.rows] + v[S.indices])
+            Jd = ops.K_data + (0.5 * self.slope) * ops.M_data * (v[S.rows] + v[S.indices])
             J = S.matrix(S.dirichlet(Jd))
             st.time_assembly += time.perf_counter() - t0
             try:

@@ -114,13 +114,13 @@ def initial_sizes(config: Config, n: int
 
 
 def _solver(config: Config) -> PressureSolver:
-    """The pressure solver of ``config``: its element, and its strains when it has some.
+    """The pressure solver of ``config``: its element, its strains or its nutrient.
 
     With strains its lam is the largest lam_i (continuum.strains.slope_scale; ``lam`` is the
     one strain's).
     """
     if not config.strains:
-        return PressureSolver(config.lam, config.element)
+        return PressureSolver(config.lam, config.element, nutrient=config.nutrient)
     return PressureSolver(slope_scale(config.strains), config.element, strains=config.strains)
 
 
@@ -254,6 +254,7 @@ class Simulation:
             return
         self.solver = _solver(config)
         self.state = initial_state(config) if state is None else state.copy()
+        self.state.nutrient_length = config.nutrient_length
         initial_fractions(config, self.state, layout)
         self._set_mesh()
         self._solve_flow()
@@ -265,6 +266,7 @@ class Simulation:
         """Continue from a loaded state: the solver's topology and AMG hierarchy rebuilt."""
         self.solver = _solver(self.config)
         self.state, self.history = state, history
+        self.state.nutrient_length = self.config.nutrient_length
         self._set_mesh()
         self.solver.restore_amg(amg)
 

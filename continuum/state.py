@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from continuum import mesh
-from continuum.growth import mean_length
+from continuum.growth import mean_length, nutrient_level
 from continuum.sizes import CharacteristicSizes, DeltaSizes
 from continuum.strains import phase_areas
 
@@ -99,6 +99,9 @@ class State:
         (``Config.strains`` empty).
     G_strains : ndarray (N, S) or None
         Growth phase G_i = int g_i dt of each strain, g_i = a_i exp(-lam_i p) (None with phi).
+    nutrient_length : float or None
+        ell of ``Config.nutrient_length`` (set by the simulation): the nodal nutrient
+        c = 1 - p / ell^2 is a field (continuum.growth.nutrient_level). None: no nutrient.
     """
 
     points: np.ndarray
@@ -121,6 +124,7 @@ class State:
     timings: dict = field(default_factory=lambda: dict.fromkeys(TIMING_STAGES, 0.0))
     phi: np.ndarray | None = None
     G_strains: np.ndarray | None = None
+    nutrient_length: float | None = None
 
     def set_mesh(self, points: np.ndarray, triangles: np.ndarray, n_boundary: int,
                  h: float) -> None:
@@ -157,7 +161,7 @@ class State:
 
     @property
     def fields(self) -> dict[str, np.ndarray]:
-        """Nodal fields (new arrays): p, u, G, mean_length and the moments of Psi.
+        """Nodal fields (new arrays): p, u, G, mean_length and the moments of Psi (and c).
 
         mean_length_psi, length_std_psi, number, total_length: see the module docstring;
         number and total length are per current area (Psi moments times exp(-G)). With strains,
@@ -176,6 +180,8 @@ class State:
             "number": number * stretch,
             "total_length": total * stretch,
         }
+        if self.nutrient_length is not None:
+            out["c"] = nutrient_level(self.p, self.nutrient_length)
         if self.phi is not None:
             for i in range(self.phi.shape[1]):
                 out[f"phi_{i}"] = self.phi[:, i].copy()
