@@ -50,7 +50,7 @@ def test_stress_and_monod_uptake_follow_the_radial_reference():
 
 @pytest.mark.parametrize("shape", ["ellipse:4,2", "rectangle:6,3"])
 def test_the_nutrient_equation_holds_on_other_shapes(shape):
-    """The nutrient c = 1 - p / ell^2 solves ell^2 Laplace c = g, c = 1 on the edge, on the mesh itself.
+    """On the mesh itself c = 1 - p / ell^2 solves ell^2 Laplace c = g, c = 1 on the edge.
 
     The discrete nutrient problem assembled on the pressure's operators and solved directly
     for the source g of the solve gives c to the Newton tolerance; and c at fixed points
