@@ -11,6 +11,7 @@
                      [--fill-orientation tangent|rows] [--seed S] [--dt DT]
                      [--step-control overlap|fixed|cost] [--division-noise EPS]
                      [--solver bbpgd|apgd|bbpgd-cuda] [--threads N] [--change-step-policy]
+                     [--nutrient-length ELL [--monod-k K]]
                      [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
@@ -256,6 +257,13 @@ def _common(p: argparse.ArgumentParser, default_out: str, output_every: str) -> 
     stop.add_argument("--time", type=float,
                       help="stop at time T, in growth times (the e-folding time of a cell's "
                       "length; the colony starts at t = 0)")
+    p.add_argument("--nutrient-length", type=float, metavar="ELL",
+                   help="nutrient limitation: the penetration length ell in cell lengths "
+                   "(growth exp(-lam sigma) f(c), Laplace c = g / ell^2, c = 1 at the edge; "
+                   "default: none)")
+    p.add_argument("--monod-k", type=float, metavar="K",
+                   help="with --nutrient-length: Monod half-saturation K, f(c) = (1 + K) c / "
+                   "(K + c) (default inf: f(c) = c)")
     p.add_argument("--out", default=default_out, help=f"output folder (default {default_out})")
     p.add_argument("--overwrite", action="store_true",
                    help="replace an existing output folder (default: refuse)")
@@ -324,13 +332,6 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--n-nodes", type=int,
                    help="node count while the colony is small (default 2000)")
     c.add_argument("--element", help="pressure element: P1 (default) or P2")
-    c.add_argument("--nutrient-length", type=float, metavar="ELL",
-                   help="nutrient limitation: the penetration length ell in cell lengths "
-                   "(growth exp(-lam p) f(c), Laplace c = g / ell^2, c = 1 on the edge; "
-                   "default: none)")
-    c.add_argument("--monod-k", type=float, metavar="K",
-                   help="with --nutrient-length: Monod half-saturation K, f(c) = (1 + K) c / "
-                   "(K + c) (default inf: f(c) = c)")
 
     from particles.config import SOLVERS
 
@@ -554,7 +555,8 @@ def _dispatch(args) -> int:
                  "division_noise": _finite("division-noise", args.division_noise),
                  "solver": args.solver, "threads": args.threads, "strains": args.strains,
                  "layout": args.layout, "max_hours": _finite("max-hours", args.max_hours),
-                 "output_every": _finite("output-every", args.output_every)}
+                 "output_every": _finite("output-every", args.output_every),
+                 "nutrient_length": args.nutrient_length, "monod_k": args.monod_k}
         config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
         _check_layout(config)
         ENGINES[args.command].run(config, Path(args.out), overwrite=args.overwrite,

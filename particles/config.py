@@ -159,6 +159,16 @@ class Config:
         ``shape`` a record of a state built outside the engine: cases.shapes.initial_state
         draws them (continuum.strains.parse_layout, particles.strains.draw_strains). The
         engine refuses it without the cells' strains (a state with strains or ``layout=``).
+    nutrient_length : float or None
+        ell, the nutrient's penetration length in cell lengths (model.md, "Nutrient
+        limitation"): each cell grows at l exp(-lam sigma) f(c(x_n)), the nutrient solved on a
+        grid each step with c = 1 outside the colony (particles.nutrients). None (the default):
+        no nutrient limitation, the model as before, bit for bit.
+    monod_k : float or None
+        K > 0 of f(c) = (1 + K) c / (K + c); None (or inf, stored as None): f(c) = c.
+    nutrient_grid : float or None
+        The nutrient grid's spacing h in cell lengths; None: min(0.5, ell / 8) (the error is
+        first order in h: the colony's edge is resolved to a node; particles.nutrients).
     """
 
     lam: float
@@ -186,10 +196,15 @@ class Config:
     threads: int | str = "auto"
     strains: tuple = ()
     layout: str | None = None
+    nutrient_length: float | None = None
+    monod_k: float | None = None
+    nutrient_grid: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
             object.__setattr__(self, "strains", as_strains(self.strains))
+        if isinstance(self.monod_k, float) and math.isinf(self.monod_k) and self.monod_k > 0:
+            object.__setattr__(self, "monod_k", None)  # first order, one spelling
         self.validate()
         # a time: saved as a float, never as the integer step count of older configurations
         object.__setattr__(self, "output_every", float(self.output_every))
@@ -217,9 +232,37 @@ class Config:
             v = getattr(self, name)
             if not ok(v):
                 raise ValueError(message(v))
+        self._check_nutrient()
         if self.solver_tol is not None and self.solver_tol > self.tol:
             raise ValueError(f"solver_tol must be in (0, tol = {self.tol:g}], got "
                              f"{self.solver_tol:g}: {_LOOSE_SOLVE}")
+
+    def _check_nutrient(self) -> None:
+        """The nutrient's fields (one line each): ell and h > 0 and finite, K > 0."""
+        ell, K, h = self.nutrient_length, self.monod_k, self.nutrient_grid
+        if ell is None:
+            if K is not None or h is not None:
+                raise ValueError("monod_k and nutrient_grid need nutrient_length (the "
+                                 "nutrient's penetration length ell): without it there is no "
+                                 "nutrient")
+            return
+        if not (math.isfinite(ell) and ell > 0):
+            raise ValueError(f"nutrient_length must be a positive finite number (cell lengths), "
+                             f"got {ell!r}; leave it unset for no nutrient limitation")
+        if K is not None and not K > 0:
+            raise ValueError(f"monod_k must be positive (inf: first order), got {K!r}")
+        if h is not None and not (math.isfinite(h) and 0.05 <= h <= ell):
+            raise ValueError(f"nutrient_grid must be in [0.05, nutrient_length = {ell:g}] cell "
+                             f"lengths, got {h!r}")
+
+    @property
+    def nutrient(self) -> tuple[float, float, float] | None:
+        """(ell, K, h) of the nutrient (K = inf: first order), or None without nutrients."""
+        if self.nutrient_length is None:
+            return None
+        ell = self.nutrient_length
+        return (ell, math.inf if self.monod_k is None else self.monod_k,
+                min(0.5, ell / 8.0) if self.nutrient_grid is None else self.nutrient_grid)
 
     def check_budget(self, initial_radius: float | None = None) -> None:
         """Raise ValueError (one line, with the estimate) for a run this machine cannot do.
@@ -255,8 +298,11 @@ class Config:
     def type_mismatch(cls, name: str, value) -> str | None:
         """What field ``name`` takes (e.g. "a number") when ``value`` is not of its type, else None.
 
-        The type is the field's annotation (runfiles.type_mismatch).
+        The type is the field's annotation (runfiles.type_mismatch); ``monod_k`` also takes
+        inf (first order, stored as None).
         """
+        if name == "monod_k" and value == math.inf and not isinstance(value, bool):
+            return None
         return type_mismatch(cls.__dataclass_fields__[name].type, value)
 
     @property

@@ -59,17 +59,21 @@ HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "m
                    "failed_iterations", "max_rotation", "max_displacement", "main_overlap")
 
 
+#: Config fields of the model's extensions, written to config.json only when set.
+OPTIONAL_FIELDS = ("strains", "layout", "nutrient_length", "monod_k", "nutrient_grid")
+
+
 def write_config(out: Path, config, step: int | None = None,
                  policy: tuple[str, ...] = ()) -> None:
-    """config.json: the run's ``Config`` fields (``strains`` only when given).
+    """config.json: the run's ``Config`` fields (OPTIONAL_FIELDS only when given).
 
     ``step`` given (a run resumed there with a changed step policy): the ``policy`` fields that
     differ from the config.json in ``out`` are appended to its ``step_policy_changes``, a list of
     {"step": step, field: [old, new], ...}, kept with the new fields.
     """
     fields = asdict(config)
-    for name in ("strains", "layout"):  # one strain: the file as before strains existed
-        if name in fields and not fields[name]:
+    for name in OPTIONAL_FIELDS:  # without the extension: the file as before it existed
+        if name in fields and fields[name] in ((), [], None):
             del fields[name]
     path = out / "config.json"
     if step is not None and path.is_file():

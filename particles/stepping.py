@@ -41,6 +41,7 @@ import numpy as np
 from .geometry import Contacts, find_contacts, generalised_forces
 from .growth import grow
 from .neighbours import candidate_pairs
+from .nutrients import nutrient_at_cells, uptake
 from .solvers import BY_NAME, ContactSolveError
 from .state import ParticleState
 from .strains import growth_law
@@ -248,6 +249,8 @@ def step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
     gamma0 = warm_start(keys, *warm)
     t0 = _tick(timers, "update", t0)
     lam, rate = growth_law(config.strains, config.lam, state.strain)
+    if config.nutrient is not None:  # the nutrient's factor f(c_n) of the state at the start
+        rate = rate * nutrient_factor(state, lam, rate, config.nutrient)
     gamma, hist = _solve(solver, spent, c, state.length, dt, lam, gamma0, stol,
                          config.max_iterations, True, rate=rate)
     t0 = _tick(timers, "solver", t0)
@@ -291,6 +294,17 @@ def step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
 MAX_HALVINGS = 4
 """A step that fails (OverlapError or ContactSolveError) is retried as two half steps, up to
 this many times nested (dt / 16), before the error is raised."""
+
+
+def nutrient_factor(state, lam, rate, nutrient: tuple[float, float, float]) -> np.ndarray:
+    """Each cell's f(c_n): the nutrient solved for the state's cells (particles.nutrients).
+
+    The source's growth exp(-lam sigma_n) a_n takes the last contact solve's stress.
+    """
+    ell, K, h = nutrient
+    growth = rate * np.exp(-np.asarray(lam) * state.stress)
+    c = nutrient_at_cells(state.x, state.y, state.length, growth, ell, K, h)
+    return uptake(c, K)
 
 
 def robust_step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
