@@ -74,7 +74,8 @@ ENGINE_ONLY = {
 }
 """Parameters of one engine only: resuming under another step policy (the continuum has none)."""
 
-CONFIG_COMMON = ("lam", "radius", "time", "checkpoint_seconds", "max_hours", "strains")
+CONFIG_COMMON = ("lam", "radius", "time", "checkpoint_seconds", "max_hours", "strains",
+                 "nutrient_length", "monod_k")
 """Config fields of the same name and meaning: the same annotation and default in both."""
 
 CONFIG_OWN_DEFAULT = {"output_every": (1.0, 0.2)}
