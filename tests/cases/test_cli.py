@@ -255,7 +255,8 @@ def test_help_states_the_engine_defaults(engine):
     for action in sub.choices[engine]._actions:
         field = action.dest
         if field not in defaults or field in ("lam", "radius", "time", "init", "shape",
-                                              "threads", "strains", "layout", "max_hours"):
+                                              "threads", "strains", "layout", "max_hours",
+                                              "nutrient_length", "monod_k"):  # None: none, inf
             continue
         stated = re.search(r"(\S+) \(default\)|[(;] ?default:? ([^;,)\s]+)", action.help)
         assert stated, f"--{field}: the help states no default"
