@@ -19,7 +19,7 @@ import numpy as np
 from continuum import mesh, radial, shapes
 from continuum.fem import ELEMENTS
 from continuum.radial import R0
-from continuum.runfiles import check_types, type_mismatch
+from continuum.runfiles import check_nutrient, check_types, type_mismatch
 from continuum.sizes import INITIAL_SIZES, REMOVED_TRANSPORTS, TRANSPORTS
 from continuum.strains import LAM_CAP_WHY, MAX_LAM, as_strains, parse_layout
 
@@ -233,17 +233,9 @@ class Config:
 
     def _check_nutrient(self) -> None:
         """The nutrient's fields (one line each): ell > 0 and finite, K > 0, with lam >= 0."""
-        ell, K = self.nutrient_length, self.monod_k
-        if ell is None:
-            if K is not None:
-                raise ValueError(f"monod_k = {K:g} needs nutrient_length (the nutrient's "
-                                 "penetration length ell): without it there is no nutrient")
+        check_nutrient(self.nutrient_length, self.monod_k)
+        if self.nutrient_length is None:
             return
-        if not (math.isfinite(ell) and ell > 0):
-            raise ValueError(f"nutrient_length must be a positive finite number (cell lengths), "
-                             f"got {ell!r}; leave it unset for no nutrient limitation")
-        if K is not None and not K > 0:
-            raise ValueError(f"monod_k must be positive (inf: first order), got {K!r}")
         if self.lam < 0:
             raise ValueError(f"nutrients need lam >= 0, got lam = {self.lam:g}")
         if self.strains:

@@ -64,8 +64,8 @@ __all__ = ["ENGINE", "CHECKPOINT", "PREVIOUS", "HISTORY", "CHECKSUM", "Checkpoin
            "RESERVE_BYTES", "ensure_space",
            "STOP_SIGNALS", "StopRequest", "WallLimit", "RADIUS_RTOL", "TIME_TOL", "reached",
            "is_number", "FIELD_TYPES", "type_mismatch", "check_types", "check_goal",
-           "require_goal", "check_state_type", "PROGRESS_SECONDS", "goal_of", "ProgressBar",
-           "advance", "drive"]
+           "require_goal", "check_state_type", "check_nutrient", "PROGRESS_SECONDS", "goal_of",
+           "ProgressBar", "advance", "drive"]
 
 log = logging.getLogger(__name__)
 _now = time.monotonic
@@ -552,6 +552,25 @@ def check_goal(radius: float | None, time: float | None) -> None:
     for name, v in (("radius", radius), ("time", time)):
         if v is not None and not (is_number(v) and v > 0):
             raise ValueError(f"{name} must be a positive finite number, got {v!r}")
+
+
+def check_nutrient(ell, K, others: tuple = ()) -> None:
+    """The nutrient's fields of both Configs, one line each (model.md, "Nutrient limitation").
+
+    ``ell`` (``nutrient_length``) None, or positive and finite; ``K`` (``monod_k``) None (first
+    order) or positive; ``K`` and the engine's ``others`` ((name, value) pairs) only with ell.
+    """
+    if ell is None:
+        for name, value in (("monod_k", K), *others):
+            if value is not None:
+                raise ValueError(f"{name} = {value:g} needs nutrient_length (the nutrient's "
+                                 "penetration length ell): without it there is no nutrient")
+        return
+    if not (is_number(ell) and ell > 0):
+        raise ValueError(f"nutrient_length must be a positive finite number (cell lengths), "
+                         f"got {ell!r}; leave it unset for no nutrient limitation")
+    if K is not None and not K > 0:
+        raise ValueError(f"monod_k must be positive (inf: first order), got {K!r}")
 
 
 def check_state_type(state, kind: type, what: str) -> None:

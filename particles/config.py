@@ -16,7 +16,7 @@ from pathlib import Path
 import numba
 
 from .geometry import B
-from .runfiles import check_types, type_mismatch
+from .runfiles import check_nutrient, check_types, type_mismatch
 from .strains import LAM_CAP_WHY, MAX_LAM, as_strains
 
 __all__ = ["Config", "EXECUTION_FIELDS", "FILL_LENGTHS", "FILL_ORIENTATIONS", "REMOVED_SOLVERS",
@@ -239,18 +239,10 @@ class Config:
 
     def _check_nutrient(self) -> None:
         """The nutrient's fields (one line each): ell and h > 0 and finite, K > 0."""
-        ell, K, h = self.nutrient_length, self.monod_k, self.nutrient_grid
+        ell, h = self.nutrient_length, self.nutrient_grid
+        check_nutrient(ell, self.monod_k, (("nutrient_grid", h),))
         if ell is None:
-            if K is not None or h is not None:
-                raise ValueError("monod_k and nutrient_grid need nutrient_length (the "
-                                 "nutrient's penetration length ell): without it there is no "
-                                 "nutrient")
             return
-        if not (math.isfinite(ell) and ell > 0):
-            raise ValueError(f"nutrient_length must be a positive finite number (cell lengths), "
-                             f"got {ell!r}; leave it unset for no nutrient limitation")
-        if K is not None and not K > 0:
-            raise ValueError(f"monod_k must be positive (inf: first order), got {K!r}")
         if h is not None and not (math.isfinite(h) and 0.05 <= h <= ell):
             raise ValueError(f"nutrient_grid must be in [0.05, nutrient_length = {ell:g}] cell "
                              f"lengths, got {h!r}")

@@ -87,8 +87,8 @@ def test_without_nutrients_config_json_is_as_before(tmp_path):
     (dict(nutrient_length=math.inf), "finite"),
     (dict(nutrient_length=math.nan), "finite"),
     (dict(nutrient_length=3.0, monod_k=-1.0), "monod_k must be positive"),
-    (dict(monod_k=1.0), "need nutrient_length"),
-    (dict(nutrient_grid=0.5), "need nutrient_length"),
+    (dict(monod_k=1.0), "monod_k = 1 needs nutrient_length"),
+    (dict(nutrient_grid=0.5), "nutrient_grid = 0.5 needs nutrient_length"),
     (dict(nutrient_length=3.0, nutrient_grid=0.0), "nutrient_grid must be in"),
     (dict(nutrient_length=3.0, nutrient_grid=5.0), "nutrient_grid must be in"),
 ])
