@@ -39,9 +39,30 @@ squares (Bates & Watts 1988, ch. 6), exact for a linear model and the chi-square
 likelihood-ratio interval (c -> 3.84) for large n. Its ends are found by Brent's root finder
 on D in ln lam between points of a logarithmic grid (which also brackets the estimate); an
 end that D does not cross up to lam = 1e8 is reported as infinity (the data do not bound lam).
-The interval assumes independent noise: residuals that are correlated (a lag-1
-autocorrelation beyond 3/sqrt(n), :attr:`ColonyFit.warnings`) mean that R(t) deviates
-systematically from the radial solution, and then the interval is too narrow.
+
+What the radial solution misses of a discrete colony (issue 54; docs/validation.md, "colony
+fit: coverage"). Fitted as above to the project's own particle and continuum colonies (lam
+1e-4 to 0.1, radius 25 to 260), the 95 % interval held the true lam in none of them; with the
+three additions below, all defaults, it holds it in every one:
+
+- Rows of a radius below :data:`MIN_RADIUS` = 10 cell lengths are not fitted (``min_radius``).
+  A colony grown from one cell is a line of rods, then a buckled chain that fills in; its
+  radius stalls meanwhile (half the radial solution's speed between R = 5 and 10), a stage
+  the continuum's disc does not have. Fewer than :data:`MIN_POINTS` rows above it: refused.
+- The residuals are continuous-time AR(1) (``noise="ar1"``): division waves make R(t) step
+  and the residuals correlate over a division time. Their lag-1 correlation rho is an unknown
+  profiled with R_1 (:meth:`_Problem.use_ar1`, the exact Gaussian likelihood), and c has
+  n - p - 1 degrees of freedom.
+- Model discrepancy in the time scale (``tolerance``, :data:`MODEL_TOLERANCE` = 0.1): a
+  discrete colony's edge advances a few per cent slower than the radial solution's at the
+  same lam, which a fit with tau fixed reads as a larger lam (by a factor 1.5 to 3 at R = 25,
+  where lam shows only in the onset of the bend). The interval is the hull of the intervals
+  at tau e^(-0.1), tau and tau e^(+0.1); lam_hat is the one at tau.
+
+``min_radius=0, tolerance=0, noise="independent"`` is the fit of the exact model: its interval
+assumes the radial solution plus independent noise, and residuals that are correlated (a
+lag-1 autocorrelation beyond 3/sqrt(n), :attr:`ColonyFit.warnings`) mean that R(t) deviates
+systematically from the radial solution, and then that interval is too narrow.
 
 The boundary lam = 0 is handled as it is: lam is never negative; when D(0) <= c the interval
 is [0, hi] (``at_boundary``: the data do not exclude growth without stress inhibition). There
@@ -53,6 +74,8 @@ too short.
 residuals drawn with replacement, scaled by sqrt(n / (n - p)), seeded), the percentile
 interval of the refitted lam; slower (one fit per replicate), and at the boundary not to be
 trusted (a percentile interval of an estimate held at lam >= 0 can exclude a true lam = 0).
+It resamples the residuals as independent (the AR(1) model is the profile interval's); the
+rows below ``min_radius`` and the hull over the tau tolerance apply to it as well.
 
 Bad data (:func:`read_series`, :func:`check_series`) is refused with a ValueError of one line
 naming the rows or columns: missing columns, an unreadable file, a ragged row (another number
@@ -162,6 +185,30 @@ about a factor 1000 of E. coli's (the paper's 1e-4 to 0.1 with margin) stays ins
 ECOLI_MAX_RADIUS_UM = 1e4
 """Largest plausible E. coli colony radius (1 cm, a warning beyond): at the paper's late speed
 of 1.3e-2 um/s a colony needs 9 days to reach it."""
+
+MIN_RADIUS = 10.0
+"""Smallest radius fitted, in cell lengths (``min_radius``). A colony grown from one cell is a
+line of rods, then a buckled chain that fills in; its radius (the farthest cell) stalls while
+it does. The particle colonies of this project advance at 0.50 to 0.71 times the radial
+solution's speed between R = 5 and 10 cell lengths, 0.65 to 0.92 between 10 and 15, and within
+about 10 % of it beyond (cases/data/fit_coverage/speeds.csv; docs/validation.md, "colony fit:
+coverage"): below 10 cell lengths (about 400 cells) the colony is not the continuum's disc."""
+
+MODEL_TOLERANCE = 0.1
+"""Model discrepancy (``tolerance``): the interval is the hull of the intervals at the growth
+times tau e^(-0.1), tau and tau e^(+0.1). The radial solution describes a discrete colony's R(t)
+only up to its time scale: the particle colonies' edges advance at 0.87 to 1.06 times the radial
+solution's speed at the same lam over R = 15 to 150 (one band, R = 25 to 30, 0.76 to 1.17:
+a division wave; cases/data/fit_coverage/speeds.csv), and a colony's growth time is itself
+rarely known better than 10 %."""
+
+PSI_START = 6.0
+"""A warm start of the AR(1) unknown psi is clipped to [-6, 6] (rho from 0.0025 to 0.9875):
+beyond, rho's derivative vanishes and Levenberg-Marquardt would not move it."""
+
+RHO_MAX = 0.99
+"""Largest lag-1 autocorrelation of the AR(1) residual model (``noise="ar1"``): a numerical
+guard (the likelihood stays bounded as rho -> 1), rho = RHO_MAX / (1 + e^(-psi))."""
 
 TIME_COLUMNS = ("t", "time")
 RADIUS_COLUMNS = ("radius", "r")
@@ -428,6 +475,36 @@ class _Problem:
         self.floor = self.n * (1e-13 * float(np.max(np.abs(y)))) ** 2
         self._last: NDArray | None = None  # radii of the last evaluation: Newton's start
         self._cache: tuple | None = None
+        self.ar1 = False  # AR(1) residuals, their correlation an unknown (:meth:`use_ar1`)
+        self.k: NDArray | None = None
+
+    def use_ar1(self) -> None:
+        """From now on the residuals are continuous-time AR(1), their correlation profiled.
+
+        The last unknown becomes psi, rho = RHO_MAX / (1 + e^(-psi)) the lag-1 correlation at
+        the median time step; rows i - 1 and i correlate as a_i = rho^(dt_i / median dt)
+        (Ornstein-Uhlenbeck). With the whitened residuals u (Prais-Winsten: e_1, then
+        (e_i - a_i e_(i-1)) / sqrt(1 - a_i^2), independent with the variance of e), -2 ln L
+        with sigma profiled is n ln sum u^2 + sum ln(1 - a_i^2) = n ln sum v^2,
+        v = u prod(1 - a_i^2)^(1/(2n)): still a sum of squares, which Levenberg-Marquardt
+        minimises over (phi[, theta], psi).
+        """
+        steps = np.diff(self.dt)
+        self.k = steps / float(np.median(steps))
+        self.ar1 = True
+        self._cache = None
+
+    @property
+    def n_active(self) -> int:
+        """Number of unknowns besides lam: phi[, theta][, psi]."""
+        return 1 + int(self.free_tau) + int(self.ar1)
+
+    def _scaled(self, e: NDArray, psi: float) -> NDArray:
+        rho = RHO_MAX / (1.0 + math.exp(-psi))
+        a = rho ** self.k
+        s = np.sqrt(1.0 - a * a)
+        u = np.concatenate((e[:1], (e[1:] - a * e[:-1]) / s))
+        return u * math.exp(float(np.sum(np.log(s))) / self.n)
 
     def curve(self, lam: float, phi: float, theta: float, dt: NDArray | None = None) -> NDArray:
         s = (self.dt if dt is None else dt) / (self.T * math.exp(theta))
@@ -458,7 +535,11 @@ class _Problem:
         return R
 
     def residual_jac(self, lam: float, x: NDArray) -> tuple[NDArray, NDArray]:
-        """Residuals and their Jacobian in (phi[, theta]) at fixed lam."""
+        """Residuals and their Jacobian in (phi[, theta][, psi]) at fixed lam.
+
+        With AR(1) residuals (:meth:`use_ar1`) the scaled whitened residuals v, their psi
+        column by central differences.
+        """
         key = (lam, *x)
         if self._cache is not None and self._cache[0] == key:
             return self._cache[1]
@@ -471,7 +552,14 @@ class _Problem:
         cols = [R * (1.0 + w1) / (1.0 + w)]
         if self.free_tau:
             cols.append(-s * R / (1.0 + w))
-        out = (R - self.y, np.column_stack(cols))
+        e, J = R - self.y, np.column_stack(cols)
+        if self.ar1:
+            psi, h = x[-1], 1e-6
+            v = self._scaled(e, psi)
+            Jv = np.column_stack([self._scaled(c, psi) for c in J.T])  # v is linear in e
+            dpsi = (self._scaled(e, psi + h) - self._scaled(e, psi - h)) / (2.0 * h)
+            e, J = v, np.column_stack((Jv, dpsi))
+        out = (e, J)
         self._cache = (key, out)
         return out
 
@@ -485,9 +573,9 @@ class _Problem:
 
     def profile(self, lam: float, x0: NDArray) -> tuple[float, NDArray]:
         """(Q_p(lam), the minimising (phi[, theta])) from the start x0."""
-        x0 = np.asarray(x0, dtype=float)
+        x0 = np.asarray(x0, dtype=float)[: self.n_active]
         sol = optimize.least_squares(
-            lambda x: self.residual_jac(lam, x)[0], x0[:1] if not self.free_tau else x0,
+            lambda x: self.residual_jac(lam, x)[0], x0,
             jac=lambda x: self.residual_jac(lam, x)[1], method="lm", xtol=1e-10, ftol=1e-12,
             gtol=1e-10)
         x = sol.x
@@ -533,6 +621,13 @@ class ColonyFit:
         Maximum-likelihood noise sigma = sqrt(RSS / n) (radius unit).
     tau_minutes : float
         Growth (e-folding) time used, fitted when ``tau_prior_sd`` was given.
+    noise, rho : str, float
+        Residual model ("ar1" or "independent") and the AR(1) lag-1 correlation used (0: none).
+    tolerance : float
+        Model discrepancy in the time scale: the interval is the hull over tau e^(+-tolerance).
+    min_radius, n_dropped : float, int
+        Smallest radius fitted (cell lengths) and the number of rows below it, not fitted
+        (``t``, ``R`` and ``fitted`` hold the fitted rows only).
     """
 
     lam: float
@@ -556,6 +651,11 @@ class ColonyFit:
     fitted: NDArray = field(repr=False)
     threshold: float = field(repr=False)
     q_min: float = field(repr=False)
+    noise: str = "independent"
+    rho: float = 0.0
+    tolerance: float = 0.0
+    min_radius: float = 0.0
+    n_dropped: int = 0
     columns: tuple[str, str] = ("t", "radius")
     source: str = ""
     _prof: _Profile | None = field(default=None, repr=False, compare=False)
@@ -618,11 +718,12 @@ class ColonyFit:
     def warnings(self) -> list[str]:
         """What the interval does not account for, one line each.
 
-        Residuals correlated beyond 3/sqrt(n), and a colony implausible for E. coli
-        (:func:`_implausible_colony`: probably a wrong unit flag).
+        Residuals correlated beyond 3/sqrt(n) when the interval assumed independent noise
+        (``noise="independent"``, or an AR(1) estimate of rho = 0), and a colony implausible
+        for E. coli (:func:`_implausible_colony`: probably a wrong unit flag).
         """
         found = []
-        if self.lag1 > 3.0 / math.sqrt(self.n):
+        if self.rho == 0 and self.lag1 > 3.0 / math.sqrt(self.n):
             found.append(f"the residuals are correlated (lag-1 autocorrelation {self.lag1:.2f}, "
                          f"independent noise: |r| < {3.0 / math.sqrt(self.n):.2f}): R(t) "
                          "deviates systematically from the radial solution, and the interval, "
@@ -636,8 +737,13 @@ class ColonyFit:
         hi = "inf" if math.isinf(self.hi) else f"{self.hi:.3g}"
         return (f"lam = {self.lam:.3g}, {100 * self.level:g} % interval [{self.lo:.3g}, {hi}] "
                 f"({'profile likelihood' if self.method.startswith('profile') else 'bootstrap'}"
-                f"{', reaches lam = 0' if self.at_boundary else ''}), n = {self.n}, "
-                f"sigma = {self.sigma:.3g} {self.radius_unit}")
+                f"{', reaches lam = 0' if self.at_boundary else ''}), n = {self.n}"
+                + (f" (radius >= {self.min_radius:g} cell lengths; {self.n_dropped} "
+                   f"row{'s' * (self.n_dropped != 1)} below not fitted)" if self.n_dropped
+                   else "")
+                + f", sigma = {self.sigma:.3g} {self.radius_unit}"
+                + (f", AR(1) rho = {self.rho:.2f}" if self.rho > 0 else "")
+                + (f", tau +-{100 * self.tolerance:g} %" if self.tolerance > 0 else ""))
 
     def record(self, command: str | None = None) -> dict:
         """The JSON record (``fit.json``)."""
@@ -664,6 +770,16 @@ class ColonyFit:
                       "cell_length_um": self.cell_length_um,
                       "lam": "dimensionless, lam' = tau lam / (xi l0^2)"},
             "n_points": self.n,
+            "min_radius": {"value": self.min_radius, "unit": "cell lengths",
+                           "rows_not_fitted": self.n_dropped,
+                           "meaning": "rows of a smaller radius are not fitted: the few-cell "
+                           "stage the continuum's disc does not describe"},
+            "noise": {"model": self.noise, "rho": self.rho,
+                      "meaning": "continuous-time AR(1) residuals, rho the lag-1 correlation "
+                      "at the median time step (0: independent)"},
+            "tau_tolerance": {"value": self.tolerance,
+                              "meaning": "model discrepancy: the interval is the hull of the "
+                              "intervals at tau e^(-x), tau, tau e^(+x)"},
             "residual_lag1_autocorrelation": self.lag1,
             "warnings": self.warnings,
             "columns": {"time": self.columns[0], "radius": self.columns[1]},
@@ -701,9 +817,16 @@ class _Profile:
         if self.done:
             near = min(self.done, key=lambda m: abs(math.log1p(m * 1e12) - math.log1p(lam * 1e12)))
             start = self.done[near][1]
+            if self.pb.ar1:  # psi saturated at rho -> RHO_MAX (a poor lam) is no start
+                start = np.concatenate((start[:-1], np.clip(start[-1:], -PSI_START, PSI_START)))
         else:
             start = self.x0
         q, x = self.pb.profile(lam, start)
+        if self.pb.ar1:  # the likelihood can have two optima in rho: also from the first rho
+            other = np.concatenate((x[:-1], self.x0[-1:]))
+            q2, x2 = self.pb.profile(lam, other)
+            if q2 < q:
+                q, x = q2, x2
         self.done[lam] = (q, x)
         return q
 
@@ -731,6 +854,18 @@ def _mle(prof: _Profile, grid: NDArray) -> tuple[float, float]:
     return lam, q
 
 
+def _root(dev, a: float, b: float, outer: float) -> float:
+    """Brent's root of ``dev`` in [a, b], or ``outer`` when it does not change sign there.
+
+    ``outer`` is the bracket's end outside the interval (conservative): the profile at an end,
+    re-solved from another start, can land on another optimum than on the grid.
+    """
+    try:
+        return optimize.brentq(dev, a, b, xtol=1e-6)
+    except ValueError:
+        return outer
+
+
 def _interval(prof: _Profile, lam_hat: float, q_min: float, grid: NDArray, c: float
               ) -> tuple[float, float]:
     """Ends of {lam >= 0: Q_p(lam) - q_min <= c}, bracketed on the grid, refined by brentq."""
@@ -746,7 +881,7 @@ def _interval(prof: _Profile, lam_hat: float, q_min: float, grid: NDArray, c: fl
     while m <= LAM_MAX:
         if prof(m) - q_min > c:
             a = math.log(prev) if prev > 0 else math.log(m) - 30
-            hi = math.exp(optimize.brentq(dev, a, math.log(m), xtol=1e-6))
+            hi = math.exp(_root(dev, a, math.log(m), outer=math.log(m)))
             break
         prev = m
         later = [g for g in above if g > m]
@@ -758,14 +893,14 @@ def _interval(prof: _Profile, lam_hat: float, q_min: float, grid: NDArray, c: fl
     prev = lam_hat
     for m in below:
         if prof(m) - q_min > c:
-            return math.exp(optimize.brentq(dev, math.log(m), math.log(prev), xtol=1e-6)), hi
+            return math.exp(_root(dev, math.log(m), math.log(prev), outer=math.log(m))), hi
         prev = m
     # D(0) > c but every grid point below lam_hat is inside: the crossing is below grid[0]
     m = prev
     while m > 1e-300:
         m2 = m / 1e3
         if prof(m2) - q_min > c:
-            return math.exp(optimize.brentq(dev, math.log(m2), math.log(m), xtol=1e-6)), hi
+            return math.exp(_root(dev, math.log(m2), math.log(m), outer=math.log(m2))), hi
         m = m2
     return 0.0, hi
 
@@ -785,6 +920,9 @@ def fit_colony(  # noqa: PLR0913 (the fit's options, all keywords with defaults)
     seed: int = 0,
     level: float = 0.95,
     check: bool = True,
+    min_radius: float | None = None,
+    tolerance: float | None = None,
+    noise: str = "ar1",
 ) -> ColonyFit:
     """Fit the radial solution's R(t) to measured radii: lam with its interval.
 
@@ -812,16 +950,29 @@ def fit_colony(  # noqa: PLR0913 (the fit's options, all keywords with defaults)
         Confidence level of the interval.
     check : bool
         Refuse implausible data first (:func:`check_series`, the unit checks).
+    min_radius : float, optional
+        Rows with a radius below this many cell lengths are not fitted (default
+        :data:`MIN_RADIUS`; 0 keeps every row): the few-cell stage the radial solution does
+        not describe.
+    tolerance : float, optional
+        Model discrepancy: the interval is the hull of the intervals with tau e^(-tolerance),
+        tau and tau e^(+tolerance) (default :data:`MODEL_TOLERANCE`; 0: tau exactly).
+    noise : {"ar1", "independent"}
+        Residual model of the profile interval: continuous-time AR(1) with its lag-1
+        correlation estimated (default), or independent noise.
 
     Returns
     -------
     ColonyFit
         The estimate, its interval and what :func:`write_fit` needs.
     """
+    min_radius = MIN_RADIUS if min_radius is None else min_radius
+    tolerance = MODEL_TOLERANCE if tolerance is None else tolerance
     t = np.asarray(t, dtype=float).ravel()
     R = np.asarray(R, dtype=float).ravel()
     _check_options(tau_minutes, cell_length_um, time_unit, radius_unit, tau_prior_sd,
                    interval, n_boot, level)
+    _check_model_options(min_radius, tolerance, noise)
     if t.shape != R.shape:
         raise ValueError(f"t and R differ in length ({t.size} and {R.size})")
     if check:
@@ -829,31 +980,31 @@ def fit_colony(  # noqa: PLR0913 (the fit's options, all keywords with defaults)
     ln2 = math.log(2.0)
     tau = tau_minutes / ln2 if doubling_time else tau_minutes
     sd = None if tau_prior_sd is None else (tau_prior_sd / ln2 if doubling_time else tau_prior_sd)
-    dt_min = (t - t[0]) * TIME_UNITS[time_unit]
     y = R * RADIUS_UNITS[radius_unit] / cell_length_um
     if check:
-        _check_units(dt_min / tau, y, cell_length_um, radius_unit, time_unit)
-    pb = _Problem(dt_min, y, tau, sd)
-    grid = _grid(y, dt_min / tau)
-    x0 = np.array([math.log(max(y[0], 1e-3)), 0.0])
-    prof = _Profile(pb, x0)
-    with _fit_failure(time_unit, radius_unit):
-        lam_hat, q_min = _mle(prof, grid)
-    _check_identified(lam_hat, time_unit)
-    dof = pb.n - pb.p
-    c = pb.n * math.log1p(float(stats.f.ppf(level, 1, dof)) / dof)
-    with _fit_failure(time_unit, radius_unit):
-        if interval == "profile":
-            lo, hi = _interval(prof, lam_hat, q_min, grid, c)
-            method = (f"profile likelihood: lam >= 0 with n ln(RSS_p(lam)/RSS_min) "
-                      f"{'+ tau prior ' if pb.free_tau else ''}<= n ln(1 + F_{{1,n-p}}"
-                      f"({level:g})/(n-p)) = {c:.4g}, n = {pb.n}, p = {pb.p}")
-        else:
-            lo, hi = _bootstrap(pb, prof, lam_hat, level, n_boot, seed)
-            method = (f"residual bootstrap, {n_boot} replicates (seed {seed}), percentile "
-                      f"interval at {level:g}")
-        x_hat = prof.x(lam_hat)
+        _check_units((t - t[0]) * TIME_UNITS[time_unit] / tau, y, cell_length_um, radius_unit,
+                     time_unit)
+    keep = _kept_rows(y, min_radius, cell_length_um, radius_unit)
+    n_all = t.size
+    t, R, y = t[keep], R[keep], y[keep]
+    dt_min = (t - t[0]) * TIME_UNITS[time_unit]
+    factors = (1.0, math.exp(-tolerance), math.exp(tolerance)) if tolerance > 0 else (1.0,)
+    runs = []
+    for k, factor in enumerate(factors):
+        run = _fit_at(dt_min, y, tau * factor, sd, noise, interval, level, n_boot, seed,
+                      time_unit, radius_unit)
+        if k == 0:
+            _check_identified(run.lam, time_unit)
+        runs.append(run)
+    main = runs[0]
+    pb, prof, lam_hat = main.pb, main.prof, main.lam
+    lo, hi = min(r.lo for r in runs), max(r.hi for r in runs)
     _check_identified(lam_hat, time_unit, lo, hi)
+    method = main.method
+    if tolerance > 0:
+        method += (f"; hull of the intervals at tau e^(-{tolerance:g}), tau, tau e^{tolerance:g} "
+                   f"(model discrepancy: the colony's time scale known to +-{tolerance:g})")
+    x_hat = prof.x(lam_hat)
     theta = x_hat[1] if pb.free_tau else 0.0
     tau_hat = tau * math.exp(theta)
     R1 = math.exp(x_hat[0])
@@ -869,8 +1020,102 @@ def fit_colony(  # noqa: PLR0913 (the fit's options, all keywords with defaults)
         sigma=math.sqrt(float(r @ r) / pb.n) * to_unit, tau_minutes=tau_hat,
         tau_given_minutes=float(tau_minutes), tau_prior_sd=tau_prior_sd,
         doubling_time=doubling_time, cell_length_um=float(cell_length_um), time_unit=time_unit,
-        radius_unit=radius_unit, t=t, R=R, fitted=fitted * to_unit, threshold=c, q_min=q_min,
-        _prof=prof)
+        radius_unit=radius_unit, t=t, R=R, fitted=fitted * to_unit, threshold=main.c,
+        q_min=main.q_min, noise=noise, rho=main.rho, tolerance=float(tolerance),
+        min_radius=float(min_radius), n_dropped=int(n_all - t.size), _prof=prof)
+
+
+@dataclass
+class _Run:
+    """One fit at one tau (:func:`_fit_at`): the estimate, its interval and the profile."""
+
+    pb: _Problem
+    prof: _Profile
+    lam: float
+    q_min: float
+    lo: float
+    hi: float
+    c: float
+    rho: float
+    method: str
+
+
+def _fit_at(  # noqa: PLR0913 (fit_colony's options, passed on)
+        dt_min: NDArray, y: NDArray, tau: float, sd: float | None, noise: str,
+            interval: str, level: float, n_boot: int, seed: int, time_unit: str,
+            radius_unit: str) -> _Run:
+    """The maximum-likelihood lam and its interval at the growth time ``tau`` (model units y).
+
+    With ``noise="ar1"``: the residuals are continuous-time AR(1) with their lag-1
+    correlation rho an unknown profiled like R_1 (:meth:`_Problem.use_ar1`), started from the
+    residuals of the fit with independent noise (their lag-1 autocorrelation with Kendall's
+    small-sample correction + (1 + 3 r)/n); the threshold c then has n - p - 1 degrees of
+    freedom.
+    """
+    pb = _Problem(dt_min, y, tau, sd)
+    grid = _grid(y, dt_min / tau)
+    x0 = np.array([math.log(max(y[0], 1e-3)), 0.0])
+    prof = _Profile(pb, x0)
+    with _fit_failure(time_unit, radius_unit):
+        lam_hat, q_min = _mle(prof, grid)
+    rho = 0.0
+    if noise == "ar1":
+        x = prof.x(lam_hat)
+        r = pb.curve(lam_hat, x[0], x[1] if pb.free_tau else 0.0) - y
+        rr = float(r @ r)
+        lag1 = float(r[1:] @ r[:-1]) / rr if rr > 0 else 0.0
+        start = min(max(lag1 + (1.0 + 3.0 * lag1) / pb.n, 0.05), 0.95) * RHO_MAX
+        pb = _Problem(dt_min, y, tau, sd)
+        pb.use_ar1()
+        x0 = np.array([*x, math.log(start / (RHO_MAX - start))])
+        prof = _Profile(pb, x0)
+        with _fit_failure(time_unit, radius_unit):
+            lam_hat, q_min = _mle(prof, grid)
+        rho = RHO_MAX / (1.0 + math.exp(-prof.x(lam_hat)[-1]))
+    dof = pb.n - pb.p - int(pb.ar1)
+    if dof < 1:
+        raise ValueError(f"too few points: {pb.n} rows fitted, a fit needs at least "
+                         f"{pb.p + 2}")
+    c = pb.n * math.log1p(float(stats.f.ppf(level, 1, dof)) / dof)
+    noise_text = (f"AR(1) residuals, lag-1 correlation {rho:.3g} (profiled)" if pb.ar1 else
+                  "independent residuals")
+    with _fit_failure(time_unit, radius_unit):
+        if interval == "profile":
+            lo, hi = _interval(prof, lam_hat, q_min, grid, c)
+            method = (f"profile likelihood: lam >= 0 with n ln(RSS_p(lam)/RSS_min) "
+                      f"{'+ tau prior ' if pb.free_tau else ''}<= n ln(1 + F_{{1,n-p}}"
+                      f"({level:g})/(n-p)) = {c:.4g}, n = {pb.n}, p = {pb.p}"
+                      f"{' + 1 (rho)' if pb.ar1 else ''}, {noise_text}")
+        else:
+            lo, hi = _bootstrap(pb, prof, lam_hat, level, n_boot, seed)
+            method = (f"residual bootstrap, {n_boot} replicates (seed {seed}), percentile "
+                      f"interval at {level:g}")
+    return _Run(pb, prof, float(lam_hat), float(q_min), float(lo), float(hi), c, rho, method)
+
+
+def _kept_rows(y: NDArray, min_radius: float, cell_length_um: float,
+               radius_unit: str) -> NDArray:
+    """Rows with a radius of at least ``min_radius`` cell lengths; refused if too few remain."""
+    keep = y >= min_radius
+    if keep.sum() < MIN_POINTS:
+        edge = min_radius * cell_length_um / RADIUS_UNITS[radius_unit]
+        raise ValueError(
+            f"too small a colony to fit: {int(keep.sum())} of {y.size} rows have a radius of at "
+            f"least {min_radius:g} cell lengths ({edge:g} {radius_unit}), a fit needs "
+            f"{MIN_POINTS}; below it a colony is a line or a few hundred cells, which the "
+            "continuum's disc does not describe (record the colony longer, or check "
+            "--cell-length-um and --radius-unit)")
+    return keep
+
+
+def _check_model_options(min_radius: float, tolerance: float, noise: str) -> None:
+    """Refuse a negative smallest radius or tolerance, or an unknown noise model."""
+    if not (math.isfinite(min_radius) and min_radius >= 0):
+        raise ValueError(f"min_radius must be a number >= 0 (cell lengths), got {min_radius}")
+    if not (math.isfinite(tolerance) and 0 <= tolerance <= 1):
+        raise ValueError(f"tolerance must lie in [0, 1], got {tolerance}")
+    if noise not in ("ar1", "independent"):
+        raise ValueError(f"noise must be ar1 or independent, got {noise!r}")
 
 
 @contextmanager
@@ -1148,7 +1393,9 @@ def plot_fit(result: ColonyFit, path: str | os.PathLike | BinaryIO) -> None:
     bx.set_ylim(-0.05 * 4 * result.threshold, 4 * result.threshold)
     bx.set_xlabel("lam")
     bx.set_ylabel("Q_p(lam) - min Q_p")
-    bx.set_title(result.method.split(":")[0], fontsize=10)
+    bx.set_title(result.method.split(":")[0] + (
+        f" at tau; interval (red): hull over tau e^(+-{result.tolerance:g})"
+        if result.tolerance > 0 else ""), fontsize=10)
     bx.legend(fontsize=8)
     fig.savefig(path, format="png", dpi=100)
 
