@@ -33,7 +33,8 @@ MAIN_JOB = (
     "colony continuum --lam 1e-2 --radius 40 --out runs/continuum"
 )
 TEST_COMMAND = (
-    "python3 -m venv .venv && . .venv/bin/activate && pip install '.[test]' && python -m pytest -q"
+    "python3 -m venv .venv && . .venv/bin/activate && pip install -c .ci/constraints.txt "
+    "'.[test]' && python -m pytest -q"
 )
 
 def code_blocks(text: str, language: str) -> list[str]:
@@ -83,7 +84,7 @@ def test_setup_commands_first_and_identical_to_ci():
     assert text.index(TEST_COMMAND) < text.index("\n## ", text.index("## Set up"))
     # .ci/run runs the same command (pip quiet there).
     ci = (ROOT / ".ci" / "run").read_text()
-    ci_test = "pip install -q '.[test]' && python -m pytest -q"
+    ci_test = "pip install -q -c .ci/constraints.txt '.[test]' && python -m pytest -q"
     assert ci_test in ci, "the test command of .ci/run changed: keep README's identical"
     assert TEST_COMMAND.endswith(ci_test.replace("pip install -q ", "pip install "))
 
