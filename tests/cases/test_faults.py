@@ -371,7 +371,7 @@ def test_a_huge_set_key_or_value_is_cut_in_the_message(colony, tmp_path):
         status, err = colony("particles", "--lam", "0", "--radius", "3", "--set", item,
                              "--out", str(tmp_path / "s"))
         one_line_error(status, err)
-        assert len(err) < 400 and "..." in err
+        assert len(err) < 600 and "..." in err  # the key cut; the known keys' list stays
 
 
 def test_case_help_and_quiet(capsys):
