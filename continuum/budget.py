@@ -136,7 +136,7 @@ def largest_nodes(config, start: tuple | None = None,
     n_initial = estimate_nodes(area, perimeter, config)
     if radius is not None:
         final_area = max(math.pi * radius * radius, area)
-    elif time is not None and getattr(config, "nutrient_length", None) is not None:
+    elif time is not None and config.nutrient_length is not None:
         final_area = area  # a nutrient-limited colony may grow far slower: no bound is claimed
     elif time is not None:
         lam, growth = _slowest_growth(config)

@@ -151,6 +151,6 @@ def nutrient_at_cells(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: 
         J = ell**2 * L - P_in.T @ sp.diags(weight * uptake_slope(cells, K)) @ P_in
         dc = spsolve(J.tocsc(), -F)
         c += dc
-        if np.max(np.abs(dc)) < NEWTON_TOL:
+        if math.isinf(K) or np.max(np.abs(dc)) < NEWTON_TOL:  # K = inf: F linear, one step
             break
     return np.clip(P_in @ c + P_out_ones, 0.0, 1.0)
