@@ -625,6 +625,9 @@ class ColonyFit:
         Residual model ("ar1" or "independent") and the AR(1) lag-1 correlation used (0: none).
     tolerance : float
         Model discrepancy in the time scale: the interval is the hull over tau e^(+-tolerance).
+    lo_at_tau, hi_at_tau : float
+        The interval at tau itself, where the profile deviance D(lam) crosses ``threshold``
+        (equal to lo, hi when ``tolerance`` is 0).
     min_radius, n_dropped : float, int
         Smallest radius fitted (cell lengths) and the number of rows below it, not fitted
         (``t``, ``R`` and ``fitted`` hold the fitted rows only).
@@ -654,6 +657,8 @@ class ColonyFit:
     noise: str = "independent"
     rho: float = 0.0
     tolerance: float = 0.0
+    lo_at_tau: float = math.nan
+    hi_at_tau: float = math.nan
     min_radius: float = 0.0
     n_dropped: int = 0
     columns: tuple[str, str] = ("t", "radius")
@@ -1022,6 +1027,7 @@ def fit_colony(  # noqa: PLR0913 (the fit's options, all keywords with defaults)
         doubling_time=doubling_time, cell_length_um=float(cell_length_um), time_unit=time_unit,
         radius_unit=radius_unit, t=t, R=R, fitted=fitted * to_unit, threshold=main.c,
         q_min=main.q_min, noise=noise, rho=main.rho, tolerance=float(tolerance),
+        lo_at_tau=float(main.lo), hi_at_tau=float(main.hi),
         min_radius=float(min_radius), n_dropped=int(n_all - t.size), _prof=prof)
 
 
@@ -1377,25 +1383,31 @@ def plot_fit(result: ColonyFit, path: str | os.PathLike | BinaryIO) -> None:
     rx.plot(result.t, result.R - result.fitted, "o", ms=3, color="k")
     rx.set_xlabel(f"t ({result.time_unit})")
     rx.set_ylabel(f"data - fit ({result.radius_unit})")
-    rx.set_title(f"sigma = {result.sigma:.3g} {result.radius_unit}, lag-1 autocorrelation "
-                 f"{result.lag1:.2f}", fontsize=10)
+    rx.set_title(f"sigma = {result.sigma:.3g} {result.radius_unit}, residuals' lag-1 "
+                 f"correlation {result.lag1:.2f}"
+                 + (f" (AR(1) fit {result.rho:.2f})" if result.rho > 0 else ""), fontsize=10)
     lams, dev, log = result.profile_curve()
     bx.plot(lams, dev, ".-", color="C0", ms=3, label="profile deviance D(lam)")
     if log:
         bx.set_xscale("log")
     bx.axhline(result.threshold, color="C3", ls="--", label=f"threshold c = {result.threshold:.3g}")
-    for end in (result.lo, result.hi):
+    hull = result.tolerance > 0
+    for i, end in enumerate((result.lo, result.hi)):
         if math.isfinite(end) and end > 0:
-            bx.axvline(end, color="C3", lw=0.8)
+            bx.axvline(end, color="C3", lw=0.8, label=None if i else (
+                f"interval: hull over tau e^(+-{result.tolerance:g})" if hull else "interval"))
+    if hull:  # the crossings of the curve drawn: the interval at tau alone
+        for i, end in enumerate((result.lo_at_tau, result.hi_at_tau)):
+            if math.isfinite(end) and end > 0:
+                bx.axvline(end, color="C1", lw=0.8, ls="--",
+                           label=None if i else "interval at tau")
     if result.at_boundary:
         d0 = result._prof(0.0) - result.q_min
         bx.axhline(d0, color="C2", ls=":", label=f"D(0) = {d0:.3g}")
     bx.set_ylim(-0.05 * 4 * result.threshold, 4 * result.threshold)
     bx.set_xlabel("lam")
     bx.set_ylabel("Q_p(lam) - min Q_p")
-    bx.set_title(result.method.split(":")[0] + (
-        f" at tau; interval (red): hull over tau e^(+-{result.tolerance:g})"
-        if result.tolerance > 0 else ""), fontsize=10)
+    bx.set_title(result.method.split(":")[0] + (" at tau" if hull else ""), fontsize=10)
     bx.legend(fontsize=8)
     fig.savefig(path, format="png", dpi=100)
 
