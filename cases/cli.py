@@ -2,17 +2,9 @@
 
 ::
 
-    colony continuum --lam LAM (--radius R | --time T) [--shape SHAPE] [--element P1|P2]
-                     [--nutrient-length ELL [--monod-k K]]
-                     [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
-    colony continuum --from-particles RUN_DIR [--alpha A] [--bandwidth H] [--lam LAM]
-                     (--radius R | --time T) [--out DIR] ...
-    colony particles --lam LAM (--radius R | --time T) [--init FILE.csv | --shape SHAPE]
-                     [--fill-orientation tangent|rows] [--seed S] [--dt DT]
-                     [--step-control overlap|fixed|cost] [--division-noise EPS]
-                     [--solver bbpgd|apgd|bbpgd-cuda] [--threads N] [--change-step-policy]
-                     [--nutrient-length ELL [--monod-k K]]
-                     [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
+    colony continuum|particles --lam LAM (--radius R | --time T) [--FIELD VALUE ...]
+                               [--out DIR] [--config FILE.toml] [--set KEY=VALUE ...]
+    colony continuum --from-particles RUN_DIR [--alpha A] [--bandwidth H] (--radius R | ...
     colony case NAME [--scale smoke|medium|paper] [--engines both|continuum] [--out DIR]
                 [--runs DIR] [--scheduler ADDRESS] [--workers N]
     colony case NAME --from-data [--data-set medium|paper] [--out DIR]
@@ -21,8 +13,8 @@ SHAPE (continuum.shapes): circle[:R], ellipse:A,B, rectangle:W,H[,ROUND], star:K
 polygon:FILE.csv, and for particles line:N; the particles fill the outline (cases.shapes).
 
 Every run is configured by one dataclass (``continuum.Config`` / ``particles.Config``), built from
-the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the explicit
-flags; the run writes it back as ``config.json`` next to its results.
+the engine's defaults, then an optional TOML file, then ``--set`` overrides, then the flags (one
+``--field-name`` per field, but those of ``NO_FLAG``); the run writes it back as ``config.json``.
 
 Output folders are never left half-written: a run writes into ``DIR.partial/`` and renames it to
 ``DIR`` only when everything (engine output, ``profile.csv``, the PNG) is written. A stopped
@@ -38,9 +30,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib
+import inspect
 import logging
 import math
 import os
+import re
 import sys
 import time
 import tomllib
@@ -134,7 +128,7 @@ def strain_list(text: str) -> list[list[float]]:
 
 
 FIELD_PARSERS = {"threads": _threads, "strains": strain_list}
-"""``--set`` values of fields whose type is not that of their default (else ``_coerce``)."""
+"""Fields whose type is not that of their default: their flag's and ``--set`` value's parser."""
 
 
 def _coerce(value: str, key: str, mismatch):
@@ -241,55 +235,132 @@ def build_config(cls, toml_file: str | None, sets: list[str], flags: dict):
     return config
 
 
-# --------------------------------------------------------------------------- runs
+# --------------------------------------------------------------------------- engine flags
+
+#: Config fields with no flag (``--config FILE`` or ``--set KEY=VALUE`` give them).
+NO_FLAG = {"continuum": ("initial_radius", "interior_coarsening", "grading", "courant", "q_min",
+                         "stretch", "n_length_cells", "bump_width", "initial_sizes",
+                         "psi_transport", "write_fields", "step_limit", "checkpoint_seconds"),
+           "particles": ("tol", "fill_lengths", "checkpoint_seconds", "max_particles",
+                         "solver_tol", "solver_tol_factor", "contact_margin", "max_passes",
+                         "max_iterations", "nutrient_grid")}
+#: How the help words a default of None or () (what the engine does without a value).
+DEFAULT_WORDS = {"monod_k": "inf", "max_hours": "no limit", "strains": "one strain of --lam",
+                 "shape": "none, one cell", "init": "one cell of length 1 at the origin"}
+#: Help of the engine flags by Config field, or (engine, field): ``{default}`` is the field's
+#: default (DEFAULT_WORDS for None), ``{choices}`` its values (CHOICES), ``{config}`` the Config.
+#: A field not here has the first sentence of its entry in the Config's docstring.
+FLAG_HELP = {
+    "lam": "stress sensitivity lambda, per unit stress (required; or lam in --config / --set)",
+    "radius": "stop when the colony radius reaches R, in birth lengths",
+    "time": "stop at time T, in growth times (e-folding times of a cell's length; t = 0 at start)",
+    "nutrient_length": "nutrient limitation: the penetration length ell in cell lengths (growth "
+                       "exp(-lam sigma) f(c), Laplace c = g / ell^2, c = 1 at the edge; "
+                       "default: {default})",
+    "max_hours": f"pause before H hours of wall: a checkpoint, exit status {PAUSED_STATUS}; the "
+                 "same command resumes (batch jobs: docs/clusters.md; default: {default})",
+    "strains": "strains of the colony, strain 0 first: stress sensitivity and growth factor "
+               "(default 1), e.g. 1e-2,0 (default: {default})",
+    "layout": "initial layout of the strains: core:R1[,R2...], sector:THETA[,DIRECTION] "
+              "(radians; strain 1 in the wedge), mixture:F0,F1[,...] or polygon:FILE.csv[,...] "
+              "(strain i + 1 inside file i; default: {default})",
+    ("continuum", "shape"): "initial shape, sizes in birth lengths: {default} (default, radius "
+                            "sqrt(b/pi) = {config.initial_radius:.2f}: one cell's area), circle:R, "
+                            "ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R] or "
+                            "polygon:FILE.csv",
+    "element": "pressure element: {choices} (default {default})",
+    "init": "initial particles, CSV with columns x,y,theta,length (default: {default})",
+    ("particles", "shape"): "initial shape filled with rods, sizes in birth lengths: circle:R, "
+                            "ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R], "
+                            "polygon:FILE.csv or line:N (default: {default})",
+    "solver": "contact solver: {choices} (default {default}; bbpgd-cuda needs an NVIDIA GPU and "
+              "pip install '.[gpu]')",
+    "threads": "threads of the contact solver: a number or {default} (the default: one thread "
+               "below 2e4 particles, every core above; give 1 when runs share the cores); the "
+               "same result for any number",
+}
+METAVARS = {"nutrient_length": "ELL", "monod_k": "K", "output_every": "T", "max_hours": "H",
+            "strains": "LAM[:A],LAM[:A],..."}
+#: The table of a field's values, in its Config's module (argparse checks a step control).
+CHOICES = {"element": "ELEMENTS", "solver": "SOLVERS", "step_control": "STEP_CONTROLS"}
+
+
+def _first_sentences(cls) -> dict:
+    """Each field's docstring entry to its first full stop: lower case, no markup or code names."""
+    entries = re.findall(r"^(\w+(?:, \w+)*) : .*\n((?:    .*\n)+)",
+                         inspect.cleandoc(cls.__doc__) + "\n", re.MULTILINE)
+    first = {name: " ".join(re.sub(r'``|"', "", text).split()).split(". ")[0].rstrip(".")
+             for names, text in entries for name in names.split(", ")}
+    return {name: re.sub(r"^[A-Z](?=[a-z])|\s\((?:[\w.]+\.\w+(?:; |, )?)+\)",
+                         lambda m: m[0].lower() if m[0][0].isupper() else "", text)
+            for name, text in first.items()}
+
+
+def _config_flags(p: argparse.ArgumentParser, engine: str) -> None:
+    """A flag of each Config field of ``engine`` with one (NO_FLAG); ``--radius | --time``."""
+    cls, docs = ENGINES[engine].config, _first_sentences(ENGINES[engine].config)
+    module = vars(sys.modules[cls.__module__])  # where CHOICES are
+    group = p.add_argument_group(f"configuration ({engine}.Config; also --config, --set)")
+    goal = group.add_mutually_exclusive_group(required=True)
+    for field in (f for f in dataclasses.fields(cls) if f.name not in NO_FLAG[engine]):
+        default = field.default
+        default = format(default, "g") if isinstance(default, float) else default
+        default = DEFAULT_WORDS.get(field.name, "none") if default in (None, ()) else default
+        values = module.get(CHOICES.get(field.name), ())
+        template = FLAG_HELP.get((engine, field.name), FLAG_HELP.get(field.name))
+        text = docs.get(field.name, "").replace("%", "%%") + f" (default {default})"  # as is
+        if template is not None:
+            text = template.format(default=default, choices=", ".join(values), config=cls)
+        choices = None
+        if field.name == "step_control":
+            choices = sorted(values, key=lambda v: v != field.default)  # the default first
+        kind = {"float": float, "int": int}.get(field.type.split(" | ")[0])  # None: a string
+        where = goal if field.name in ("radius", "time") else group
+        where.add_argument("--" + field.name.replace("_", "-"), help=text, choices=choices,
+                           type=FIELD_PARSERS.get(field.name, kind),
+                           metavar=METAVARS.get(field.name))
+
+
+def _engine_parser(sub, engine: str, help: str) -> argparse.ArgumentParser:
+    """The sub-command of an engine: its Config's flags, then those of the run folder."""
+    p = sub.add_parser(engine, help=help)
+    _config_flags(p, engine)
+    run = p.add_argument_group("run folder and output")
+    run.add_argument("--out", default=f"runs/{engine}", help="output folder (default %(default)s)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace an existing output folder (default: refuse)")
+    run.add_argument("--other-engine", action="store_true",
+                     help="resume a stopped run whose checkpoint another version of the engine "
+                     "wrote (default: refuse; grow every leg with the same version)")
+    run.add_argument("--config", help="TOML file of configuration values (default: none)")
+    run.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                     help="override one configuration value (repeatable)")
+    _verbosity(run)
+    return run
+
+
+def _continuum(sub) -> None:
+    run = _engine_parser(sub, "continuum", "2D moving-boundary continuum colony")
+    run.add_argument("--from-particles", metavar="RUN_DIR",
+                     help="start from the final state of a particle run (cases.handoff): its "
+                     "alpha-shape outline and kernel-smoothed size distribution; lam defaults "
+                     "to the particle run's")
+    run.add_argument("--alpha", type=float,
+                     help="with --from-particles: alpha of the outline (default 1 = 2 rod widths)")
+    run.add_argument("--bandwidth", type=float,
+                     help="with --from-particles: Gaussian kernel bandwidth of Psi0 (default 2)")
+
+
+def _particles(sub) -> None:
+    run = _engine_parser(sub, "particles", "growing, dividing sphero-cylinders")
+    run.add_argument("--change-step-policy", action="store_true",
+                     help="resume a checkpoint written with another --dt or --step-control")
 
 
 # --------------------------------------------------------------------------- parser
 
 
-def _common(p: argparse.ArgumentParser, default_out: str, output_every: str) -> None:
-    p.add_argument("--lam", type=float,
-                   help="stress sensitivity lambda >= 0, in inverse stress units (required; "
-                   "or lam in --config / --set)")
-    stop = p.add_mutually_exclusive_group(required=True)
-    stop.add_argument("--radius", type=float,
-                      help="stop when the colony radius reaches R, in birth lengths")
-    stop.add_argument("--time", type=float,
-                      help="stop at time T, in growth times (the e-folding time of a cell's "
-                      "length; the colony starts at t = 0)")
-    p.add_argument("--nutrient-length", type=float, metavar="ELL",
-                   help="nutrient limitation: the penetration length ell in cell lengths "
-                   "(growth exp(-lam sigma) f(c), Laplace c = g / ell^2, c = 1 at the edge; "
-                   "default: none)")
-    p.add_argument("--monod-k", type=float, metavar="K",
-                   help="with --nutrient-length: Monod half-saturation K, f(c) = (1 + K) c / "
-                   "(K + c) (default inf: f(c) = c)")
-    p.add_argument("--out", default=default_out, help=f"output folder (default {default_out})")
-    p.add_argument("--overwrite", action="store_true",
-                   help="replace an existing output folder (default: refuse)")
-    p.add_argument("--output-every", type=float, metavar="T",
-                   help=f"time between output frames, in growth times (default {output_every}; "
-                   "0: the first and last only)")
-    p.add_argument("--max-hours", type=float, metavar="H",
-                   help="pause before H hours of wall have passed: write a checkpoint and exit "
-                   f"with status {PAUSED_STATUS}; the same command resumes (a batch job's "
-                   "walltime, chained jobs: docs/clusters.md; default: no limit)")
-    p.add_argument("--other-engine", action="store_true",
-                   help="resume a stopped run whose checkpoint another version of the engine "
-                   "wrote (default: refuse; grow every leg with the same version)")
-    p.add_argument("--config", help="TOML file of configuration values (default: none)")
-    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="override one configuration value (repeatable)")
-    p.add_argument("--strains", type=strain_list, metavar="LAM[:A],LAM[:A],...",
-                   help="strains of the colony, strain 0 first: stress sensitivity and growth "
-                   "factor (default 1), e.g. 1e-2,0 (default: one strain of --lam)")
-    p.add_argument("--layout", help="initial layout of the strains: core:R1[,R2...], "
-                   "sector:THETA[,DIRECTION] (radians; strain 1 in the wedge), "
-                   "mixture:F0,F1[,...] or polygon:FILE.csv[,...] (strain i + 1 inside file i)")
-    _verbosity(p)
-
-
-def _verbosity(p: argparse.ArgumentParser) -> None:
+def _verbosity(p) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress output, warnings only")
     p.add_argument("--verbose", action="store_true", help="log every stage (INFO, DEBUG)")
 
@@ -311,58 +382,8 @@ def parser() -> argparse.ArgumentParser:
     """The ``colony`` argument parser."""
     top = OneLineParser(prog="colony", description=__doc__.split("\n")[0])
     sub = top.add_subparsers(dest="command", required=True)
-
-    c = sub.add_parser("continuum", help="2D moving-boundary continuum colony")
-    _common(c, "runs/continuum", "1")
-    c.add_argument("--shape", default=None,
-                   help="initial shape, sizes in birth lengths: circle (default, radius "
-                   "sqrt(b/pi) = 0.40: one cell's area), "
-                   "circle:R, ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R] or "
-                   "polygon:FILE.csv")
-    c.add_argument("--from-particles", metavar="RUN_DIR", default=None,
-                   help="start from the final state of a particle run (cases.handoff): its "
-                   "alpha-shape outline and kernel-smoothed size distribution; lam defaults "
-                   "to the particle run's")
-    c.add_argument("--alpha", type=float, default=None,
-                   help="with --from-particles: alpha of the outline (default 1 = 2 rod widths)")
-    c.add_argument("--bandwidth", type=float, default=None,
-                   help="with --from-particles: Gaussian kernel bandwidth of Psi0 (default 2)")
-    c.add_argument("--h-max", type=float,
-                   help="largest boundary mesh spacing (default 0.55; sets the resolution)")
-    c.add_argument("--n-nodes", type=int,
-                   help="node count while the colony is small (default 2000)")
-    c.add_argument("--element", help="pressure element: P1 (default) or P2")
-
-    from particles.config import SOLVERS
-
-    p = sub.add_parser("particles", help="growing, dividing sphero-cylinders")
-    _common(p, "runs/particles", "0.2")
-    p.add_argument("--init", help="initial particles, CSV with columns x,y,theta,length "
-                   "(default: one cell of length 1 at the origin)")
-    p.add_argument("--shape", help="initial shape filled with rods, sizes in birth lengths: "
-                   "circle:R, ellipse:A,B, rectangle:W,H[,ROUND], star:K,EPS[,R], "
-                   "polygon:FILE.csv or line:N (default: none, one cell)")
-    p.add_argument("--fill-orientation", help="rods of --shape: tangent (default): layers "
-                   "along the outline; rows: parallel to x")
-    p.add_argument("--seed", type=int, help="random seed of the division noise (default 0)")
-    p.add_argument("--dt", type=float,
-                   help="time step in growth times (the largest, unless --step-control fixed; "
-                   "default 0.02)")
-    p.add_argument("--step-control", choices=("overlap", "fixed", "cost"),
-                   help="overlap (default): shorten the step where its linearised move leaves "
-                   "overlaps above 0.3 b; "
-                   "fixed: every step --dt; cost: follow the cost of the re-solve passes")
-    p.add_argument("--division-noise", type=float,
-                   help="amplitude eps of the daughters' angle noise theta + eps U(-1, 1), in "
-                   "radians (default 0.02)")
-    p.add_argument("--solver", help="contact solver: " + ", ".join(SOLVERS) + f" (default "
-                   f"{SOLVERS[0]}; {SOLVERS[-1]} needs an NVIDIA GPU and pip install '.[gpu]')")
-    p.add_argument("--threads", type=_threads,
-                   help="threads of the contact solver: a number or auto (the default: one "
-                   "thread below 2e4 particles, every core above; give 1 when runs share the "
-                   "cores); the same result for any number")
-    p.add_argument("--change-step-policy", action="store_true",
-                   help="resume a checkpoint written with another --dt or --step-control")
+    _continuum(sub)
+    _particles(sub)
 
     i = sub.add_parser("info", help="print a run folder's provenance (run.json)")
     i.add_argument("dir", help="run folder (or its stopped DIR.partial)")
@@ -464,12 +485,6 @@ def _lam_list(text: str) -> list[float]:
     return lams
 
 
-def _finite(name: str, value):
-    if value is not None and not math.isfinite(value):
-        raise UsageError(f"--{name} must be finite, got {value}")
-    return value
-
-
 def _positive_hours(hours: float | None) -> float | None:
     """``--max-hours`` of ``colony case``: positive and finite (the engines check their own)."""
     if hours is not None and not (math.isfinite(hours) and hours > 0):
@@ -522,47 +537,31 @@ def _handoff_start(config, run_dir: str, alpha: float, bandwidth: float) -> tupl
     return state, record
 
 
-def _check_layout(config) -> None:
-    """Refuse strains without a layout: the command line has no other way to place them."""
-    if len(config.strains) >= 2 and config.layout is None:
+def _run_engine(args, progress: bool) -> None:
+    """``colony continuum`` / ``colony particles``: the Config of the flags, then the run."""
+    names = [f.name for f in dataclasses.fields(ENGINES[args.command].config)]
+    flags = {name: getattr(args, name) for name in names if hasattr(args, name)}
+    for name, value in flags.items():  # the nutrient's: the Config says (monod_k takes inf)
+        if isinstance(value, float) and not math.isfinite(value) and name not in (
+                "nutrient_length", "monod_k"):
+            raise UsageError(f"--{name.replace('_', '-')} must be finite, got {value}")
+    handoff = _handoff_options(args, flags) if args.command == "continuum" else None
+    config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
+    if len(config.strains) >= 2 and config.layout is None:  # no other way to place them
         raise UsageError(f"{len(config.strains)} strains need --layout to place them at the "
                          "start: core:R1, sector:THETA, mixture:F0,F1 or polygon:FILE.csv")
+    resume = ({"change_step_policy": args.change_step_policy} if args.command == "particles"
+              else {"start": handoff and _handoff_start(config, *handoff)})
+    ENGINES[args.command].run(config, Path(args.out), overwrite=args.overwrite,
+                              progress=progress, other_engine=args.other_engine,
+                              started=args.started, **resume)
+    print(f"{args.command.replace('particles', 'particle')} run written to {args.out}")
 
 
 def _dispatch(args) -> int:
     progress = not args.__dict__.get("quiet", False)
-    if args.command == "continuum":
-        flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
-                 "time": _finite("time", args.time), "shape": args.shape,
-                 "h_max": _finite("h-max", args.h_max), "n_nodes": args.n_nodes,
-                 "output_every": _finite("output-every", args.output_every),
-                 "element": args.element, "strains": args.strains, "layout": args.layout,
-                 "max_hours": _finite("max-hours", args.max_hours),
-                 "nutrient_length": args.nutrient_length, "monod_k": args.monod_k}
-        handoff = _handoff_options(args, flags)
-        config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
-        _check_layout(config)
-        start = None if handoff is None else _handoff_start(config, *handoff)
-        ENGINES[args.command].run(config, Path(args.out), overwrite=args.overwrite,
-                                  progress=progress, other_engine=args.other_engine,
-                                  started=args.started, start=start)
-        print(f"continuum run written to {args.out}")
-    elif args.command == "particles":
-        flags = {"lam": _finite("lam", args.lam), "radius": _finite("radius", args.radius),
-                 "time": _finite("time", args.time), "init": args.init, "seed": args.seed,
-                 "shape": args.shape, "fill_orientation": args.fill_orientation,
-                 "dt": _finite("dt", args.dt), "step_control": args.step_control,
-                 "division_noise": _finite("division-noise", args.division_noise),
-                 "solver": args.solver, "threads": args.threads, "strains": args.strains,
-                 "layout": args.layout, "max_hours": _finite("max-hours", args.max_hours),
-                 "output_every": _finite("output-every", args.output_every),
-                 "nutrient_length": args.nutrient_length, "monod_k": args.monod_k}
-        config = build_config(ENGINES[args.command].config, args.config, args.set, flags)
-        _check_layout(config)
-        ENGINES[args.command].run(config, Path(args.out), overwrite=args.overwrite,
-                                  progress=progress, other_engine=args.other_engine,
-                                  started=args.started, change_step_policy=args.change_step_policy)
-        print(f"particle run written to {args.out}")
+    if args.command in ENGINES:
+        _run_engine(args, progress)
     elif args.command == "info":
         print(describe(Path(args.dir)))
     elif args.command == "plot":
