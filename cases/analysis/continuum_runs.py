@@ -23,7 +23,7 @@ from continuum.strain_rate import strain_rate_fields
 
 from .io import continuum_frames, read_continuum_frame, read_csv
 from .profiles import PSI_FIELDS, field_profile
-from .rings import contour_wavelength, profile_wavelength
+from .rings import Rings, contour_rings, profile_rings, ring_series
 
 #: Strain-rate columns of a continuum profile (the polar components of continuum.strain_rate).
 STRAIN_COLUMNS = ("e_rr", "e_tt", "e_rr_minus_e_tt")
@@ -46,32 +46,29 @@ def mesh_radius(points: np.ndarray, triangles: np.ndarray) -> float:
 
 def continuum_wavelength_series(folder: str | os.PathLike, edge_width: float = 0.05,
                                 **kwargs) -> dict[str, np.ndarray]:
-    """Ring wavelength at every VTU frame of a continuum run.
+    """Rings and both wavelengths at every VTU frame of a continuum run.
 
-    The contours G = k ln 2 of the growth phase (:func:`frame_rings`), wavelength = difference
-    of the two outermost mean ring radii (:func:`contour_wavelength`; lbar peaks exactly at a
-    ring, so this is the distance between the last two peaks of lbar); a frame without G (runs
-    older than the G output) falls back to the peaks of the :func:`field_profile` of lbar
-    (annuli at most `edge_width` wide at the edge, no noise threshold; `kwargs` to
-    :func:`profile_wavelength`). Returns columns t, radius (:func:`mesh_radius`), wavelength
-    (nan: < 2 rings).
+    The contours G = k ln 2 of the growth phase (:func:`frame_rings`) counted by the rule of
+    both models (:func:`contour_rings`: inside the colony, not in the edge layer); a frame
+    without G (runs older than the G output) falls back to the peaks of the
+    :func:`field_profile` of lbar (annuli at most `edge_width` wide at the edge, noise-free;
+    `kwargs` to :func:`profile_rings`). Columns of :func:`ring_series`.
     """
-    ts, Rs, ws = [], [], []
+    rows = []
     for t, path in continuum_frames(folder):
         pts, tri, data = read_continuum_frame(path)
-        ts.append(t)
-        Rs.append(mesh_radius(pts, tri))
-        ws.append(_frame_wavelength(pts, tri, data, edge_width, **kwargs))
-    return {"t": np.array(ts), "radius": np.array(Rs), "wavelength": np.array(ws)}
+        R = mesh_radius(pts, tri)
+        rows.append((t, R, _frame_rings(pts, tri, data, R, edge_width, **kwargs)))
+    return ring_series(rows)
 
 
-def _frame_wavelength(pts: np.ndarray, tri: np.ndarray, data: dict, edge_width: float,
-                      **kwargs) -> float:
-    """Ring wavelength of one frame: its contours of G, else the peaks of its lbar profile."""
+def _frame_rings(pts: np.ndarray, tri: np.ndarray, data: dict, radius: float,
+                 edge_width: float, **kwargs) -> Rings:
+    """The rings of one frame: its contours of G, else the peaks of its lbar profile."""
     if "G" in data:
-        return contour_wavelength(_rings.ring_table(pts, tri, data["G"]))
+        return contour_rings(_rings.ring_table(pts, tri, data["G"]), radius)
     prof = field_profile(pts, tri, {"mean_length": data["mean_length"]}, edge_width=edge_width)
-    return profile_wavelength(prof, noisy=False, **kwargs)
+    return profile_rings(prof, radius, noisy=False, **kwargs)
 
 
 def continuum_profile(points: np.ndarray, triangles: np.ndarray, fields: dict,
@@ -144,16 +141,16 @@ def continuum_rings(folder: str | os.PathLike) -> dict[str, np.ndarray]:
     return frame_rings(continuum_frames(folder)[-1][1])
 
 
-def continuum_wavelength(folder: str | os.PathLike, edge_width: float = 0.05, **kwargs) -> float:
-    """Final ring wavelength of a continuum run.
+def continuum_wavelength(folder: str | os.PathLike, edge_width: float = 0.05, **kwargs) -> Rings:
+    """The final rings of a continuum run, both wavelengths (:class:`Rings`).
 
-    :func:`contour_wavelength` of :func:`continuum_rings`; a run without G in its frames falls
-    back to the peaks of the last frame's lbar profile (as
+    :func:`contour_rings` of :func:`continuum_rings` at the last frame's radius; a run without
+    G in its frames falls back to the peaks of the last frame's lbar profile (as
     :func:`continuum_wavelength_series`).
     """
     folder = Path(folder)
-    if (folder / "rings.csv").is_file():
-        return contour_wavelength(continuum_rings(folder))
     pts, tri, data = read_continuum_frame(continuum_frames(folder)[-1][1])
-    return _frame_wavelength(pts, tri, data, edge_width, **kwargs)
-
+    R = mesh_radius(pts, tri)
+    if (folder / "rings.csv").is_file():
+        return contour_rings(continuum_rings(folder), R)
+    return _frame_rings(pts, tri, data, R, edge_width, **kwargs)

@@ -25,7 +25,7 @@ from particles.measures import centroid, enclosing_radius
 
 from .io import particle_frames, read_csv
 from .profiles import equal_area_annuli, particle_profile
-from .rings import profile_wavelength, ring_coherence, ring_peaks
+from .rings import Rings, count_rings, profile_rings, ring_coherence, ring_series
 from .statistics import central_value, max_value
 
 __all__ = [
@@ -47,25 +47,31 @@ def _radius(frame: dict[str, np.ndarray]) -> float:
 
 def particle_wavelength_series(folder: str | os.PathLike, edge_width: float = 0.5,
                                **kwargs) -> dict[str, np.ndarray]:
-    """Ring wavelength at every trajectory frame of a particle run.
+    """Rings and both wavelengths at every trajectory frame of a particle run.
 
-    :func:`particle_profile` of the frame (annuli at most `edge_width` wide at the edge), noise
-    threshold from the annulus standard errors, distance between the last two peaks of the
-    mean-length profile (:func:`profile_wavelength`, `kwargs` passed on). Returns columns t,
-    radius (:func:`particles.enclosing_radius`), wavelength (nan: < 2 rings).
+    :func:`particle_profile` of the frame (annuli at most `edge_width` wide at the edge) and its
+    rings by the rule of both models (:func:`profile_rings` at the frame's radius
+    :func:`particles.enclosing_radius`, `kwargs` passed on). Columns of :func:`ring_series`.
     """
-    ts, Rs, ws = [], [], []
+    rows = []
     for t, fr in particle_frames(folder):
-        ts.append(t)
         R = _radius(fr)
-        Rs.append(R)
-        if fr["x"].size < 3:
-            ws.append(float("nan"))
-            continue
-        prof = particle_profile(fr["x"], fr["y"], fr["theta"], fr["length"], fr["stress"],
-                                edge_width=edge_width, radius=R)
-        ws.append(profile_wavelength(prof, noisy=True, **kwargs))
-    return {"t": np.array(ts), "radius": np.array(Rs), "wavelength": np.array(ws)}
+        rows.append((t, R, _frame_rings(fr, R, edge_width, **kwargs)))
+    return ring_series(rows)
+
+
+def _frame_profile(frame: dict[str, np.ndarray], radius: float,
+                   edge_width: float) -> dict[str, np.ndarray]:
+    return particle_profile(frame["x"], frame["y"], frame["theta"], frame["length"],
+                            frame["stress"], edge_width=edge_width, radius=radius)
+
+
+def _frame_rings(frame: dict[str, np.ndarray], radius: float, edge_width: float,
+                 **kwargs) -> Rings:
+    """:func:`profile_rings` of one frame's profile (none for fewer than three particles)."""
+    if frame["x"].size < 3:
+        return count_rings(np.empty(0), radius)
+    return profile_rings(_frame_profile(frame, radius, edge_width), radius, **kwargs)
 
 
 def final_particle_profile(folder: str | os.PathLike, growth_window: float = 1.0,
@@ -132,15 +138,13 @@ def profile_central_stress(profile: dict[str, np.ndarray], radius: float) -> dic
 
 
 def particle_growth_series(folder: str | os.PathLike, edge_width: float = 0.5,
-                           min_radius: float = 10.0, min_count: int = 10
-                           ) -> dict[str, np.ndarray]:
+                           min_radius: float = 10.0) -> dict[str, np.ndarray]:
     """Central stress, rings and wavelength of every trajectory frame with radius >= min_radius.
 
     Each frame's :func:`particle_profile` (annuli at most ``edge_width`` wide at the edge);
-    :func:`profile_central_stress` of it; the peaks of its mean-length profile (annuli with at
-    least ``min_count`` particles, noise threshold from their standard errors, as
-    :func:`profile_wavelength`): the outermost peak radius ``outer_ring`` and the
-    ``wavelength`` (difference of the two outermost; nan with fewer peaks). Columns t, radius,
+    :func:`profile_central_stress` of it; its rings by the rule of both models
+    (:func:`profile_rings`): the outermost ring's radius ``outer_ring`` (nan without one) and
+    the ``wavelength`` (the two outermost rings' distance, nan with fewer). Columns t, radius,
     n_particles, central_max, central_fit, central_fit_se, outer_ring, wavelength.
     """
     names = ("t", "radius", "n_particles", "central_max", "central_fit", "central_fit_se",
@@ -150,15 +154,12 @@ def particle_growth_series(folder: str | os.PathLike, edge_width: float = 0.5,
         R = _radius(fr)
         if R < min_radius:
             continue
-        prof = particle_profile(fr["x"], fr["y"], fr["theta"], fr["length"], fr["stress"],
-                                edge_width=edge_width, radius=R)
+        prof = _frame_profile(fr, R, edge_width)
         row = {"t": t, "radius": R, "n_particles": fr["x"].size}
         row |= profile_central_stress(prof, R)
-        keep = prof["count"] >= min_count
-        se = prof["mean_length_std"][keep] / np.sqrt(prof["count"][keep])
-        peaks = ring_peaks(prof["r"][keep], prof["mean_length"][keep], stderr=se)
-        row["outer_ring"] = float(peaks[-1]) if peaks.size else math.nan
-        row["wavelength"] = float(peaks[-1] - peaks[-2]) if peaks.size >= 2 else math.nan
+        rings = profile_rings(prof, R)
+        row["outer_ring"] = float(rings.radii[-1]) if rings.count else math.nan
+        row["wavelength"] = rings.outer_pair
         for k in names:
             out[k].append(row[k])
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}

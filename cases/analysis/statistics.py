@@ -16,7 +16,8 @@ import warnings
 
 import numpy as np
 
-__all__ = ["late_slope", "max_value", "power_law_fit", "ecoli_lambda", "central_value",
+__all__ = ["late_slope", "max_value", "power_law_fit", "power_law_interval", "ecoli_lambda",
+           "central_value",
            "CENTRAL_FRACTION", "seed_spread", "time_at_radius"]
 
 
@@ -66,6 +67,46 @@ def power_law_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
         raise ValueError("need at least two positive pairs with distinct x")
     a, logC = np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)
     return float(a), float(np.exp(logC))
+
+
+def power_law_interval(x: np.ndarray, y: np.ndarray, sd: np.ndarray | None = None,
+                       level: float = 0.95) -> tuple[float, float, float, float]:
+    """Exponent a of y = C x^a with its ``level`` interval: (a, lo, hi, C).
+
+    Weighted least squares on (log x, log y) over the positive, finite pairs, each weighted by
+    1 / s_i^2, s_i = sd_i / y_i the standard error of log y_i. With every ``sd`` given, the
+    standard error of a is sqrt([(X^T W X)^-1]_aa), times sqrt(chi^2 / (n - 2)) where that
+    exceeds 1 (the scatter says more than the errors), and the interval a -+ z se (normal
+    quantile; at least the nominal coverage). Without them (``sd`` None or any nan) the pairs
+    are weighted alike, se from the scatter, chi^2 / (n - 2), and the interval a -+ t_{n-2} se
+    (nan for n = 2).
+    """
+    from scipy import stats
+
+    x = np.asarray(x, dtype=float).ravel()
+    y = np.asarray(y, dtype=float).ravel()
+    s = np.full(x.shape, math.nan) if sd is None else np.asarray(sd, dtype=float).ravel()
+    if not x.shape == y.shape == s.shape:
+        raise ValueError("x, y and sd differ in length")
+    keep = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
+    if keep.sum() < 2 or np.unique(x[keep]).size < 2:
+        raise ValueError("need at least two positive pairs with distinct x")
+    lx, ly, ls = np.log(x[keep]), np.log(y[keep]), s[keep] / y[keep]
+    known = np.isfinite(ls) & (ls > 0)
+    w = 1.0 / ls**2 if known.all() else np.ones(lx.size)
+    X = np.stack([np.ones_like(lx), lx], axis=1)
+    cov = np.linalg.inv(X.T @ (X * w[:, None]))
+    logC, a = cov @ (X.T @ (w * ly))
+    n = lx.size
+    chi2 = float(np.sum(w * (ly - logC - a * lx) ** 2))
+    if known.all():  # the errors set the width, widened where the scatter exceeds them
+        scale = max(1.0, chi2 / (n - 2)) if n > 2 else 1.0
+        q = stats.norm.ppf(0.5 + level / 2)
+    else:  # the scatter alone
+        scale = chi2 / (n - 2) if n > 2 else math.nan
+        q = stats.t.ppf(0.5 + level / 2, n - 2) if n > 2 else math.nan
+    half = q * math.sqrt(cov[1, 1] * scale)
+    return float(a), float(a - half), float(a + half), float(math.exp(logC))
 
 
 def ecoli_lambda(

@@ -14,14 +14,15 @@ For every lam of the scale (Fig 2-4 values and the scaling values, lam = 0 inclu
 - final ring wavelength of both models and of the 1D radial reference (continuum and reference:
   the difference of the two outermost rings G = k ln 2, the contours of the growth phase,
   cases.analysis.continuum_wavelength, and continuum.radial.ring_radii at the continuum's final
-  radius, cases.analysis.exact_wavelength; particles: the last two peaks of the radial
-  mean-length profile), and whether the particle colony has rings at all: the azimuthal
-  coherence C of its final length pattern and its significance z
-  (:func:`cases.analysis.ring_coherence`; z >= analysis.RING_Z: rings);
+  radius, cases.analysis.exact_wavelength; particles: the two outermost significant peaks of the
+  radial mean-length profile), each by the rule of both models (cases.analysis.count_rings:
+  nan unless two rings stand inside the colony, outside the edge layer), and the azimuthal
+  coherence C of the particles' final length pattern with its significance z
+  (:func:`cases.analysis.ring_coherence`, information);
 
 and the power-law exponents fitted against lam (lam > 0, finite values) of the wavelengths and
-maximum stresses, beside the paper's statements; the particle wavelength's over the lam whose
-colony has rings only (elsewhere the peak finder measures noise). Nothing is tuned: every
+maximum stresses with their 95 % intervals, beside the paper's statements, over measured values
+only. Nothing is tuned: every
 number is a measurement of the runs.
 
 ``compute`` writes ``table.csv``, ``exponents.csv`` and ``radius_diff_lam=*.csv`` to
@@ -52,8 +53,7 @@ LATE_FRACTION = 0.2
 
 #: exponent row name -> (table column, the paper's statement)
 EXPONENTS = {
-    "wavelength_particles": ("wavelength_particles", "wavelength ~ lam^(-1/2) (particles: lam "
-                             f"with rings, z >= {A.RING_Z:g})"),
+    "wavelength_particles": ("wavelength_particles", "wavelength ~ lam^(-1/2)"),
     "wavelength_continuum": ("wavelength_continuum", "wavelength ~ lam^(-1/2)"),
     "wavelength_exact": ("wavelength_exact", "wavelength ~ lam^(-1/2)"),
     "max_stress_particles": ("max_stress_particles", "follows the analytic p(0)"),
@@ -139,7 +139,7 @@ def _continuum_row(fc: Path, lam: float) -> dict[str, float]:
         "slope_asymptotic": math.sqrt(2.0 / lam) if lam > 0 else math.nan,
         "max_pressure_continuum": float(hc["max_pressure"][-1]),
         "p0_exact": radial.max_pressure(R_f, lam),
-        "wavelength_continuum": A.continuum_wavelength(fc),
+        "wavelength_continuum": A.continuum_wavelength(fc).outer_pair,
         "wavelength_exact": A.exact_wavelength(lam, R_f),
     }
 
@@ -162,8 +162,8 @@ def _particle_row(fp: Path, fc: Path, lam: float, data: Path) -> dict[str, float
         "max_rel_diff_R_hull_late": float(np.max(np.abs(hull["rel_diff"][late]))),
         "slope_particles": A.late_slope(hp["t"], hp["radius"], LATE_FRACTION),
         "max_stress_particles": A.max_value(pp["stress"]),
-        "wavelength_particles": A.profile_wavelength(
-            A.final_particle_profile(fp, growth_window=0.0), noisy=True),
+        "wavelength_particles": A.profile_rings(
+            A.final_particle_profile(fp, growth_window=0.0), float(hp["radius"][-1])).outer_pair,
         "ring_coherence_particles": coherence,
         "ring_z_particles": z,
     }
@@ -172,23 +172,22 @@ def _particle_row(fp: Path, fc: Path, lam: float, data: Path) -> dict[str, float
 def exponents(table: dict[str, list]) -> dict[str, np.ndarray]:
     """Fitted exponent a of y = C lam^a (lam > 0, finite y) per EXPONENTS row.
 
-    nan if fewer than 2 points. The particle wavelength is fitted over the lam with rings
-    (ring_z_particles >= RING_Z) only.
+    nan if fewer than 2 points. The wavelengths are measured only where two rings count
+    (cases.analysis.count_rings), so every fit is over measured wavelengths only.
 
-    Columns: row (index into EXPONENTS), exponent, prefactor, n_points.
+    Columns: row (index into EXPONENTS), exponent, its 95 % interval lo and hi (from the
+    scatter, cases.analysis.power_law_interval; nan with two points), prefactor, n_points.
     """
     lam = np.asarray(table["lam"], dtype=float)
-    out = {"row": [], "exponent": [], "prefactor": [], "n_points": []}
+    out = {"row": [], "exponent": [], "lo": [], "hi": [], "prefactor": [], "n_points": []}
     for i, (_, (col, _)) in enumerate(EXPONENTS.items()):
         y = np.asarray(table[col], dtype=float)
         ok = (lam > 0) & np.isfinite(y) & (y > 0)
-        if col == "wavelength_particles":
-            ok &= np.asarray(table["ring_z_particles"], dtype=float) >= A.RING_Z
         try:
-            a, C = A.power_law_fit(lam[ok], y[ok])
+            a, lo, hi, C = A.power_law_interval(lam[ok], y[ok])
         except ValueError:
-            a, C = math.nan, math.nan
-        for k, v in zip(out, (i, a, C, int(ok.sum())), strict=True):
+            a, lo, hi, C = (math.nan,) * 4
+        for k, v in zip(out, (i, a, lo, hi, C, int(ok.sum())), strict=True):
             out[k].append(v)
     return {k: np.asarray(v, dtype=float) for k, v in out.items()}
 
@@ -224,12 +223,15 @@ def markdown_table(data: str | Path) -> str:
             f"| {_f(g['wavelength_particles'])} (z {_f(g.get('ring_z_particles', math.nan), 2)})"
             f" / {_f(g['wavelength_continuum'])}"
             f" / {_f(g['wavelength_exact'])} |")
-    lines += ["", "| fitted against lam | exponent | points | paper |", "|---|---|---|---|"]
+    lines += ["", "| fitted against lam (measured values only) | exponent [95 % interval] "
+              "| points | paper |", "|---|---|---|---|"]
     names = list(EXPONENTS)
     for i in range(len(e["row"])):
         name = names[int(e["row"][i])]
-        lines.append(f"| {name} | {_f(float(e['exponent'][i]))} | {int(e['n_points'][i])} "
-                     f"| {EXPONENTS[name][1]} |")
+        interval = (f" [{_f(float(e['lo'][i]))}, {_f(float(e['hi'][i]))}]"
+                    if "lo" in e and math.isfinite(float(e["lo"][i])) else "")
+        lines.append(f"| {name} | {_f(float(e['exponent'][i]))}{interval} "
+                     f"| {int(e['n_points'][i])} | {EXPONENTS[name][1]} |")
     lines.append("")
     lines.append("Paper: wavelength about 5 at lam = 1e-2; late growth linear, "
                  "dR/dt -> sqrt(2/lam).")

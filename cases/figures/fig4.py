@@ -9,17 +9,22 @@
     Data made before the Psi columns existed: the closed form with the band lbar s_G (the
     azimuthal spread s_G of G carried by d lbar / dG = lbar); older still: the annulus mean of
     lbar and its spread;
-(B) ring wavelength against time, continuum (lines): difference of the two outermost rings,
-    the contours G = k ln 2 of the growth phase (cases.analysis.continuum_wavelength_series,
-    continuum.rings), where lbar = 2^frac(G/ln 2) peaks; particles (open circles): distance
-    between the last two peaks of the radial mean-length profile (cases.analysis.ring_wavelength);
+(B) ring wavelength against time, continuum (lines): the two outermost rings' distance, the
+    contours G = k ln 2 of the growth phase (continuum.rings), where lbar = 2^frac(G/ln 2)
+    peaks; particles (open circles): the two outermost significant peaks of the radial
+    mean-length profile; both by one rule (cases.analysis.rings: a wavelength only with two
+    rings inside the colony, outside the edge layer; particle peaks of significance z >=
+    RING_SIGNIFICANCE); filled: the final value with its error bar (:func:`error_bar`);
 (C) final wavelength against lam for both models and the converged 1D radial reference
-    (difference of the two outermost ring radii G(r) = k ln 2 of continuum.radial.ring_radii at
-    the continuum's final radius, the same definition as the continuum's;
-    cases.analysis.exact_wavelength), with the lam^(-1/2)
-    law and fitted exponents; a particle colony without rings (ring coherence
-    z < cases.analysis.RING_Z) is drawn apart and left out of the particle fit (its
-    "wavelength" is peak-finder noise).
+    (continuum.radial.ring_radii at the continuum's final radius, the same rule;
+    cases.analysis.exact_ring_measure), with the lam^(-1/2) law and each model's fitted
+    exponent with its 95 % interval on its measured wavelengths only
+    (cases.analysis.power_law_interval, weighted by the error bars).
+
+``summary.csv`` has both wavelengths of every engine (``wavelength_*``: the two outermost
+rings, the paper's; ``spacing_*``: the mean spacing of the rings in the outer half), their
+spreads (RING_COLUMNS, NOISE_COLUMNS; ``*_seed_sd_particles`` where seeds were measured) and
+the particles' ring coherence ``ring_z_particles`` (information only).
 
 ``rings_continuum_lam=*.csv``: the final ring table of each continuum run (columns of
 continuum.rings.COLUMNS) with ``radius_exact``, the 1D reference's radius of the same ring k at
@@ -45,7 +50,7 @@ from pathlib import Path
 import numpy as np
 
 from cases import analysis as A
-from cases.analysis.rings import exact_rings, exact_wavelength
+from cases.analysis.rings import exact_rings
 from cases.datasets import ensemble_data
 from cases.sweep import ENGINES, compute_case, engine_pairs, scale_config
 
@@ -71,6 +76,21 @@ def compute(scale: str = "smoke", out: str | Path | None = None, **options) -> P
                         out, **options)
 
 
+#: The ring columns of ``summary.csv`` per engine (cases.analysis.rings): the wavelength of
+#: the two outermost rings and the mean spacing in the outer half, each with its
+#: frame-to-frame spread over the last division period (``_sd``), and the number of rings;
+#: the particles add the spread under their annulus noise (``_noise_sd``).
+RING_COLUMNS = ("wavelength", "wavelength_sd", "spacing", "spacing_sd", "rings")
+NOISE_COLUMNS = ("wavelength_noise_sd", "spacing_noise_sd")
+
+
+def summary_names() -> list[str]:
+    """The columns of ``summary.csv``."""
+    return ["lam", *(f"{c}_{e}" for e in ENGINES for c in ("radius", *RING_COLUMNS)),
+            *(f"{c}_particles" for c in NOISE_COLUMNS), "wavelength_exact", "spacing_exact",
+            "ring_z_particles"]
+
+
 def reduce(folders: dict[tuple[str, float], Path], data: Path,
            profile_lams: list[float]) -> Path:
     """Reduce run folders {(engine, lam): folder} to the CSVs of the figure in ``data``.
@@ -80,32 +100,45 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
     """
     data = Path(data)
     lams = sorted({lam for _, lam in folders})
-    rows = {k: [] for k in ("lam", "radius_continuum", "radius_particles",
-                            "wavelength_continuum", "wavelength_particles", "wavelength_exact",
-                            "ring_z_particles")}
+    names = summary_names()
+    rows: dict[str, list] = {k: [] for k in names}
     for lam in lams:
+        row = dict.fromkeys(names, math.nan) | {"lam": lam}
         for engine in ENGINES:
             if (engine, lam) not in folders:
-                rows[f"radius_{engine}"].append(math.nan)
-                rows[f"wavelength_{engine}"].append(math.nan)
                 continue
             w = WAVELENGTH_SERIES[engine](folders[engine, lam])
-            rows[f"radius_{engine}"].append(float(w["radius"][-1]))
-            rows[f"wavelength_{engine}"].append(float(w["wavelength"][-1]))
+            final = A.final_wavelength(w)
+            row[f"radius_{engine}"] = float(w["radius"][-1])
+            for key, col in (("wavelength", "wavelength"), ("mean_spacing", "spacing")):
+                row[f"{col}_{engine}"] = final[key]
+                row[f"{col}_sd_{engine}"] = final[f"{key}_sd"]
+            row[f"rings_{engine}"] = final["rings"]
             if lam in profile_lams:
                 A.write_csv(data / f"wavelength_{engine}_lam={lam:g}.csv", A.thin_rows(w))
-                A.write_csv(data / f"profile_{engine}_lam={lam:g}.csv",
-                            _final_profile(folders[engine, lam], engine))
+            profile = _final_profile(folders[engine, lam], engine)
+            if lam in profile_lams:
+                A.write_csv(data / f"profile_{engine}_lam={lam:g}.csv", profile)
             if engine == "continuum":
                 rings = A.continuum_rings(folders[engine, lam])
                 rings["radius_exact"] = exact_rings(rings, lam, float(w["radius"][-1]))
                 A.write_csv(data / f"rings_continuum_lam={lam:g}.csv", rings, fmt="%.10g")
-        rows["ring_z_particles"].append(A.final_ring_coherence(folders["particles", lam])[1]
-                                        if ("particles", lam) in folders else math.nan)
-        rows["lam"].append(lam)
-        rows["wavelength_exact"].append(exact_wavelength(lam, rows["radius_continuum"][-1]))
+            else:
+                row |= noise_spread(profile, row["radius_particles"])
+                row["ring_z_particles"] = A.final_ring_coherence(folders[engine, lam])[1]
+        exact = A.exact_ring_measure(lam, row["radius_continuum"])
+        row["wavelength_exact"], row["spacing_exact"] = exact.outer_pair, exact.mean_spacing
+        for k in names:
+            rows[k].append(row[k])
     A.write_csv(data / "summary.csv", rows)
     return data
+
+
+def noise_spread(profile: dict[str, np.ndarray], radius: float) -> dict[str, float]:
+    """The particle columns NOISE_COLUMNS: :func:`cases.analysis.ring_uncertainty`."""
+    spread = A.ring_uncertainty(profile, radius)
+    return {"wavelength_noise_sd_particles": spread["outer_pair_sd"],
+            "spacing_noise_sd_particles": spread["mean_spacing_sd"]}
 
 
 #: Ring wavelength at every frame of a run, per engine.
@@ -133,23 +166,37 @@ def _seed_band(ax, ens: Path | None, lam: float, color) -> None:
         ax.plot(pe["r"], pe[q], "-.", color=color, lw=0.8)
 
 
-def _seed_bars(ax, ens: Path) -> None:
-    """The ensemble's 2.5-97.5 % seed range of the final wavelength (lam with rings)."""
-    e = A.read_csv(ens / "summary.csv")
-    if "wavelength_q025" not in e:  # an ensemble of records without frames (ensemble_paper)
-        return
-    pos = (e["lam"] > 0) & (e["ring_z_mean"] >= A.RING_Z)
-    n = int(np.max(e["n_seeds"]))
-    ax.vlines(e["lam"][pos], e["wavelength_q025"][pos], e["wavelength_q975"][pos],
-              color="0.4", lw=3, alpha=0.5, label=f"particles, {n} seeds: 2.5-97.5 %")
+def error_bar(summary: dict[str, np.ndarray], engine: str) -> np.ndarray:
+    """The error bar of a final wavelength: the largest of its spreads present.
+
+    Over the last division period's frames, under the annulus noise and over seeds (0 if none).
+    """
+    cols = [f"wavelength_{k}_{engine}" for k in ("sd", "noise_sd", "seed_sd")]
+    spreads = [np.asarray(summary[c], float) for c in cols if c in summary]
+    if not spreads:
+        return np.zeros(np.shape(summary["lam"]))
+    return np.nan_to_num(np.fmax.reduce(spreads))
+
+
+def slope_label(name: str, lam: np.ndarray, w: np.ndarray, err: np.ndarray | None) -> str:
+    """``name (slope a [lo, hi])`` of the measured wavelengths (A.power_law_interval)."""
+    try:
+        a, lo, hi, _ = A.power_law_interval(lam, w, None if err is None else
+                                            np.where(err > 0, err, np.nan))
+    except ValueError:  # fewer than two measured wavelengths
+        return name
+    if not np.isfinite(lo):
+        return f"{name} (slope {a:.2f})"
+    return f"{name} (slope {a:.2f} [{lo:.2f}, {hi:.2f}])"
 
 
 def plot(data: str | Path, out: str | Path) -> list[Path]:
     """Draw Fig 4 (PNG and PDF in ``out``) from the CSVs in ``data`` only.
 
     With the seed ensemble's data beside ``data`` (as for Fig 3) panel A adds its 2.5-97.5 %
-    seed band of the mean length (dash-dot) and panel C its seed range of the wavelength (lam
-    whose mean ring coherence is at least RING_Z).
+    seed band of the mean length (dash-dot). Panels B and C draw measured wavelengths only
+    (two rings or more, cases.analysis.count_rings) with their error bars (:func:`error_bar`);
+    a particle series written before the rule (no ``rings`` column) is not drawn.
     """
     import matplotlib.pyplot as plt
 
@@ -186,48 +233,47 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                 + ("\ndash-dot: 2.5-97.5 % of the ensemble's seeds" if ens else ""))
     a.legend(fontsize=8)
 
+    s = A.read_csv(data / "summary.csv")
     a = ax[1]
     for lam in _lams(data, "wavelength_continuum"):
         c = colors.get(lam, "k")
         wc = A.read_csv(data / f"wavelength_continuum_lam={lam:g}.csv")
         a.plot(wc["t"], wc["wavelength"], "-", color=c, label=rf"$\lambda$ = {lam:g}")
+        t_end = {"continuum": wc["t"][-1], "particles": wc["t"][-1]}
         wp_path = data / f"wavelength_particles_lam={lam:g}.csv"
         if wp_path.exists():
             wp = A.read_csv(wp_path)
-            a.plot(wp["t"], wp["wavelength"], "o", color=c, mfc="none", ms=3)
+            t_end["particles"] = wp["t"][-1]
+            if "rings" in wp:
+                a.plot(wp["t"], wp["wavelength"], "o", color=c, mfc="none", ms=3)
+        i = np.flatnonzero(s["lam"] == lam)
+        for engine, style in (("continuum", "s"), ("particles", "o")):
+            if i.size and np.isfinite(s[f"wavelength_{engine}"][i[0]]):
+                a.errorbar(t_end[engine], s[f"wavelength_{engine}"][i[0]],
+                           yerr=error_bar(s, engine)[i[0]], fmt=style, color=c, ms=5,
+                           capsize=3)
     a.set(xlabel="t", ylabel="wavelength", yscale="log",
-          title="(B) continuum lines, particles circles")
+          title="(B) continuum lines, particles circles\n"
+                "filled: the final wavelength with its error bar")
     a.legend(fontsize=8)
 
     a = ax[2]
-    s = A.read_csv(data / "summary.csv")
-    rings = s.get("ring_z_particles", np.full(s["lam"].shape, np.inf)) >= A.RING_Z
-    if np.isfinite(s["wavelength_particles"][~rings]).any():
-        a.plot(s["lam"][~rings], s["wavelength_particles"][~rings], "x", color="0.6",
-               label=f"particles, no rings (z < {A.RING_Z:g})")
-    for key, style, label in (("wavelength_particles", "o", "particles"),
-                              ("wavelength_continuum", "s", "continuum"),
-                              ("wavelength_exact", "k.", "radial reference")):
-        lam, w = s["lam"], s[key]
-        if key == "wavelength_particles":
-            lam, w = lam[rings], w[rings]
+    for engine, style in (("particles", "o"), ("continuum", "s")):
+        lam, w, err = s["lam"], s[f"wavelength_{engine}"], error_bar(s, engine)
         if not np.isfinite(w).any():
             continue
-        try:
-            expo, _ = A.power_law_fit(lam, w)
-            label = f"{label} (slope {expo:.2f})"
-        except ValueError:
-            pass
-        a.plot(lam, w, style, mfc="none", label=label)
-    if ens is not None:
-        _seed_bars(a, ens)
+        a.errorbar(lam, w, yerr=err, fmt=style, mfc="none", capsize=3,
+                   label=slope_label(engine, lam, w, err))
+    a.plot(s["lam"], s["wavelength_exact"], "k.",
+           label=slope_label("radial reference", s["lam"], s["wavelength_exact"], None))
     ok = np.isfinite(s["wavelength_exact"]) & (s["wavelength_exact"] > 0)
     if ok.any():
         C = np.exp(np.mean(np.log(s["wavelength_exact"][ok] * np.sqrt(s["lam"][ok]))))
         lg = np.logspace(np.log10(s["lam"].min()), np.log10(s["lam"].max()), 50)
         a.plot(lg, C / np.sqrt(lg), "k--", lw=0.8, label=r"$\propto\lambda^{-1/2}$")
     a.set(xscale="log", yscale="log", xlabel=r"$\lambda$", ylabel="final wavelength",
-          title="(C)")
+          title="(C) two outermost rings, measured only (>= 2 rings);\n"
+                "slopes with their 95 % intervals")
     a.legend(fontsize=8)
     plain_log_ticks(fig)
     fig.tight_layout()

@@ -263,21 +263,21 @@ def _relative(x: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
 
 def _exact_rings(lam: float, R: float) -> tuple[float, float]:
-    """(outermost ring radius, wavelength) of the 1D radial reference at colony radius R."""
-    if lam <= 0:
-        return math.nan, math.nan
-    r = radial.ring_radii(lam, radius=R)
-    outer = float(r[-1]) if r.size else math.nan
-    return outer, float(r[-1] - r[-2]) if r.size >= 2 else math.nan
+    """(outermost ring radius, wavelength) of the 1D radial reference at colony radius R.
+
+    By the rule of both models (cases.analysis.exact_ring_measure).
+    """
+    rings = A.exact_ring_measure(lam, R)
+    return (float(rings.radii[-1]) if rings.count else math.nan), rings.outer_pair
 
 
 def _continuum_numbers(folder: Path, lam: float) -> dict[str, float]:
     """Final numbers of the continuum run and of the 1D radial reference at its radius."""
     hist = A.read_csv(folder / "history.csv")
     R = float(hist["radius"][-1])
-    rings = A.continuum_rings(folder)  # rings.csv, else the contours of the last frame
-    wavelength = A.contour_wavelength(rings)
-    outer = float(np.max(rings["mean_radius"])) if len(rings["mean_radius"]) else math.nan
+    rings = A.contour_rings(A.continuum_rings(folder), R)  # rings.csv, else the last frame
+    wavelength = rings.outer_pair
+    outer = float(rings.radii[-1]) if rings.count else math.nan
     outer_exact, wavelength_exact = _exact_rings(lam, R)
     return {"radius_continuum": R, "t_final_continuum": float(hist["t"][-1]),
             "slope_continuum": A.late_slope(hist["t"], hist["radius"], LATE_FRACTION),

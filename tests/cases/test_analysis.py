@@ -110,7 +110,7 @@ def test_ring_wavelength_of_noisy_cosine_from_particles(w):
     prof = A.radial_profile(xy, {"mean_length": length}, center=np.zeros(2), radius=R,
                             edge_width=0.25)
     se = prof["mean_length_std"] / np.sqrt(prof["count"])
-    lam_w = A.ring_wavelength(prof["r"], prof["mean_length"], stderr=se)
+    lam_w = A.profile_rings(prof, R).outer_pair
     assert abs(lam_w - w) < 0.03 * w
     peaks = A.ring_peaks(prof["r"], prof["mean_length"], stderr=se)
     N = prof["r"].size
@@ -150,11 +150,16 @@ def test_pure_noise_and_short_profiles_give_nan():
     noise = 1.5 + rng.normal(0, 0.02, r.size)
     se = np.full(r.size, 0.02)
     assert A.ring_peaks(r, noise, stderr=se).size == 0
-    assert math.isnan(A.ring_wavelength(r, noise, stderr=se))
-    assert math.isnan(A.ring_wavelength([0.0, 1.0], [1.0, 2.0]))
+    rings = A.profile_rings({"r": r, "f": noise, "f_std": se, "count": np.ones(r.size)}, 50.0,
+                            name="f", min_count=1)
+    assert math.isnan(rings.outer_pair) and rings.reason.startswith("no significant peak")
+    short = A.profile_rings({"r": np.array([0.0, 1.0]), "f": np.array([1.0, 2.0])}, 1.0,
+                            name="f", noisy=False)
+    assert math.isnan(short.outer_pair) and short.reason == "no ring peak"
     one_bump = np.exp(-((r - 25) ** 2) / 4.0)
     assert A.ring_peaks(r, one_bump).size == 1
-    assert math.isnan(A.ring_wavelength(r, one_bump))
+    rings = A.profile_rings({"r": r, "f": one_bump}, 50.0, name="f", noisy=False)
+    assert math.isnan(rings.outer_pair) and rings.reason.startswith("1 ring (r = 25")
 
 
 def test_ring_coherence_is_standard_normal_on_noise_and_large_on_rings():
@@ -191,7 +196,8 @@ def test_ring_peaks_ignores_nan_annuli():
     r = np.linspace(0, 30, 601)
     f = np.cos(2 * np.pi * r / 6.0)
     f[::7] = np.nan
-    assert A.ring_wavelength(r, f, smoothing=0.3) == pytest.approx(6.0, abs=0.01)
+    rings = A.profile_rings({"r": r, "f": f}, 30.0, name="f", noisy=False, smoothing=0.3)
+    assert rings.outer_pair == pytest.approx(6.0, abs=0.01)
 
 
 def test_smooth_profile_is_exact_for_lines_on_nonuniform_samples():
@@ -248,9 +254,9 @@ def test_wavelength_of_exact_radial_profile_matches_ring_spacing(lam, R):
     from continuum import radial
 
     r = np.linspace(0, R, 6001)
-    w = A.ring_wavelength(r, radial.mean_length_profile(lam, r, radius=R))
-    rings = radial.ring_radii(lam, radius=R)
-    assert w == pytest.approx(rings[-1] - rings[-2], rel=0.03)
+    w = A.profile_rings({"r": r, "f": radial.mean_length_profile(lam, r, radius=R)}, R,
+                        name="f", noisy=False).outer_pair
+    assert w == pytest.approx(A.exact_wavelength(lam, R), rel=0.03)
 
 
 def test_csv_round_trip_and_reproducible_gzip(tmp_path):
@@ -336,7 +342,7 @@ def test_continuum_rings_from_rings_csv_or_last_frame(tmp_path):
     from_csv = A.continuum_rings(tmp_path)
     for c in ("k", "mean_radius", "length", "cx"):
         np.testing.assert_allclose(from_csv[c], direct[c], rtol=1e-14, atol=1e-15)
-    assert A.continuum_wavelength(tmp_path) == pytest.approx(1.5, abs=0.01)
+    assert A.continuum_wavelength(tmp_path).outer_pair == pytest.approx(1.5, abs=0.01)
     series = A.continuum_wavelength_series(tmp_path)
     np.testing.assert_array_equal(series["t"], [0.0, 1.0])
     np.testing.assert_allclose(series["wavelength"], 1.5, atol=0.01)
