@@ -16,7 +16,10 @@ both models (cases.analysis.rings):
   nan here;
 - continuum: :func:`cases.analysis.contour_rings` of the final ring table at its radius (the
   frame spread nan likewise);
-- the 1D reference: :func:`cases.analysis.exact_ring_measure` at the continuum's radius.
+- the 1D reference: :func:`cases.analysis.exact_ring_measure` at the continuum's radius;
+
+and the final rings of the radius-260 colonies (``cases/data/colony_260/rings_final.csv``: per
+model its rings, both wavelengths and, for the particles, their spreads under the annulus noise).
 
     python docs/measurements/rings_remeasure.py
 
@@ -98,6 +101,33 @@ def remeasure_crosscheck(data: Path) -> dict[str, list]:
     return table
 
 
+def colony_260_rings(folder: Path) -> dict[str, list]:
+    """Final rings of the radius-260 colonies: particles, continuum and the 1D reference."""
+    prof = A.read_csv(folder / "particles_lam=0.001" / "profile.csv")
+    R_p = float(prof["r"].max())
+    R_c = float(A.read_csv(folder / "continuum_lam=0.001" / "history.csv")["radius"][-1])
+    spread = A.ring_uncertainty(prof, R_p)
+    models = {
+        "particles": (A.profile_rings(prof, R_p), spread),
+        "continuum": (A.contour_rings(A.read_csv(folder / "continuum_lam=0.001" / "rings.csv"),
+                                      R_c), {}),
+        "exact": (A.exact_ring_measure(1e-3, R_c), {}),
+    }
+    out: dict[str, list] = {k: [] for k in ("model", "radius", "rings", "outer_pair",
+                                           "outer_pair_noise_sd", "mean_spacing",
+                                           "mean_spacing_noise_sd", "radii")}
+    for name, (rings, sd) in models.items():
+        row = {"model": name, "radius": rings.radius, "rings": rings.count,
+               "outer_pair": rings.outer_pair,
+               "outer_pair_noise_sd": sd.get("outer_pair_sd", math.nan),
+               "mean_spacing": rings.mean_spacing,
+               "mean_spacing_noise_sd": sd.get("mean_spacing_sd", math.nan),
+               "radii": " ".join(f"{r:.2f}" for r in rings.radii)}
+        for k in out:
+            out[k].append(row[k])
+    return out
+
+
 def _replace(path: Path, columns: dict[str, list]) -> None:
     tmp = path.with_name(path.name + ".partial")
     A.write_csv(tmp, columns)
@@ -115,6 +145,15 @@ def main(argv: list[str] | None = None) -> int:
     table = remeasure_crosscheck(cross)
     _replace(cross / "table.csv", table)
     _replace(cross / "exponents.csv", crosscheck.exponents(table))
+    final = colony_260_rings(DATA / "colony_260")
+    path = DATA / "colony_260" / "rings_final.csv"
+    with path.with_name(path.name + ".partial").open("w") as fh:
+        fh.write(",".join(final) + "\n")
+        for i in range(len(final["model"])):
+            fh.write(",".join(v if isinstance(v, str) else f"{v:.6g}"
+                              for v in (final[k][i] for k in final)) + "\n")
+    path.with_name(path.name + ".partial").replace(path)
+    print(path.read_text())
     print("| lam | particles: outer pair (noise sd, seed sd; seeds) | mean spacing | continuum "
           "| reference |\n|---|---|---|---|---|")
     for i, lam in enumerate(rows["lam"]):
