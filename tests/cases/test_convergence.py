@@ -1,11 +1,12 @@
 """``colony case convergence`` (cases/studies/convergence.py).
 
 1. Observed orders on small continuum cases (as scikit-fem's convergence tests: the fitted slope
-   within a stated band of the expected one), the runs made serially with
-   ``cases.sweep.run_one`` at the smoke sizes: the mesh (R(t), max pressure: 2 +- 0.35; G: at
-   least 0.8, the nodal velocity's O(h)), the time step at a fixed mesh (Heun: 2 +- 0.4, against
-   the smallest courant), the bump width (the transported mean length against its delta limit:
-   1 +- 0.2) and the length cells of the transport by labels (2 +- 0.4).
+   within a stated band of the expected one), the runs of the smoke sizes taken by
+   ``cases.sweep.run_one`` from the runs folder of the smoke scale's sweep (item 2, made once
+   for the module; run_one would make a missing one): the mesh (R(t), max pressure: 2 +- 0.35;
+   G: at least 0.8, the nodal velocity's O(h)), the time step at a fixed mesh (Heun: 2 +- 0.4,
+   against the smallest courant), the bump width (the transported mean length against its
+   delta limit: 1 +- 0.2) and the length cells of the transport by labels (2 +- 0.4).
 2. The smoke scale end to end (``compute`` through the Dask sweep, ``plot``): orders.csv's
    columns and rows, the CSVs behind the curves, the figures.
 3. The exact references of the study: the ellipse's axes from its area moments, the lam = 0
@@ -18,6 +19,7 @@ from __future__ import annotations
 import csv
 
 import numpy as np
+import pytest
 
 from cases import analysis as A
 from cases.studies import convergence as C
@@ -29,6 +31,13 @@ def _family(study: str) -> C.Family:
     return next(f for f in C.families("smoke") if f.study == study)
 
 
+@pytest.fixture(scope="module")
+def smoke(tmp_path_factory):
+    """``compute("smoke")`` once for the module: (its data folder, its runs folder)."""
+    out = tmp_path_factory.mktemp("convergence")
+    return C.compute("smoke", out, n_workers=2), out / "runs"
+
+
 def _runs(fam: C.Family, case, root) -> list:
     cfg = C.SCALES["smoke"]
     folders = []
@@ -38,9 +47,9 @@ def _runs(fam: C.Family, case, root) -> list:
     return folders
 
 
-def test_mesh_orders(tmp_path):
+def test_mesh_orders(smoke):
     fam = _family("mesh")
-    errors = [C.continuum_errors(f) for f in _runs(fam, 1e-2, tmp_path)]
+    errors = [C.continuum_errors(f) for f in _runs(fam, 1e-2, smoke[1])]
     h = [e["h0"] for e in errors]
     assert h[0] > h[1] > h[2]
     for q in ("radius", "max_pressure"):
@@ -49,9 +58,9 @@ def test_mesh_orders(tmp_path):
     assert C.fit_order(h, [e["G"] for e in errors]) > 0.8
 
 
-def test_time_step_order_at_a_fixed_mesh(tmp_path):
+def test_time_step_order_at_a_fixed_mesh(smoke):
     fam = _family("time_step")
-    folders = _runs(fam, 1e-2, tmp_path)
+    folders = _runs(fam, 1e-2, smoke[1])
     runs = [C.continuum_errors(f) for f in folders]
     assert len({r["n_remesh"] for r in runs}) == 1
     diffs = C._continuum_differences(runs, folders)
@@ -61,21 +70,21 @@ def test_time_step_order_at_a_fixed_mesh(tmp_path):
         assert abs(order - 2.0) < 0.4, (q, order, diffs)
 
 
-def test_psi_orders(tmp_path):
+def test_psi_orders(smoke):
     fam = _family("bump_width")
     errors = [C.continuum_errors(f, mask_width=max(fam.values)) for f in _runs(fam, 1e-2,
-                                                                                tmp_path)]
+                                                                                smoke[1])]
     order = C.fit_order(fam.values, [e["mean_length"] for e in errors])
     assert abs(order - 1.0) < 0.2, (order, errors)
     fam = _family("length_cells:characteristics-labels")
-    errors = [C.continuum_errors(f) for f in _runs(fam, 1e-2, tmp_path)]
+    errors = [C.continuum_errors(f) for f in _runs(fam, 1e-2, smoke[1])]
     order = C.fit_order(1.0 / np.asarray(fam.values), [e["mean_length_transport"]
                                                        for e in errors])
     assert abs(order - 2.0) < 0.4, (order, errors)
 
 
-def test_smoke_end_to_end(tmp_path):
-    data = C.compute("smoke", tmp_path, n_workers=2)
+def test_smoke_end_to_end(smoke, tmp_path):
+    data = smoke[0]
     with (data / "orders.csv").open() as fh:
         rows = list(csv.DictReader(fh))
     assert set(C.ORDER_COLUMNS) <= set(rows[0])

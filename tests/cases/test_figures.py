@@ -212,7 +212,21 @@ def test_fig4_reduce_and_plot(fake_runs, tmp_path):
     assert_figures(paths)
 
 
-def test_fig2_reduce_and_plot(fake_runs, tmp_path):
+def _png_only(monkeypatch):
+    """Figures saved as PNG alone (cases.figures.draw.save_figure, imported by each plot)."""
+    from cases.figures import draw
+
+    save = draw.save_figure
+    monkeypatch.setattr(draw, "save_figure",
+                        lambda fig, path, formats=("png",), **kw: save(fig, path, ("png",), **kw))
+
+
+def test_fig2_reduce_and_plot(fake_runs, tmp_path, monkeypatch):
+    """The snapshots of the fake runs, and Fig 2 drawn from them as PNG only.
+
+    Its PDF took half of the drawing; fig2.plot's PDF is drawn by test_plot_from_committed_data
+    and test_smoke_case.
+    """
     runs = {k: v for k, v in fake_runs.items() if k[1] in LAMS}
     data = fig2.reduce(runs, tmp_path / "data")
     idx = A.read_csv(data / "snapshots.csv")
@@ -223,7 +237,9 @@ def test_fig2_reduce_and_plot(fake_runs, tmp_path):
     snap = A.read_csv(data / "particles_lam=0.04_k=5.csv.gz")
     assert set(snap) == {"x", "y", "theta", "length"} and snap["x"].size == int(25 * 33.0**2)
     assert fig2.snapshot_indices(np.arange(11.0)) == [2, 4, 6, 8, 10]
+    _png_only(monkeypatch)
     paths = fig2.plot(data, tmp_path)
+    assert [p.name for p in paths] == ["fig2.png"]
     assert_figures(paths)
 
 
@@ -320,18 +336,32 @@ def test_smoke_case(case, smoke_runs, tmp_path):
 
 @pytest.mark.parametrize("case", [fig2, fig3, fig4, crosscheck],
                          ids=["fig2", "fig3", "fig4", "crosscheck"])
-def test_plot_from_committed_data(case, tmp_path):
+def test_plot_from_committed_data(case, tmp_path, monkeypatch):
     """`colony case NAME --from-data`: every figure redraws from cases/data/NAME alone.
 
-    Also the other committed data sets of the case (cases/data/NAME_paper).
+    Also the other committed data sets of the case (cases/data/NAME_paper). Fig 2 of the paper
+    data (15 colonies of thousands of rods) is drawn as PNG only here, its PDF being most of a
+    half-minute; cases/data/fig2 is drawn in both formats, and
+    :func:`test_fig2_paper_data_in_every_format` (``slow``) draws the paper data in both.
     """
     name = case.__name__.split(".")[-1]
     root = DATA
     sets = [root / name, *sorted(root.glob(f"{name}_*"))]
     for data in sets:
         assert (data / "README.md").is_file()
-        paths = case.plot(data, tmp_path / data.name)
+        with monkeypatch.context() as m:
+            if name == "fig2" and data.name != name:
+                _png_only(m)
+            paths = case.plot(data, tmp_path / data.name)
         assert_figures(paths)
+
+
+@pytest.mark.slow
+def test_fig2_paper_data_in_every_format(tmp_path):
+    """Fig 2 redrawn from cases/data/fig2_paper as PNG and PDF (the default suite: PNG only)."""
+    paths = fig2.plot(DATA / "fig2_paper", tmp_path)
+    assert [p.suffix for p in paths] == [".png", ".pdf"]
+    assert_figures(paths)
 
 
 # ------------------------------------------------------------------ continuum-only reductions

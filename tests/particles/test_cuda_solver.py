@@ -7,6 +7,11 @@ fixed tree instead of in order: the same iteration count and iterates to round-o
 stopping test, and the same bits on every solve.  The simulator runs every thread in Python, so
 the launch shape is made small (TPB 8, 2 blocks, a check every 4 iterations): the grid-stride
 loops, a four-level tree and convergence inside a batch are all exercised on 16 cells.
+
+Each solve still takes seconds there, so the default suite keeps one representative of each
+property (the two-strain rows against the CPU, solved once for both that and the same-bits
+test; a short run through the engine); the other growth laws and the longer run are marked
+``slow`` (``pytest -m slow``).
 """
 
 from dataclasses import replace
@@ -23,15 +28,19 @@ from particles.solvers import problem as P  # noqa: E402
 from particles.solvers.bbpgd import solve_contacts  # noqa: E402
 
 
-@pytest.fixture
-def gpu(monkeypatch):
-    """bbpgd_cuda with a small launch shape (module docstring)."""
+def _small_launch(monkeypatch):
     from particles.solvers import bbpgd_cuda
 
     monkeypatch.setattr(bbpgd_cuda, "TPB", 8)
     monkeypatch.setattr(bbpgd_cuda, "NBLOCKS", 2)
     monkeypatch.setattr(bbpgd_cuda, "CHECK", 4)
     return bbpgd_cuda
+
+
+@pytest.fixture
+def gpu(monkeypatch):
+    """bbpgd_cuda with a small launch shape (module docstring)."""
+    return _small_launch(monkeypatch)
 
 
 @pytest.fixture(scope="module")
@@ -43,15 +52,39 @@ def jammed():
     return c, s.length
 
 
-@pytest.mark.parametrize(("lam", "rate"), [(0.0, 1.0), (1e-2, 1.0), (1.0, 1.0),
-                                           ("strains", "strains")])
-def test_same_iterates_as_the_cpu_solver(gpu, jammed, lam, rate):
+def _strains(n):
+    """Per-cell growth law rows of two strains (lam, rate), alternating over the cells."""
+    odd = np.arange(n) % 2
+    return np.where(odd, 1e-2, 0.5), np.where(odd, 1.0, 0.7)
+
+
+@pytest.fixture(scope="module")
+def strains_solve(jammed):
+    """The GPU solve of the two-strain rows at tol 1e-8 (small launch shape), made once.
+
+    Shared by the comparison with the CPU and by the same-bits test (a solve takes seconds).
+    """
+    c, length = jammed
+    lam, rate = _strains(length.size)
+    with pytest.MonkeyPatch.context() as mp:
+        return _small_launch(mp).solve_contacts_cuda(c, length, 0.005, lam, tol=1e-8, rate=rate)
+
+
+@pytest.mark.parametrize(("lam", "rate"), [
+    pytest.param(0.0, 1.0, marks=pytest.mark.slow), pytest.param(1e-2, 1.0, marks=pytest.mark.slow),
+    pytest.param(1.0, 1.0, marks=pytest.mark.slow), ("strains", "strains")])
+def test_same_iterates_as_the_cpu_solver(gpu, jammed, lam, rate, request):
+    """The default suite compares the two-strain rows (array lam and rate, lam 1e-2 and 0.5).
+
+    The scalar laws lam = 0, 1e-2 and 1 are ``slow``: the same kernels with constant rows.
+    """
     c, length = jammed
     if lam == "strains":  # per-cell growth law rows (two strains)
-        lam = np.where(np.arange(length.size) % 2, 1e-2, 0.5)
-        rate = np.where(np.arange(length.size) % 2, 1.0, 0.7)
+        lam, rate = _strains(length.size)
+        gc, hc = request.getfixturevalue("strains_solve")
+    else:
+        gc, hc = gpu.solve_contacts_cuda(c, length, 0.005, lam, tol=1e-8, rate=rate)
     gb, hb = solve_contacts(c, length, 0.005, lam, tol=1e-8, rate=rate)
-    gc, hc = gpu.solve_contacts_cuda(c, length, 0.005, lam, tol=1e-8, rate=rate)
     assert len(hc) == len(hb) > 10  # the same iteration stops: a solve of many iterations
     np.testing.assert_allclose(gc, gb, rtol=0, atol=1e-12 * gb.max())
     np.testing.assert_allclose(hc, hb, rtol=1e-8)
@@ -74,10 +107,12 @@ def test_warm_start_without_growth_and_a_converged_start(gpu, jammed):
     assert len(h) == 1 and g[0] == 0.0 and np.array_equal(g[1:], gb[1:])
 
 
-def test_same_bits_every_solve(gpu, jammed):
+def test_same_bits_every_solve(gpu, jammed, strains_solve):
+    """A second solve of the two-strain rows gives the bits of the first (``strains_solve``)."""
     c, length = jammed
-    first = gpu.solve_contacts_cuda(c, length, 0.005, 1e-2, tol=1e-8)
-    again = gpu.solve_contacts_cuda(c, length, 0.005, 1e-2, tol=1e-8)
+    lam, rate = _strains(length.size)
+    first = strains_solve
+    again = gpu.solve_contacts_cuda(c, length, 0.005, lam, tol=1e-8, rate=rate)
     assert first[0].tobytes() == again[0].tobytes()
     assert first[1].tobytes() == again[1].tobytes()
 
@@ -89,9 +124,13 @@ def test_iteration_cap_raises_with_the_history(gpu, jammed):
     assert e.value.residuals.shape == (7,) and np.all(np.isfinite(e.value.residuals))
 
 
-def test_a_run_with_the_gpu_solver_follows_the_cpu_run(gpu):
-    """Steps, divisions and warm starts through the engine: the same colony to round-off."""
-    base = particles.Config(lam=1e-2, time=1.6, dt=0.02, seed=1, threads=1)
+@pytest.mark.parametrize("dt", [0.04, pytest.param(0.02, marks=pytest.mark.slow)])
+def test_a_run_with_the_gpu_solver_follows_the_cpu_run(gpu, dt):
+    """Steps, divisions and warm starts through the engine: the same colony to round-off.
+
+    To t = 1.6 (four cells): 40 steps of 0.04 in the default suite, 80 of 0.02 ``slow``.
+    """
+    base = particles.Config(lam=1e-2, time=1.6, dt=dt, seed=1, threads=1)
     cpu = particles.run(base)
     dev = particles.run(replace(base, solver="bbpgd-cuda"))
     a, b = cpu.state, dev.state
