@@ -26,7 +26,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.signal import find_peaks
@@ -59,9 +59,9 @@ __all__ = [
 RING_SIGNIFICANCE = 5.0
 """Significance z from which a peak of a particle profile counts as a ring (prominence over its
 standard error from the annulus noise, :func:`peak_significance`). Calibrated on profiles with
-no rings (docs/validation.md, "Rings": colonies at lam = 1e-4 below their first ring, their
-lengths shuffled, the ring-free lam >= 0.03 colonies): the false ring rate at this threshold is
-written there, at most 5 %."""
+no rings (docs/validation.md, "Rings": colonies of lam = 0.1 at radius 20-40, their lengths
+shuffled, the lam >= 0.03 colonies of radius 150): the false ring rate at this threshold is at
+most 0.3 % there (5 % allowed)."""
 
 EDGE_LAYER = 2.0
 """Width of the edge layer, in birth lengths: a ring within EDGE_LAYER of the colony radius R is
@@ -88,7 +88,6 @@ class Rings:
     significance: np.ndarray
     radius: float
     reason: str = ""
-    candidates: int = field(default=0, compare=False)
 
     @property
     def count(self) -> int:
@@ -119,8 +118,7 @@ class Rings:
 
 
 def count_rings(radii: np.ndarray, radius: float, significance: np.ndarray | None = None,
-                z_min: float = RING_SIGNIFICANCE, edge: float = EDGE_LAYER,
-                candidates: int | None = None) -> Rings:
+                z_min: float = RING_SIGNIFICANCE, edge: float = EDGE_LAYER) -> Rings:
     """The rule of both models: which candidate rings count, and why there is no wavelength.
 
     A candidate at r with significance z counts when z >= ``z_min`` and r <= R - ``edge``
@@ -146,10 +144,10 @@ def count_rings(radii: np.ndarray, radius: float, significance: np.ndarray | Non
             found = ", ".join(f"{x:.4g}" for x in r[keep])
             edge_note = (f"; {int((strong & ~inside).sum())} more in the edge layer"
                          if (strong & ~inside).any() else "")
-            reason = (f"{int(keep.sum())} ring" + (f" (r = {found})" if found else "")
+            n = int(keep.sum())
+            reason = (f"{n} ring{'' if n == 1 else 's'}" + (f" (r = {found})" if found else "")
                       + f"{edge_note}: a wavelength needs two")
-    return Rings(r[keep], z[keep], float(radius), reason,
-                 r.size if candidates is None else candidates)
+    return Rings(r[keep], z[keep], float(radius), reason)
 
 
 def ring_series(rows: list[tuple[float, float, Rings]]) -> dict[str, np.ndarray]:
@@ -387,7 +385,7 @@ def profile_rings(profile: Mapping[str, np.ndarray], radius: float | None = None
     r, f, se = _profile_samples(profile, name, noisy, min_count)
     R = float(np.nanmax(profile["r"])) if radius is None else float(radius)
     peaks, z = peak_significance(r, f, stderr=se, **kwargs)
-    return count_rings(peaks, R, z, z_min=z_min, edge=edge, candidates=peaks.size)
+    return count_rings(peaks, R, z, z_min=z_min, edge=edge)
 
 
 def ring_uncertainty(profile: Mapping[str, np.ndarray], radius: float | None = None,
