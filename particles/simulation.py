@@ -24,7 +24,6 @@ the configuration's), ``save(path=None)``, ``Simulation.load(path, config=None)`
 from __future__ import annotations
 
 import logging
-import os
 from dataclasses import replace
 from pathlib import Path
 
@@ -455,15 +454,22 @@ class Simulation:
 def kernels_cached() -> bool:
     """Whether the contact solver's kernels are in Numba's cache (else the first step compiles).
 
-    Numba caches next to the sources, or in the user's cache folder when they are read-only
-    (an installed package); True when the cache cannot be asked.
+    Numba's documented cache layout (Numba's notes on caching): a cached function's index
+    ``<module>.<function>-<line>.py<version>.nbi`` in ``__pycache__`` beside its source, or in
+    a tree under ``NUMBA_CACHE_DIR`` when that is set. True when neither place exists (a
+    read-only install caches in a user folder: then no message is better than a wrong one).
     """
+    from numba import config
+
     from .solvers import bbpgd
 
-    try:
-        return os.path.exists(bbpgd._bbpgd._cache._cache_file._index_path)
-    except AttributeError:
-        return True
+    source = Path(bbpgd.__file__)
+    index = f"{source.stem}.{bbpgd._bbpgd.__name__}-*.nbi"
+    places = [source.parent / "__pycache__"]
+    if config.CACHE_DIR:
+        places.append(Path(config.CACHE_DIR))
+    places = [p for p in places if p.is_dir()]
+    return not places or any(next(p.rglob(index), None) is not None for p in places)
 
 
 def run(config: Config, out: str | Path | None = None, progress: bool = False,  # noqa: PLR0913

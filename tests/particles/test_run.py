@@ -446,6 +446,27 @@ def test_a_first_run_says_it_compiles(tmp_path, monkeypatch, caplog):
                for r in caplog.records) == 1
 
 
+def test_kernels_cached_reads_numbas_cache_index(tmp_path, monkeypatch):
+    """kernels_cached reads Numba's cache index files, no private attribute of Numba.
+
+    False for a __pycache__ without the solver's index file, True with it, True (unknown) when
+    there is no cache folder at all.
+    """
+    import numba
+
+    import particles.simulation as S
+    from particles.solvers import bbpgd
+
+    monkeypatch.setattr(bbpgd, "__file__", str(tmp_path / "bbpgd.py"))
+    monkeypatch.setattr(numba.config, "CACHE_DIR", "")
+    assert S.kernels_cached()  # no __pycache__: unknown
+    (tmp_path / "__pycache__").mkdir()
+    (tmp_path / "__pycache__" / "bbpgd.bb_smooth-87.py311.nbi").write_bytes(b"")
+    assert not S.kernels_cached()  # another kernel's index only
+    (tmp_path / "__pycache__" / "bbpgd._bbpgd-141.py311.nbi").write_bytes(b"")
+    assert S.kernels_cached()
+
+
 def test_frames_every_output_every_of_time(tmp_path):
     """Fixed steps of 0.01 and frames every 0.05: a frame every 5 steps.
 
