@@ -58,6 +58,13 @@ def power_law_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
 
     Only positive, finite pairs are used; at least two are needed.
     """
+    x, y, keep = _positive_pairs(x, y)
+    a, logC = np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)
+    return float(a), float(np.exp(logC))
+
+
+def _positive_pairs(x: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(x, y, keep) as float arrays, keep the positive, finite pairs (at least two distinct x)."""
     x = np.asarray(x, dtype=float).ravel()
     y = np.asarray(y, dtype=float).ravel()
     if x.shape != y.shape:
@@ -65,8 +72,7 @@ def power_law_fit(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
     keep = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
     if keep.sum() < 2 or np.unique(x[keep]).size < 2:
         raise ValueError("need at least two positive pairs with distinct x")
-    a, logC = np.polyfit(np.log(x[keep]), np.log(y[keep]), 1)
-    return float(a), float(np.exp(logC))
+    return x, y, keep
 
 
 def power_law_interval(x: np.ndarray, y: np.ndarray, sd: np.ndarray | None = None,
@@ -83,14 +89,10 @@ def power_law_interval(x: np.ndarray, y: np.ndarray, sd: np.ndarray | None = Non
     """
     from scipy import stats
 
-    x = np.asarray(x, dtype=float).ravel()
-    y = np.asarray(y, dtype=float).ravel()
+    x, y, keep = _positive_pairs(x, y)
     s = np.full(x.shape, math.nan) if sd is None else np.asarray(sd, dtype=float).ravel()
-    if not x.shape == y.shape == s.shape:
-        raise ValueError("x, y and sd differ in length")
-    keep = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
-    if keep.sum() < 2 or np.unique(x[keep]).size < 2:
-        raise ValueError("need at least two positive pairs with distinct x")
+    if s.shape != x.shape:
+        raise ValueError(f"sd and x differ in length: {s.size} != {x.size}")
     lx, ly, ls = np.log(x[keep]), np.log(y[keep]), s[keep] / y[keep]
     known = np.isfinite(ls) & (ls > 0)
     w = 1.0 / ls**2 if known.all() else np.ones(lx.size)

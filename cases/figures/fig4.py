@@ -116,7 +116,9 @@ def reduce(folders: dict[tuple[str, float], Path], data: Path,
             row[f"rings_{engine}"] = final["rings"]
             if lam in profile_lams:
                 A.write_csv(data / f"wavelength_{engine}_lam={lam:g}.csv", A.thin_rows(w))
-            profile = _final_profile(folders[engine, lam], engine)
+            # the final profile: written for the lam of Fig 4A, the particles' noise spread
+            profile = (_final_profile(folders[engine, lam], engine)
+                       if lam in profile_lams or engine == "particles" else None)
             if lam in profile_lams:
                 A.write_csv(data / f"profile_{engine}_lam={lam:g}.csv", profile)
             if engine == "continuum":
