@@ -180,6 +180,21 @@ def error_bar(summary: dict[str, np.ndarray], engine: str) -> np.ndarray:
     return np.nan_to_num(np.fmax.reduce(spreads))
 
 
+def with_seed_spread(summary: dict[str, np.ndarray], ens: Path | None) -> dict[str, np.ndarray]:
+    """``summary`` with ``wavelength_seed_sd_particles`` from the seed ensemble beside it.
+
+    The ensemble's standard deviation over its seeds of the particle wavelength at each lam it
+    has (``wavelength_std``; nan elsewhere); ``summary`` unchanged if it has the column already
+    (data remeasured with their seeds) or no ensemble lies beside it.
+    """
+    if ens is None or "wavelength_seed_sd_particles" in summary:
+        return summary
+    e = A.read_csv(ens / "summary.csv")
+    sd = dict(zip(e["lam"].tolist(), e["wavelength_std"].tolist(), strict=True))
+    return summary | {"wavelength_seed_sd_particles":
+                      np.array([sd.get(lam, math.nan) for lam in summary["lam"].tolist()])}
+
+
 def slope_label(name: str, lam: np.ndarray, w: np.ndarray, err: np.ndarray | None) -> str:
     """``name (slope a [lo, hi])`` of the measured wavelengths (A.power_law_interval)."""
     try:
@@ -198,7 +213,9 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
     With the seed ensemble's data beside ``data`` (as for Fig 3) panel A adds its 2.5-97.5 %
     seed band of the mean length (dash-dot). Panels B and C draw measured wavelengths only
     (two rings or more, cases.analysis.count_rings) with their error bars (:func:`error_bar`);
-    a particle series written before the rule (no ``rings`` column) is not drawn.
+    a particle series written before the rule (no ``rings`` column) is not drawn. The
+    particles' error bars take the ensemble's seed spread where it has the lam
+    (:func:`with_seed_spread`).
     """
     import matplotlib.pyplot as plt
 
@@ -235,7 +252,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                 + ("\ndash-dot: 2.5-97.5 % of the ensemble's seeds" if ens else ""))
     a.legend(fontsize=8)
 
-    s = A.read_csv(data / "summary.csv")
+    s = with_seed_spread(A.read_csv(data / "summary.csv"), ens)
     a = ax[1]
     for lam in _lams(data, "wavelength_continuum"):
         c = colors.get(lam, "k")

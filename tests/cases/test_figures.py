@@ -212,6 +212,27 @@ def test_fig4_reduce_and_plot(fake_runs, tmp_path):
     assert_figures(paths)
 
 
+def test_fig4_error_bar_takes_the_largest_spread_and_the_ensembles_seeds(tmp_path):
+    """Fig 4's error bars: the largest spread, the ensemble's seed spread where it has the lam.
+
+    error_bar takes the largest of the frame, noise and seed spreads; with_seed_spread the
+    ensemble's wavelength_std at the lam it has, nan (so no bar from it) elsewhere.
+    """
+    s = {"lam": np.array([1e-3, 1e-2]), "wavelength_sd_particles": np.array([0.1, 0.3]),
+         "wavelength_noise_sd_particles": np.array([0.4, np.nan])}
+    np.testing.assert_array_equal(fig4.error_bar(s, "particles"), [0.4, 0.3])
+    np.testing.assert_array_equal(fig4.error_bar(s, "continuum"), [0.0, 0.0])
+    ens = tmp_path / "ensemble"
+    ens.mkdir()
+    A.write_csv(ens / "summary.csv", {"lam": np.array([1e-2, 3e-2]),
+                                      "wavelength_std": np.array([0.75, 0.2])})
+    seeded = fig4.with_seed_spread(s, ens)
+    np.testing.assert_array_equal(seeded["wavelength_seed_sd_particles"], [np.nan, 0.75])
+    np.testing.assert_array_equal(fig4.error_bar(seeded, "particles"), [0.4, 0.75])
+    assert fig4.with_seed_spread(s, None) is s
+    assert fig4.with_seed_spread(seeded, ens) is seeded
+
+
 def _png_only(monkeypatch):
     """Figures saved as PNG alone (cases.figures.draw.save_figure, imported by each plot)."""
     from cases.figures import draw
