@@ -68,6 +68,7 @@ CASES = {
     "shapes": "cases.studies.shapes",
     "orientation": "cases.studies.orientation",
     "strains": "cases.studies.strains",
+    "nutrients": "cases.studies.nutrients",
 }
 #: The figure cases: their runs are one per (engine, lam), so ``--lams`` may select some.
 FIGURE_CASES = ("fig2", "fig3", "fig4", "crosscheck")
