@@ -247,7 +247,8 @@ NO_FLAG = {"continuum": ("initial_radius", "interior_coarsening", "grading", "co
                          "max_iterations", "nutrient_grid")}
 #: How the help words a default of None or () (what the engine does without a value).
 DEFAULT_WORDS = {"monod_k": "inf", "max_hours": "no limit", "strains": "one strain of --lam",
-                 "shape": "none, one cell", "init": "one cell of length 1 at the origin"}
+                 "shape": "none, one cell", "init": "one cell of length 1 at the origin",
+                 "dish_radius": "supply at the colony's edge"}
 #: Help of the engine flags by Config field, or (engine, field): ``{default}`` is the field's
 #: default (DEFAULT_WORDS for None), ``{choices}`` its values (CHOICES), ``{config}`` the Config.
 #: A field not here has the first sentence of its entry in the Config's docstring.
@@ -258,6 +259,10 @@ FLAG_HELP = {
     "nutrient_length": "nutrient limitation: the penetration length ell in cell lengths (growth "
                        "exp(-lam sigma) f(c), Laplace c = g / ell^2, c = 1 at the edge; "
                        "default: {default})",
+    "dish_radius": "with --nutrient-length: the nutrient supplied through the agar of a dish, "
+                   "c = 1 on the circle of radius R about the origin (where the colony starts), "
+                   "in cell lengths; the run stops when the colony reaches it (default: "
+                   "{default})",
     "max_hours": f"pause before H hours of wall: a checkpoint, exit status {PAUSED_STATUS}; the "
                  "same command resumes (batch jobs: docs/clusters.md; default: {default})",
     "strains": "strains of the colony, strain 0 first: stress sensitivity and growth factor "
@@ -280,8 +285,8 @@ FLAG_HELP = {
                "below 2e4 particles, every core above; give 1 when runs share the cores); the "
                "same result for any number",
 }
-METAVARS = {"nutrient_length": "ELL", "monod_k": "K", "output_every": "T", "max_hours": "H",
-            "strains": "LAM[:A],LAM[:A],..."}
+METAVARS = {"nutrient_length": "ELL", "monod_k": "K", "dish_radius": "R", "output_every": "T",
+            "max_hours": "H", "strains": "LAM[:A],LAM[:A],..."}
 #: The table of a field's values, in its Config's module (argparse checks a step control).
 CHOICES = {"element": "ELEMENTS", "solver": "SOLVERS", "step_control": "STEP_CONTROLS"}
 

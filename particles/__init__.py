@@ -36,7 +36,7 @@ from .growth import grow
 from .measures import enclosing_radius, hull_radius
 from .output import read_trajectory
 from .packings import fill_outline, from_csv, line, ring_packing, single_cell
-from .simulation import ParticleLimitError, Simulation, run
+from .simulation import DishWallError, ParticleLimitError, Simulation, run
 from .solvers import ContactSolveError
 from .state import ParticleState, StepRecord
 from .stepping import OverlapError
@@ -51,6 +51,7 @@ __all__ = [
     "B",
     "Config",
     "ContactSolveError",
+    "DishWallError",
     "OverlapError",
     "ParticleLimitError",
     "ParticleState",

@@ -169,6 +169,14 @@ class Config:
     nutrient_grid : float or None
         The nutrient grid's spacing h in cell lengths; None: min(0.5, ell / 8) (the error is
         first order in h: the colony's edge is resolved to a node; particles.nutrients).
+    dish_radius : float or None
+        R_dish, the nutrient supplied through the agar of a dish: c = 1 on the circle of this
+        radius about the origin (the colony's starting point), Laplace c = 0 in the agar
+        between it and the colony, the same diffusivity in both (particles.nutrients). Only
+        with ``nutrient_length``; larger than the initial colony's radius about the origin. A
+        colony that reaches the wall (a cell's centre within nutrients.WALL_MARGIN grid
+        spacings of it, or a cell touching it) stops the run with simulation.DishWallError.
+        None (the default): supply at the colony's edge.
     """
 
     lam: float
@@ -199,6 +207,7 @@ class Config:
     nutrient_length: float | None = None
     monod_k: float | None = None
     nutrient_grid: float | None = None
+    dish_radius: float | None = None
 
     def __post_init__(self) -> None:
         if isinstance(self.strains, (tuple, list)):  # other types: validate names the field
@@ -238,14 +247,24 @@ class Config:
                              f"{self.solver_tol:g}: {_LOOSE_SOLVE}")
 
     def _check_nutrient(self) -> None:
-        """The nutrient's fields (one line each): ell and h > 0 and finite, K > 0."""
-        ell, h = self.nutrient_length, self.nutrient_grid
-        check_nutrient(ell, self.monod_k, (("nutrient_grid", h),))
+        """The nutrient's fields (one line each): ell, h and R_dish > 0 and finite, K > 0.
+
+        A dish no larger than one cell's radius, the initial colony of a run with neither
+        ``init`` nor ``shape``, is refused here; another initial colony's when the run starts
+        (simulation.check_dish: its radius about the origin, the dish's centre).
+        """
+        ell, h, dish = self.nutrient_length, self.nutrient_grid, self.dish_radius
+        check_nutrient(ell, self.monod_k, (("nutrient_grid", h), ("dish_radius", dish)))
         if ell is None:
             return
         if h is not None and not (math.isfinite(h) and 0.05 <= h <= ell):
             raise ValueError(f"nutrient_grid must be in [0.05, nutrient_length = {ell:g}] cell "
                              f"lengths, got {h!r}")
+        if dish is not None and not (math.isfinite(dish) and dish > 0):
+            raise ValueError(f"dish_radius must be a positive finite number (cell lengths), "
+                             f"got {dish!r}; leave it unset for supply at the colony's edge")
+        if dish is not None and self.init is None and self.shape is None:
+            check_dish_fits(dish, SINGLE_CELL_RADIUS, "one cell of length 1 at the origin")
 
     @property
     def nutrient(self) -> tuple[float, float, float] | None:
@@ -403,6 +422,16 @@ def _at_least(x: float) -> str:
     return f"at least {x:.3g}" if x < 1e300 else "more than 1e+300"
 
 
+def check_dish_fits(dish: float, radius: float, what: str) -> None:
+    """ValueError (one line) unless the dish's radius exceeds the initial colony's ``radius``.
+
+    ``what``: the initial colony, in words.
+    """
+    if not dish > radius:
+        raise ValueError(f"dish_radius {dish:g} is not larger than the initial colony's radius "
+                         f"{radius:.6g} ({what}): the colony must start inside the dish")
+
+
 def _physical_memory() -> float:
     """Bytes of physical memory (inf where the system does not say)."""
     try:
@@ -413,7 +442,8 @@ def _physical_memory() -> float:
 
 LEGACY_CONFIG = {"step_control": "fixed", "shape": None, "fill_orientation": "tangent",
                  "fill_lengths": "stable", "solver_tol_factor": 0.5, "strains": [],
-                 "layout": None}
+                 "layout": None, "nutrient_length": None, "monod_k": None,
+                 "nutrient_grid": None, "dish_radius": None}
 """Values of the configuration fields added after a checkpoint was written, as it ran."""
 
 RENAMED = {"adaptive_dt": ("step_control", {True: "cost", False: "fixed"})}

@@ -1,11 +1,17 @@
-"""The nutrient of a particle colony fed at its edge (model.md, "Nutrient limitation").
+"""The nutrient of a particle colony fed at its edge or through the agar of a dish (model.md).
 
 Each cell n grows at dl_n/dt = l_n exp(-lam sigma_n) f(c(x_n)), f(c) = (1 + K) c / (K + c)
 (:func:`uptake`; K = inf: f(c) = c), and takes up nutrient in proportion to its rate of area
 growth: with diffusion much faster than growth, ::
 
     ell^2 Laplace c = s  in the colony,   c = 1 outside it (a well-mixed reservoir at the edge),
-    s(x) = sum_n b l_n exp(-lam sigma_n) f(c_n) delta(x - x_n)   (area growth per unit area).
+    s(x) = sum_n b l_n exp(-lam sigma_n) f(c_n) delta(x - x_n)   (area growth per unit area),
+
+or, in a dish of radius R_dish about the origin (the colony's starting point; ``dish``), with
+the same diffusivity in colony and agar, ::
+
+    ell^2 Laplace c = s  for |x| < R_dish  (s = 0 in the agar between colony and wall),
+    c = 1  on |x| = R_dish.
 
 Discretisation (:func:`nutrient_at_cells`): a square grid of spacing h over the colony; each
 cell's area b l_n is spread onto the four nodes about its centre with bilinear weights (cloud in
@@ -20,7 +26,18 @@ Laplacian then gives ::
 monotone in c (f' > 0), solved by Newton's method with a sparse direct solver (one iteration is
 exact for K = inf, where F is linear). The error is first order in h: the colony's edge is
 resolved to a node (on a packed disc against the Bessel solution, ell = 3: 0.062, 0.032, 0.014
-at h = 1, 0.5, 0.25 away from the edge; tests/particles/test_nutrients.py). The cells' stress
+at h = 1, 0.5, 0.25 away from the edge; tests/particles/test_nutrients.py).
+
+In a dish (``dish``: R_dish) the grid covers the dish's disc, with a node at the origin; every
+node at a distance >= R_dish from the origin holds c = 1 and every node inside the dish is an
+unknown of the same equations, the source P^T D f(P c) / h^2 (zero in the agar, where no cell
+deposits) and no occupancy: the colony is where its cells are. The wall is a staircase of
+nodes, so this error too is first order in h (DISH_ERROR). The grid has about
+(2 R_dish / h)^2 nodes whatever the colony's size. A cell's centre within WALL_MARGIN h of
+the wall, or a cell touching it, is the colony reaching it (:func:`reaches_wall`; the run
+stops, simulation.DishWallError).
+
+The cells' stress
 is the last contact solve's, so c is a function of the state at the start of a step: the step's
 growth factor f(c_n) needs no state of its own, and a resumed run computes the same c.
 """
@@ -35,8 +52,10 @@ from scipy.ndimage import uniform_filter
 from scipy.sparse.linalg import spsolve
 
 from .geometry import B
+from .measures import tips
 
-__all__ = ["uptake", "uptake_slope", "NutrientGrid", "nutrient_at_cells", "OCCUPIED"]
+__all__ = ["uptake", "uptake_slope", "NutrientGrid", "nutrient_at_cells", "nutrient_field",
+           "extent", "reaches_wall", "OCCUPIED", "WALL_MARGIN"]
 
 OCCUPIED = 0.5
 """A grid node is inside the colony where the cells' area per unit area is at least this."""
@@ -44,6 +63,9 @@ SMOOTHING = 1.0
 """Half-width, in cell lengths, of the box average of the occupancy (NutrientGrid.occupancy)."""
 NEWTON_TOL = 1e-10
 """Newton's method stops when the update is below this (c is O(1))."""
+WALL_MARGIN = 2.0
+"""A colony reaches the dish's wall when a cell's centre is within this many grid spacings h of
+it (or beyond): its nodes would touch the staircase of nodes held at c = 1."""
 
 
 def uptake(c, K: float):
@@ -61,16 +83,25 @@ def uptake_slope(c, K: float):
 class NutrientGrid:
     """The grid of spacing ``h`` over points x, y (a margin of two nodes) and its operators.
 
-    ``P`` (N cells x M nodes, CSR) the bilinear weights of each cell's centre; ``shape`` the
-    grid's (rows, columns); ``origin`` its lower-left node.
+    ``dish`` (R_dish, optional): the grid covers the dish's disc about the origin too, with a
+    node at the origin. ``P`` (N cells x M nodes, CSR) the bilinear weights of each cell's
+    centre; ``shape`` the grid's (rows, columns); ``origin`` its lower-left node.
     """
 
-    def __init__(self, x: np.ndarray, y: np.ndarray, h: float):
+    def __init__(self, x: np.ndarray, y: np.ndarray, h: float, dish: float | None = None):
         self.h = float(h)
-        lo = np.array([x.min(), y.min()]) - 2.0 * h
-        hi = np.array([x.max(), y.max()]) + 2.0 * h
+        self.dish = dish
+        if dish is None:
+            lo = np.array([x.min(), y.min()]) - 2.0 * h
+            hi = np.array([x.max(), y.max()]) + 2.0 * h
+            nx, ny = (np.ceil((hi - lo) / h).astype(int) + 1)
+        else:  # nodes (i h, j h), |i|, |j| <= m: the dish's disc, the cells, two nodes more
+            extent = max(float(dish), float(np.max(np.abs(x), initial=0.0)),
+                         float(np.max(np.abs(y), initial=0.0)))
+            m = math.ceil(extent / h) + 2
+            lo = np.array([-m * h, -m * h])
+            nx = ny = 2 * m + 1
         self.origin = lo
-        nx, ny = (np.ceil((hi - lo) / h).astype(int) + 1)
         self.shape = (int(ny), int(nx))
         fx, fy = (x - lo[0]) / h, (y - lo[1]) / h
         i0, j0 = np.floor(fx).astype(int), np.floor(fy).astype(int)
@@ -99,10 +130,22 @@ class NutrientGrid:
         """Number of grid nodes."""
         return self.shape[0] * self.shape[1]
 
+    def in_dish(self) -> np.ndarray:
+        """The nodes strictly inside the dish (distance < R_dish from the origin), a mask.
+
+        In grid units about the origin's node, so that the staircase is symmetric.
+        """
+        ny, nx = self.shape
+        i = np.arange(nx) - (nx - 1) // 2
+        j = np.arange(ny) - (ny - 1) // 2
+        I, J = np.meshgrid(i, j)
+        return ((I * I + J * J) < (self.dish / self.h) ** 2).ravel()
+
     def laplacian(self, inside: np.ndarray) -> tuple[sp.csr_matrix, np.ndarray]:
         """(L_II, L_IO 1): the 5-point Laplacian on the nodes ``inside``, and its coupling.
 
         The coupling to the other nodes, held at c = 1, as a vector on the inside nodes' rows.
+        ``inside``: the colony's nodes, or in a dish every node inside it.
         """
         ny, nx = self.shape
         index = -np.ones(self.size, dtype=np.int64)
@@ -121,28 +164,26 @@ class NutrientGrid:
             rows.append(np.flatnonzero(inner))
             cols.append(k[inner])
             vals.append(np.ones(int(inner.sum())))
-            outside_sum += ~inner  # a neighbour outside the colony (or the grid) holds c = 1
+            outside_sum += ~inner  # a neighbour not inside (or off the grid) holds c = 1
         L = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                           shape=(len(nodes), len(nodes))) / self.h**2
         return L, outside_sum / self.h**2
 
 
-def nutrient_at_cells(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: np.ndarray,
-                      ell: float, K: float, h: float) -> np.ndarray:
-    """The nutrient c at each cell's centre (module docstring); c = 1 off the colony's nodes.
+def _solve(x, y, length, growth, ell: float, K: float, h: float, dish: float | None):
+    """(grid, unknown nodes' mask, their c, P_in, P_out 1); None when there is no unknown.
 
-    ``growth``: each cell's exp(-lam sigma_n) (times its strain's factor); ``h`` the grid's
-    spacing. Newton's method from c = 1.
+    Newton's method from c = 1 (module docstring).
     """
-    grid = NutrientGrid(x, y, h)
+    grid = NutrientGrid(x, y, h, dish)
     area = B * np.asarray(length, dtype=float)
-    inside = grid.occupancy(area) >= OCCUPIED
+    inside = grid.occupancy(area) >= OCCUPIED if dish is None else grid.in_dish()
     if not inside.any():
-        return np.ones(len(x))
+        return None
     L, outside = grid.laplacian(inside)
     nodes = np.flatnonzero(inside)
     P_in = grid.P[:, nodes]
-    P_out_ones = np.asarray(grid.P[:, ~inside].sum(axis=1)).ravel()  # c = 1 off the colony
+    P_out_ones = np.asarray(grid.P[:, ~inside].sum(axis=1)).ravel()  # c = 1 off the unknowns
     weight = area * np.asarray(growth, dtype=float) / h**2  # D / h^2
     c = np.ones(len(nodes))
     for _ in range(30):
@@ -153,4 +194,60 @@ def nutrient_at_cells(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: 
         c += dc
         if math.isinf(K) or np.max(np.abs(dc)) < NEWTON_TOL:  # K = inf: F linear, one step
             break
+    return grid, inside, c, P_in, P_out_ones
+
+
+def nutrient_at_cells(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: np.ndarray,
+                      ell: float, K: float, h: float, dish: float | None = None) -> np.ndarray:
+    """The nutrient c at each cell's centre (module docstring); c = 1 off the colony's nodes.
+
+    ``growth``: each cell's exp(-lam sigma_n) (times its strain's factor); ``h`` the grid's
+    spacing; ``dish``: R_dish, supply on the dish's wall (None: at the colony's edge). Newton's
+    method from c = 1.
+    """
+    solved = _solve(x, y, length, growth, ell, K, h, dish)
+    if solved is None:
+        return np.ones(len(x))
+    _, _, c, P_in, P_out_ones = solved
     return np.clip(P_in @ c + P_out_ones, 0.0, 1.0)
+
+
+def nutrient_field(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: np.ndarray,
+                   ell: float, K: float, h: float, dish: float | None = None
+                   ) -> tuple[NutrientGrid, np.ndarray]:
+    """(grid, c at its nodes) of :func:`nutrient_at_cells`'s solve, c = 1 on the fixed nodes.
+
+    The nodes are row-major from ``grid.origin`` (``c.reshape(grid.shape)``).
+    """
+    solved = _solve(x, y, length, growth, ell, K, h, dish)
+    if solved is None:
+        grid = NutrientGrid(x, y, h, dish)
+        return grid, np.ones(grid.size)
+    grid, inside, c, _, _ = solved
+    field = np.ones(grid.size)
+    field[inside] = c
+    return grid, field
+
+
+def extent(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray) -> float:
+    """The radius of the smallest disc about the origin holding every cell (0 for none).
+
+    max over segment ends e of |e| + b/2, as measures.enclosing_radius about the centroid.
+    """
+    if len(x) == 0:
+        return 0.0
+    ex, ey = tips(x, y, theta, length)
+    return float(np.max(np.hypot(ex, ey)) + B / 2)
+
+
+def reaches_wall(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray,
+                 dish: float, h: float) -> bool:
+    """Whether the colony reaches the dish's wall (radius ``dish``, grid spacing ``h``).
+
+    A cell's centre within WALL_MARGIN h of it (its nodes would touch the nodes held at
+    c = 1), or any cell touching it (:func:`extent` >= dish).
+    """
+    if len(x) == 0:
+        return False
+    near = float(np.max(np.hypot(x, y))) >= dish - WALL_MARGIN * h
+    return near or extent(x, y, theta, length) >= dish

@@ -60,7 +60,8 @@ HISTORY_COLUMNS = ("step", "t", "dt", "radius", "hull_radius", "n_particles", "m
 
 
 #: Config fields of the model's extensions, written to config.json only when set.
-OPTIONAL_FIELDS = ("strains", "layout", "nutrient_length", "monod_k", "nutrient_grid")
+OPTIONAL_FIELDS = ("strains", "layout", "nutrient_length", "monod_k", "nutrient_grid",
+                   "dish_radius")
 
 
 def write_config(out: Path, config, step: int | None = None,

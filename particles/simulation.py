@@ -36,8 +36,9 @@ from .checkpoint import (
     resume_checkpoint,
     save_checkpoint,
 )
-from .config import STEP_POLICY_FIELDS, Config
+from .config import STEP_POLICY_FIELDS, Config, check_dish_fits
 from .division import divide_in_order
+from .nutrients import WALL_MARGIN, extent, reaches_wall
 from .output import RunOutput, strain_columns, write_config, write_history
 from .packings import from_csv, single_cell
 from .runfiles import (
@@ -62,10 +63,53 @@ log = logging.getLogger(__name__)
 
 # StepRecord lives in particles.state; imported here for older imports
 # (``from particles.simulation import StepRecord``), documented there.
-__all__ = ["ParticleLimitError", "Simulation", "check_initial", "initial_state", "run"]
+__all__ = ["DishWallError", "ParticleLimitError", "Simulation", "check_dish", "check_initial",
+           "initial_state", "run"]
 
 class ParticleLimitError(RuntimeError):
     """The colony exceeded ``Config.max_particles``."""
+
+
+class DishWallError(ValueError):
+    """The colony reached the wall of its dish (``Config.dish_radius``; nutrients.reaches_wall).
+
+    Raised by :meth:`Simulation.step` after the step that brings a cell's centre within
+    nutrients.WALL_MARGIN grid spacings of the wall, and before any work for an initial
+    colony already there (:func:`check_dish`).
+    """
+
+
+def check_wall(config: Config, state: ParticleState) -> None:
+    """DishWallError (one line) when the colony of ``state`` reaches the dish's wall.
+
+    nutrients.reaches_wall; nothing without a dish.
+    """
+    dish = config.dish_radius
+    if dish is None:
+        return
+    h = config.nutrient[2]
+    if reaches_wall(state.x, state.y, state.theta, state.length, dish, h):
+        far = float(np.max(np.hypot(state.x, state.y)))
+        limit = dish - WALL_MARGIN * h
+        raise DishWallError(
+            f"the colony reached the dish's wall (dish_radius {dish:g}) at t = {state.t:.6g}: "
+            f"cell centres up to {far:.4g} from the origin (the limit: {limit:.4g}, "
+            f"{WALL_MARGIN:g} grid spacings inside), cells up to "
+            f"{extent(state.x, state.y, state.theta, state.length):.4g}; give a larger "
+            "dish_radius or a nearer goal")
+
+
+def check_dish(config: Config, state: ParticleState) -> None:
+    """ValueError (one line) for an initial colony that does not fit in the dish.
+
+    Its radius about the origin (nutrients.extent) must be below ``Config.dish_radius``, and
+    no cell may reach the wall (:func:`check_wall`: DishWallError). Nothing without a dish.
+    """
+    if config.dish_radius is None:
+        return
+    check_dish_fits(config.dish_radius, extent(state.x, state.y, state.theta, state.length),
+                    "about the origin")
+    check_wall(config, state)
 
 
 def initial_state(config: Config) -> ParticleState:
@@ -138,6 +182,7 @@ def check_initial(config: Config, require_stop: bool = True,
         raise ValueError(f"radius {config.radius:g} is not larger than the initial colony "
                          f"radius {r0:.6g}: nothing to grow")
     config.check_budget(r0)  # a radius goal from this colony (init file, shape)
+    check_dish(config, state)
     return state
 
 
@@ -253,6 +298,7 @@ class Simulation:
             self.state = check_initial(config, require_stop=False)
         else:
             config.check_budget(state.enclosing_radius())  # before any work, as check_initial
+            check_dish(config, state)
             self.state = state.copy()
         initial_strains(config, self.state, layout)
         if self.state.rng is None:
@@ -382,6 +428,8 @@ class Simulation:
         ------
         ParticleLimitError
             After the step, when N > ``Config.max_particles``.
+        DishWallError
+            After the step, when the colony reaches the dish's wall (``Config.dish_radius``).
         OverlapError, ContactSolveError
             When a step fails even as 16 sub-steps.
         """
@@ -414,6 +462,7 @@ class Simulation:
         if st.n > config.max_particles:
             raise ParticleLimitError(
                 f"colony has {st.n} particles > max_particles {config.max_particles}")
+        check_wall(config, st)
         if self.output is not None:
             self.output.after_step(st)
         return record
@@ -525,8 +574,8 @@ def run(config: Config, out: str | Path | None = None, progress: bool = False,  
     ValueError
         No goal in ``config``, a run this machine cannot do (``Config.check_budget``, before
         any work), or a mismatched checkpoint.
-    OverlapError, ParticleLimitError, ContactSolveError
-        A step failed (see their docstrings).
+    OverlapError, ParticleLimitError, DishWallError, ContactSolveError
+        A step failed or the colony reached the dish's wall (see their docstrings).
     """
     require_goal(config)
     if progress and not kernels_cached():

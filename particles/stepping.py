@@ -250,7 +250,7 @@ def step(state: ParticleState, config: Config, dt: float,  # noqa: PLR0913
     t0 = _tick(timers, "update", t0)
     lam, rate = growth_law(config.strains, config.lam, state.strain)
     if config.nutrient is not None:  # the nutrient's factor f(c_n) of the state at the start
-        rate = rate * nutrient_factor(state, lam, rate, config.nutrient)
+        rate = rate * nutrient_factor(state, lam, rate, config.nutrient, config.dish_radius)
     gamma, hist = _solve(solver, spent, c, state.length, dt, lam, gamma0, stol,
                          config.max_iterations, True, rate=rate)
     t0 = _tick(timers, "solver", t0)
@@ -296,14 +296,16 @@ MAX_HALVINGS = 4
 this many times nested (dt / 16), before the error is raised."""
 
 
-def nutrient_factor(state, lam, rate, nutrient: tuple[float, float, float]) -> np.ndarray:
+def nutrient_factor(state, lam, rate, nutrient: tuple[float, float, float],
+                    dish: float | None = None) -> np.ndarray:
     """Each cell's f(c_n): the nutrient solved for the state's cells (particles.nutrients).
 
-    The source's growth exp(-lam sigma_n) a_n takes the last contact solve's stress.
+    The source's growth exp(-lam sigma_n) a_n takes the last contact solve's stress. ``dish``:
+    R_dish (``Config.dish_radius``), None for supply at the colony's edge.
     """
     ell, K, h = nutrient
     growth = rate * np.exp(-np.asarray(lam) * state.stress)
-    c = nutrient_at_cells(state.x, state.y, state.length, growth, ell, K, h)
+    c = nutrient_at_cells(state.x, state.y, state.length, growth, ell, K, h, dish)
     return uptake(c, K)
 
 

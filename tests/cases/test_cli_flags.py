@@ -78,6 +78,8 @@ CASES = [
       "layout": "mixture:0.5,0.5"}, {}),
     (P + ["--nutrient-length", "5", "--monod-k", "2"],
      {"lam": 0.01, "radius": 3.0, "nutrient_length": 5.0, "monod_k": 2.0}, {}),
+    (P + ["--nutrient-length", "3", "--dish-radius", "8"],
+     {"lam": 0.01, "radius": 3.0, "nutrient_length": 3.0, "dish_radius": 8.0}, {}),
     (P + ["--change-step-policy", "--quiet"], {"lam": 0.01, "radius": 3.0},
      {"change_step_policy": True, "progress": False}),
     (P + ["--out", "{tmp}/p", "--overwrite", "--other-engine", "--verbose"],
@@ -165,6 +167,8 @@ def test_every_flag_of_both_engines_is_exercised():
     (C + ["--alpha", "1"], "--alpha needs --from-particles"),
     (C + ["--nutrient-length", "inf"], "--nutrient-length: expected a finite number, got inf"),
     (P + ["--monod-k", "2"], "monod_k = 2 needs nutrient_length"),
+    (P + ["--dish-radius", "6"], "dish_radius = 6 needs nutrient_length"),
+    (P + ["--nutrient-length", "3", "--dish-radius", "0.4"], "dish_radius 0.4 is not larger"),
     (["particles", "--radius", "3"], "lam is required"),
 ])
 def test_a_bad_flag_ends_in_one_line(colony, argv, needle):
