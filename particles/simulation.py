@@ -74,8 +74,9 @@ class DishWallError(ValueError):
     """The colony reached the wall of its dish (``Config.dish_radius``; nutrients.reaches_wall).
 
     Raised by :meth:`Simulation.step` after the step that brings a cell's centre within
-    nutrients.WALL_MARGIN grid spacings of the wall, and before any work for an initial
-    colony already there (:func:`check_dish`).
+    nutrients.WALL_MARGIN grid spacings of the wall or a cell to the wall, and before any work
+    for an initial colony already there (:func:`check_dish`). A ValueError: the settings do
+    not fit (the dish's radius and the run's goal).
     """
 
 

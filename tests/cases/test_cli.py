@@ -256,8 +256,8 @@ def test_help_states_the_engine_defaults(engine):
         field = action.dest
         if field not in defaults or field in ("lam", "radius", "time", "init", "shape",
                                               "threads", "strains", "layout", "max_hours",
-                                              "nutrient_length", "monod_k"):  # None: none, inf
-            continue
+                                              "nutrient_length", "monod_k", "dish_radius"):
+            continue  # None: words ("none", "inf", "supply at the colony's edge")
         stated = re.search(r"(\S+) \(default\)|[(;] ?default:? ([^;,)\s]+)", action.help)
         assert stated, f"--{field}: the help states no default"
         value = stated.group(1) or stated.group(2)

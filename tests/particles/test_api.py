@@ -27,7 +27,7 @@ def assert_same_state(a, b):
 
 
 #: The public names, each exercised in this file: a new name gets a test here.
-PUBLIC = {"B", "Config", "ContactSolveError", "OverlapError", "ParticleLimitError",
+PUBLIC = {"B", "Config", "ContactSolveError", "DishWallError", "OverlapError", "ParticleLimitError",
           "ParticleState", "Simulation", "StepRecord", "__version__", "axial_stress", "divide",
           "enclosing_radius", "fill_outline", "from_csv", "grow", "hull_radius", "line",
           "read_trajectory", "ring_packing", "run", "single_cell"}
@@ -137,6 +137,14 @@ def test_read_trajectory_gives_the_final_state(tmp_path):
 def test_particle_limit_is_refused():
     with pytest.raises(particles.ParticleLimitError, match="max_particles 4"):
         run(Config(lam=0.0, time=3.0, max_particles=4))
+
+
+def test_a_colony_at_the_dish_wall_stops():
+    """A ValueError of one line (tests/particles/test_nutrients.py: a run that reaches it)."""
+    assert issubclass(particles.DishWallError, ValueError)
+    config = Config(lam=0.0, radius=5.0, nutrient_length=3.0, dish_radius=3.2)
+    with pytest.raises(particles.DishWallError, match=r"^the colony reached the dish's wall"):
+        Simulation(config, state=particles.line(6))  # centres at 2.5, within 2 h of 3.2
 
 
 @pytest.mark.parametrize("state", ["garbage", {"x": [0.0]}, 3, "a continuum State"])
