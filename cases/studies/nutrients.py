@@ -22,14 +22,16 @@ same measures for every model:
   roughness: the enclosing radius (the farthest cell or node from the centroid) over R.
 
 Outputs in ``out/data``: ``speed.csv`` (model 0 continuum / 1 particles / 2 reference, ell,
-lam, seed, R, dR/dt, time from ``start``), ``profiles.csv`` (model, ell, lam, seed, r,
-stress, stress_std, c, g, g_std at the final radius; the reference on the annuli of the
-continuum), ``summary.csv`` (per (ell, lam): each model's speed at the last grid radius, time
-from ``start`` to it, layer width and central stress; particles as seed mean and standard
-deviation) and from :func:`plot` ``nutrients.png`` and ``results.md``.
+lam, seed, R, dR/dt, time from ``start``), ``profiles.csv`` (model, ell, lam, seed, the final
+radius by area, r, stress, stress_std, c, g, g_std; the reference on the annuli of the
+continuum at its radius), ``summary.csv`` (per (ell, lam): each model's speed at the last grid
+radius ``R_speed``, time from ``start`` to it, layer width, central stress and roughness;
+particles as seed mean and standard deviation) and from :func:`plot` ``nutrients.png`` and
+``results.md``.
 
 Scales: "smoke" (radius 8, ell 2 and 4, lam 0 and 0.1, one seed; about a minute on 2 cores),
-"medium" (radius 40, ell 5, 10, 20, 40 at lam 0, 1e-3, 1e-2, one seed; about half an hour),
+"medium" (radius 40, ell 5, 10, 20, 40 at lam 0, 1e-3, 1e-2, one seed; about 20 minutes on
+2 cores: the continuum runs take seconds, the particle runs one to two minutes each),
 "paper" (radius 100, the medium grid, three seeds; hours).
 """
 
@@ -338,7 +340,8 @@ def reduce(folders: dict[tuple[str, float, float, int], Path], data: Path,
                 u, dt, prof, central = _run_measures(engine, runs[engine, seed], lam, radii)
                 series.append((MODELS.index(engine), seed, u, dt))
                 radius = float(prof["radius"][0])
-                keys = {"model": MODELS.index(engine), "ell": ell, "lam": lam, "seed": seed}
+                keys = {"model": MODELS.index(engine), "ell": ell, "lam": lam, "seed": seed,
+                        "radius": radius}
                 _append_profile(profiles, keys, prof)
                 finals[engine].append({"speed": float(u[-1]), "time": float(dt[-1]),
                                        "layer": layer_width(prof["r"], prof["g"], radius),
@@ -477,9 +480,7 @@ def plot(data: str | Path, out: str | Path) -> list[Path]:
                 sel = _select(prof, ell=ell, lam=lam, model=model) & (prof["seed"] == 0)
                 if not sel.any():
                     continue
-                r = prof["r"][sel]
-                depth = r.max() - r if model != 2 else prof["r"][
-                    _select(prof, ell=ell, lam=lam, model=0)].max() - r
+                depth = prof["radius"][sel] - prof["r"][sel]
                 ax.plot(depth, prof[q][sel], ls=ls, marker=marker, mfc="none", ms=3,
                         color=colors[ell], label=rf"$\ell$ = {ell:g}" if model == 2 else None)
                 if model == 1 and f"{q}_std" in prof:

@@ -125,3 +125,21 @@ def test_smoke_continuum_meets_the_reference_and_particles_follow_ell(smoke):
     assert np.all(s["seeds"] == 1) and np.all(np.isfinite(s["speed_particles"]))
     assert (smoke / "nutrients.png").stat().st_size > 0
     assert "| ell | lam |" in (smoke / "results.md").read_text()
+
+
+def test_committed_medium_data_redraw_and_the_continuum_is_the_reference(tmp_path):
+    """The committed medium data: results.md's table, the continuum on the reference.
+
+    The continuum within 2e-3 of the reference in speed and time at every (ell, lam), the
+    particles within 4 %; ``--from-data`` writes the table of docs/results.md.
+    """
+    data = cli.DATA / "nutrients"
+    s = A.read_csv(data / "summary.csv")
+    assert len(s["ell"]) == len(N.SCALES["medium"]["ells"]) * len(N.SCALES["medium"]["lams"])
+    for q in ("speed", "time"):
+        np.testing.assert_allclose(s[f"{q}_continuum"], s[f"{q}_reference"], rtol=2e-3)
+        np.testing.assert_allclose(s[f"{q}_particles"], s[f"{q}_reference"], rtol=0.04)
+    assert cli.main(["case", "nutrients", "--from-data", "--out", str(tmp_path)]) == 0
+    table = (tmp_path / "results.md").read_text().split("\n", 4)[4]
+    assert table in (cli.DATA.parents[1] / "docs" / "results.md").read_text()
+    assert (tmp_path / "nutrients.png").stat().st_size > 0
