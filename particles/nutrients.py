@@ -236,7 +236,8 @@ def nutrient_field(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: np.
 def extent(x: np.ndarray, y: np.ndarray, theta: np.ndarray, length: np.ndarray) -> float:
     """The radius of the smallest disc about the origin holding every cell (0 for none).
 
-    max over segment ends e of |e| + b/2, as measures.enclosing_radius about the centroid.
+    The largest distance ``|e|`` of a segment end e from the origin plus b/2, as
+    measures.enclosing_radius is about the centroid.
     """
     if len(x) == 0:
         return 0.0
