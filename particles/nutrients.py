@@ -23,8 +23,17 @@ Laplacian then gives ::
 
     F(c) = ell^2 L c - P^T D f(P c) / h^2 = 0   on the colony's nodes,
 
-monotone in c (f' > 0), solved by Newton's method with a sparse direct solver (one iteration is
-exact for K = inf, where F is linear). The error is first order in h: the colony's edge is
+monotone in c (f' > 0), solved by Newton's method (one iteration is exact for K = inf, where F
+is linear). For a finite K Newton starts from the solution of the linear problem with the
+uptake's largest slope, f(c) <= f'(0) c = (1 + K) c / K (f is concave): a subsolution, from
+which Newton's iterates rise monotonically to the positive solution; from c = 1 they could
+overshoot to c < 0 and converge there, a root of the discrete equations that is not the
+nutrient (a packed disc of radius 40, ell = 10, K = 0.5: min c -2.8 against 0.013, in 15
+iterations against 5). Each linear system (J symmetric negative definite) is solved directly
+up to DIRECT_NODES unknowns and above by conjugate gradients preconditioned with classical
+algebraic multigrid (pyamg's Ruge-Stuben, no random start: the same bits every time), to a
+relative residual of AMG_TOL (:func:`linear_solve`; 0.6 s against 1.6 s for a packed disc of
+radius 100 on h = 0.5, 125,065 unknowns). The error is first order in h: the colony's edge is
 resolved to a node (on a packed disc against the Bessel solution, ell = 3: 0.062, 0.032, 0.014
 at h = 1, 0.5, 0.25 away from the edge; tests/particles/test_nutrients.py).
 
@@ -61,6 +70,12 @@ from .measures import tips
 __all__ = ["uptake", "uptake_slope", "NutrientGrid", "nutrient_at_cells", "nutrient_field",
            "extent", "reaches_wall", "OCCUPIED", "WALL_MARGIN"]
 
+DIRECT_NODES = 40_000
+"""Unknowns up to which :func:`linear_solve` is a sparse direct solve (above: AMG-CG; the
+measured crossover lies between 20,000 and 45,000 nodes: 0.12 s against 0.11 s at 19,833)."""
+AMG_TOL = 1e-13
+"""Relative residual of :func:`linear_solve`'s conjugate gradients (the direct solve's
+round-off level: the two agree to 2e-13 on a packed disc)."""
 OCCUPIED = 0.5
 """A grid node is inside the colony where the cells' area per unit area is at least this."""
 SMOOTHING = 1.0
@@ -177,7 +192,8 @@ class NutrientGrid:
 def _solve(x, y, length, growth, ell: float, K: float, h: float, dish: float | None):
     """(grid, unknown nodes' mask, their c, P_in, P_out 1); None when there is no unknown.
 
-    Newton's method from c = 1 (module docstring).
+    Newton's method, from c = 1 for K = inf and from the linear subsolution otherwise (module
+    docstring).
     """
     grid = NutrientGrid(x, y, h, dish)
     area = B * np.asarray(length, dtype=float)
@@ -190,15 +206,33 @@ def _solve(x, y, length, growth, ell: float, K: float, h: float, dish: float | N
     P_out_ones = np.asarray(grid.P[:, ~inside].sum(axis=1)).ravel()  # c = 1 off the unknowns
     weight = area * np.asarray(growth, dtype=float) / h**2  # D / h^2
     c = np.ones(len(nodes))
+    if not math.isinf(K):  # the subsolution of the uptake's largest slope (module docstring)
+        slope = (1.0 + K) / K
+        c = linear_solve(ell**2 * L - slope * (P_in.T @ sp.diags(weight) @ P_in),
+                         slope * (P_in.T @ (weight * P_out_ones)) - ell**2 * outside)
     for _ in range(30):
         cells = P_in @ c + P_out_ones
         F = ell**2 * (L @ c + outside) - P_in.T @ (weight * uptake(cells, K))
         J = ell**2 * L - P_in.T @ sp.diags(weight * uptake_slope(cells, K)) @ P_in
-        dc = spsolve(J.tocsc(), -F)
+        dc = linear_solve(J, -F)
         c += dc
         if math.isinf(K) or np.max(np.abs(dc)) < NEWTON_TOL:  # K = inf: F linear, one step
             break
     return grid, inside, c, P_in, P_out_ones
+
+
+def linear_solve(J: sp.spmatrix, rhs: np.ndarray) -> np.ndarray:
+    """The solution of J x = rhs, J symmetric negative definite (the nutrient's Jacobian).
+
+    A sparse direct solve up to DIRECT_NODES unknowns; above, conjugate gradients on -J
+    preconditioned by Ruge-Stuben AMG (pyamg), to the relative residual AMG_TOL.
+    """
+    if J.shape[0] <= DIRECT_NODES:
+        return spsolve(J.tocsc(), rhs)
+    import pyamg
+
+    A = (-J).tocsr()
+    return pyamg.ruge_stuben_solver(A).solve(-rhs, tol=AMG_TOL, accel="cg", maxiter=500)
 
 
 def nutrient_at_cells(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: np.ndarray,
@@ -207,7 +241,7 @@ def nutrient_at_cells(x: np.ndarray, y: np.ndarray, length: np.ndarray, growth: 
 
     ``growth``: each cell's exp(-lam sigma_n) (times its strain's factor); ``h`` the grid's
     spacing; ``dish``: R_dish, supply on the dish's wall (None: at the colony's edge). Newton's
-    method from c = 1.
+    method (module docstring).
     """
     solved = _solve(x, y, length, growth, ell, K, h, dish)
     if solved is None:

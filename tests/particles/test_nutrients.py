@@ -65,6 +65,43 @@ def test_monod_uptake_is_solved_to_newtons_tolerance():
     assert uptake(np.array([1.0]), 0.5)[0] == pytest.approx(1.0)
 
 
+def test_a_starved_monod_disc_is_positive_and_follows_the_radial_reference():
+    """K = 0.5, R = 20, ell = 3: c falls to 1.5e-4 at the centre (radial_nutrients.solve).
+
+    Newton from c = 1 overshoots below 0 in the starved core and could converge to a negative
+    root; from the linear subsolution (slope (1 + K) / K) c stays positive and within the grid's
+    first-order error of the reference (relative error at the centre ~10 %, max 0.04).
+    """
+    from continuum import radial_nutrients
+
+    R, ell, K = 20.0, 3.0, 0.5
+    x, y, length = packed_disc(R, 0.5)
+    r = np.hypot(x, y)
+    ref = radial_nutrients.solve(R, 0.0, ell, K, n=4001)
+    c = nutrient_at_cells(x, y, length, np.ones(len(x)), ell, K, 0.5)
+    expected = np.interp(r, ref.r, ref.c)
+    interior = r < R - 2.0
+    assert c.min() > 0
+    assert np.max(np.abs(c - expected)[interior]) < 0.05
+    assert np.max(np.abs(c / expected - 1)[interior]) < 0.15
+
+
+def test_the_multigrid_solve_is_the_direct_solve(monkeypatch):
+    """Above DIRECT_NODES unknowns, AMG-CG: the direct solve's c to 1e-11, the same bits again.
+
+    Ruge-Stuben AMG has no random start, so a repeated solve gives every bit the same.
+    """
+    from particles import nutrients
+
+    x, y, length = packed_disc(12.0, 0.5)
+    args = (x, y, length, np.ones(len(x)), 3.0, 0.5, 0.25)
+    direct = nutrient_at_cells(*args)
+    monkeypatch.setattr(nutrients, "DIRECT_NODES", 100)
+    amg = nutrient_at_cells(*args)
+    np.testing.assert_allclose(amg, direct, rtol=0, atol=1e-11)
+    assert np.array_equal(nutrient_at_cells(*args), amg)
+
+
 def test_nutrients_slow_the_colony_and_a_longer_ell_less():
     times = {}
     for ell in (None, 6.0, 3.0):
