@@ -18,14 +18,20 @@ same measures for every model:
   (:func:`layer_width`: the colony's outer band where g > 1/2, half the rate at the edge, where
   c = 1 and p = 0), the stress profile (particles: the mean axial stress sigma with its annulus
   spread; continuum: p) and the central stress (particles: the fit p0 - c r^2 over r < R/2,
-  :func:`cases.analysis.profile_central_stress`; continuum: the largest nodal p), and the
-  roughness: the enclosing radius (the farthest cell or node from the centroid) over R.
+  :func:`cases.analysis.profile_central_stress`; continuum: the largest nodal p), the
+  roughness: the enclosing radius (the farthest cell or node from the centroid) over R, and
+  the rings by the rule of both models (:mod:`cases.analysis.rings`: their number and the
+  distance of the two outermost, the wavelength; particles: the final frame's mean-length
+  profile; continuum: the contours G = k ln 2), beside ``wavelength_unfed``, the 1D
+  reference's without the nutrient at the same radius; for the continuum ``core_drift``, how
+  fast its rings deeper than CORE_DEPTH ell still move between the last two frames
+  (:func:`core_drift`: 0 where the starved core has frozen its pattern).
 
 Outputs in ``out/data``: ``speed.csv`` (model 0 continuum / 1 particles / 2 reference, ell,
 lam, seed, R, dR/dt, time from ``start``), ``profiles.csv`` (model, ell, lam, seed, the final
 radius by area, r, stress, stress_std, c, g, g_std; the reference on the annuli of the
 continuum at its radius), ``summary.csv`` (per (ell, lam): each model's speed at the last grid
-radius ``R_speed``, time from ``start`` to it, layer width, central stress and roughness;
+radius ``R_speed``, time from ``start`` to it, layer width, central stress, roughness, rings;
 particles as seed mean and standard deviation) and from :func:`plot` ``nutrients.png`` and
 ``results.md``.
 
@@ -73,6 +79,10 @@ GRID_POINTS = 12
 """Radii of :func:`radius_grid`."""
 EDGE_WIDTH = 0.5
 """Width of the outermost annulus of the profiles (about a cell's diameter, as the figures)."""
+FINALS = ("speed", "time", "layer", "central", "roughness", "rings", "wavelength")
+"""Each run's final numbers in ``summary.csv`` (``Q_continuum``, ``Q_particles``)."""
+CORE_DEPTH = 3.0
+"""The starved core: deeper than this many ell below the edge (c < ~e^-3 of the edge's)."""
 HALF = 0.5
 """The growth layer: where g exceeds this fraction of the rate at the edge (c = 1, p = 0)."""
 
@@ -199,7 +209,7 @@ def particle_growth_profile(frame: dict[str, np.ndarray], config: dict[str, Any]
     r = np.hypot(x - cx, y - cy)
     radius = enclosing_radius(x, y, frame["theta"], length)
     out: dict[str, np.ndarray] = {}
-    for name, v in (("stress", stress), ("c", c), ("g", g)):
+    for name, v in (("stress", stress), ("c", c), ("g", g), ("mean_length", length)):
         out["r"], out[name], out[f"{name}_std"], out["count"] = A.equal_area_annuli(
             r, v, radius=max(radius, r.max()), edge_width=EDGE_WIDTH)
     return out | {"enclosing": np.array([radius])}
@@ -284,12 +294,44 @@ def _run_measures(engine: str, folder: Path, lam: float, radii: np.ndarray
     if engine == "continuum":
         prof = continuum_growth_profile(folder, lam)
         central = float(hist["max_pressure"][-1])
+        rings = A.contour_rings(A.continuum_rings(folder), float(R[-1]))
+        finals_extra = {"core_drift": core_drift(folder, float(R[-1]), config_ell(folder))}
     else:
         config = json.loads((folder / "config.json").read_text())
         ((_, frame),) = A.particle_frames(folder, last_only=True)
         prof = particle_growth_profile(frame, config)
         central = A.profile_central_stress(prof, float(R[-1]))["central_fit"]
-    return u, t_cross - t_cross[0], prof | {"radius": np.array([R[-1]])}, central
+        rings = A.profile_rings(prof, float(prof["enclosing"][0]))
+        finals_extra = {}
+    finals = {"central": central, "rings": rings.count, "wavelength": rings.outer_pair,
+              **finals_extra}
+    return u, t_cross - t_cross[0], prof | {"radius": np.array([R[-1]])}, finals
+
+
+def config_ell(folder: Path) -> float:
+    """The nutrient length ell of a run (its config.json)."""
+    import json
+
+    return float(json.loads((Path(folder) / "config.json").read_text())["nutrient_length"])
+
+
+def core_drift(folder: Path, radius: float, ell: float, depth: float = CORE_DEPTH) -> float:
+    """How fast the continuum's rings still move in the starved core, at the end of the run.
+
+    The largest |r_k(t1) - r_k(t0)| / (t1 - t0) over the rings G = k ln 2 of the last two
+    frames (matched by k, mean radii) lying deeper than ``depth`` ell below the edge; nan
+    without such a ring or with fewer than two frames. 0: the core's pattern is frozen.
+    """
+    frames = A.continuum_frames(folder)
+    if len(frames) < 2:
+        return math.nan
+    (t0, f0), (t1, f1) = frames[-2:]
+    a, b = A.frame_rings(f0), A.frame_rings(f1)
+    before = dict(zip(a["k"].astype(int).tolist(), a["mean_radius"].tolist(), strict=True))
+    moved = [abs(r - before[k]) / (t1 - t0)
+             for k, r in zip(b["k"].astype(int).tolist(), b["mean_radius"].tolist(), strict=True)
+             if k in before and r < radius - depth * ell]
+    return max(moved) if moved else math.nan
 
 
 def area_radius(history: dict[str, np.ndarray]) -> np.ndarray:
@@ -337,7 +379,7 @@ def reduce(folders: dict[tuple[str, float, float, int], Path], data: Path,
             finals: dict[str, list[dict[str, float]]] = {"continuum": [], "particles": []}
             R = math.nan
             for engine, seed in sorted(runs):
-                u, dt, prof, central = _run_measures(engine, runs[engine, seed], lam, radii)
+                u, dt, prof, final = _run_measures(engine, runs[engine, seed], lam, radii)
                 series.append((MODELS.index(engine), seed, u, dt))
                 radius = float(prof["radius"][0])
                 keys = {"model": MODELS.index(engine), "ell": ell, "lam": lam, "seed": seed,
@@ -345,8 +387,8 @@ def reduce(folders: dict[tuple[str, float, float, int], Path], data: Path,
                 _append_profile(profiles, keys, prof)
                 finals[engine].append({"speed": float(u[-1]), "time": float(dt[-1]),
                                        "layer": layer_width(prof["r"], prof["g"], radius),
-                                       "central": central,
-                                       "roughness": float(prof["enclosing"][0]) / radius})
+                                       "roughness": float(prof["enclosing"][0]) / radius,
+                                       **final})
                 if engine == "continuum":
                     R = radius
                     ref = reference_profile(prof["r"], R, lam, ell)
@@ -360,9 +402,10 @@ def reduce(folders: dict[tuple[str, float, float, int], Path], data: Path,
                 "speed_reference": float(series[0][2][-1]),
                 "time_reference": float(series[0][3][-1]),
                 "layer_reference": float(ref["layer"][0]),
-                "central_reference": float(radial_nutrients.solve(R, lam, ell, n=2).p[0])}
+                "central_reference": float(radial_nutrients.solve(R, lam, ell, n=2).p[0]),
+                "wavelength_unfed": A.exact_ring_measure(lam, R).outer_pair}
             for engine, values in finals.items():
-                for q in ("speed", "time", "layer", "central", "roughness"):
+                for q in FINALS + (("core_drift",) if engine == "continuum" else ()):
                     v = np.array([x[q] for x in values], float)
                     row[f"{q}_{engine}"] = float(np.mean(v)) if v.size else math.nan
                     if engine == "particles":
@@ -400,14 +443,17 @@ def markdown_table(summary: dict[str, np.ndarray]) -> str:
     lines = ["| ell | lam | R | dR/dt at R_s: reference | continuum | particles | time to R_s: "
              "reference | continuum | particles | growth layer: reference | continuum | "
              "particles | central stress: reference | continuum | particles (fit) | "
-             "roughness: continuum | particles |",
-             "|" + "---|" * 17]
+             "roughness: continuum | particles | rings: continuum | particles | wavelength: "
+             "continuum | particles | unfed reference |",
+             "|" + "---|" * 22]
     for i in range(len(summary["ell"])):
         cells = [f"{summary['ell'][i]:g}", f"{summary['lam'][i]:g}",
                  f"{summary['radius'][i]:.4g}"]
         for q in ("speed", "time", "layer", "central"):
             cells += [cell(f"{q}_{m}", i) for m in ("reference", "continuum", "particles")]
         cells += [cell(f"roughness_{m}", i) for m in ("continuum", "particles")]
+        cells += [cell(f"rings_{m}", i) for m in ("continuum", "particles")]
+        cells += [cell(f"wavelength_{m}", i) for m in ("continuum", "particles", "unfed")]
         lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines) + "\n"
 
