@@ -139,6 +139,12 @@ def test_committed_medium_data_redraw_and_the_continuum_is_the_reference(tmp_pat
     for q in ("speed", "time"):
         np.testing.assert_allclose(s[f"{q}_continuum"], s[f"{q}_reference"], rtol=2e-3)
         np.testing.assert_allclose(s[f"{q}_particles"], s[f"{q}_reference"], rtol=0.04)
+    # the nutrient's own rings at lam = 0, ell = 5: one per division period ln 2 at the
+    # front's speed; the starved core's rings move at under 2 % of it
+    i = np.flatnonzero((s["ell"] == 5) & (s["lam"] == 0))[0]
+    assert s["wavelength_continuum"][i] == pytest.approx(s["speed_reference"][i] * math.log(2),
+                                                         rel=0.02)
+    assert s["core_drift_continuum"][i] < 0.02 * s["speed_reference"][i]
     assert cli.main(["case", "nutrients", "--from-data", "--out", str(tmp_path)]) == 0
     table = (tmp_path / "results.md").read_text().split("\n", 4)[4]
     assert table in (cli.DATA.parents[1] / "docs" / "results.md").read_text()
