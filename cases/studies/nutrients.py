@@ -235,14 +235,18 @@ def continuum_growth_profile(folder: Path, lam: float, K: float = math.inf
 
 def reference_profile(r: np.ndarray, radius: float, lam: float, ell: float,
                       K: float = math.inf) -> dict[str, np.ndarray]:
-    """The 1D radial reference at ``radius`` on the radii ``r``: p (as ``stress``), c, g."""
+    """The 1D radial reference at ``radius`` on the radii ``r``: p (as ``stress``), c, g.
+
+    With its growth layer's width (``layer``) and central pressure p(0) (``p0``).
+    """
     from continuum import radial_nutrients
 
     state = radial_nutrients.solve(radius, lam, ell, K, n=2001)
     g = state.growth(lam, K)
     return {"r": np.asarray(r, float), "stress": np.interp(r, state.r, state.p),
             "c": np.interp(r, state.r, state.c), "g": np.interp(r, state.r, g),
-            "layer": np.array([layer_width(state.r, g, radius)])}
+            "layer": np.array([layer_width(state.r, g, radius)]),
+            "p0": np.array([state.p[0]])}
 
 
 # --------------------------------------------------------------------------- compute, reduce
@@ -282,37 +286,32 @@ def _append_profile(table: dict[str, list], keys: dict[str, float], prof: dict) 
                                for name in ("r", "stress", "stress_std", "c", "g", "g_std")})
 
 
-def _run_measures(engine: str, folder: Path, lam: float, radii: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray, dict, float]:
-    """(front speed, time from radii[0], final profile, central stress) of one run."""
+def _run_measures(engine: str, folder: Path, hist: dict[str, np.ndarray], lam: float,
+                  radii: np.ndarray) -> tuple[np.ndarray, np.ndarray, dict, dict]:
+    """(front speed, time from radii[0], final profile, final numbers) of one run.
+
+    ``hist``: the run's history.csv. Final numbers: central stress, rings, wavelength and, for
+    the continuum, the core drift.
+    """
     import json
 
-    hist = A.read_csv(folder / "history.csv")
+    config = json.loads((folder / "config.json").read_text())
     R = area_radius(hist)
     t_cross = crossing_times(hist["t"], R, radii)
     u = front_speed(hist["t"], R, radii)
+    finals: dict[str, float] = {}
     if engine == "continuum":
         prof = continuum_growth_profile(folder, lam)
         central = float(hist["max_pressure"][-1])
         rings = A.contour_rings(A.continuum_rings(folder), float(R[-1]))
-        finals_extra = {"core_drift": core_drift(folder, float(R[-1]), config_ell(folder))}
+        finals["core_drift"] = core_drift(folder, float(R[-1]), config["nutrient_length"])
     else:
-        config = json.loads((folder / "config.json").read_text())
         ((_, frame),) = A.particle_frames(folder, last_only=True)
         prof = particle_growth_profile(frame, config)
         central = A.profile_central_stress(prof, float(R[-1]))["central_fit"]
         rings = A.profile_rings(prof, float(prof["enclosing"][0]))
-        finals_extra = {}
-    finals = {"central": central, "rings": rings.count, "wavelength": rings.outer_pair,
-              **finals_extra}
+    finals |= {"central": central, "rings": rings.count, "wavelength": rings.outer_pair}
     return u, t_cross - t_cross[0], prof | {"radius": np.array([R[-1]])}, finals
-
-
-def config_ell(folder: Path) -> float:
-    """The nutrient length ell of a run (its config.json)."""
-    import json
-
-    return float(json.loads((Path(folder) / "config.json").read_text())["nutrient_length"])
 
 
 def core_drift(folder: Path, radius: float, ell: float, depth: float = CORE_DEPTH) -> float:
@@ -371,15 +370,16 @@ def reduce(folders: dict[tuple[str, float, float, int], Path], data: Path,
                     if el == ell and lm == lam}
             if ("continuum", 0) not in runs:
                 continue
-            top = min(float(area_radius(A.read_csv(f / "history.csv"))[-1])
-                      for f in runs.values())
+            hists = {k: A.read_csv(f / "history.csv") for k, f in runs.items()}
+            top = min(float(area_radius(h)[-1]) for h in hists.values())
             radii = radius_grid(s["start"], top)
             t_ref = radial_nutrients.time_to_radius(radii, lam, ell)
             series = [(2, 0, radial_nutrients.radius_rate(radii, lam, ell), t_ref - t_ref[0])]
             finals: dict[str, list[dict[str, float]]] = {"continuum": [], "particles": []}
             R = math.nan
             for engine, seed in sorted(runs):
-                u, dt, prof, final = _run_measures(engine, runs[engine, seed], lam, radii)
+                u, dt, prof, final = _run_measures(engine, runs[engine, seed],
+                                                   hists[engine, seed], lam, radii)
                 series.append((MODELS.index(engine), seed, u, dt))
                 radius = float(prof["radius"][0])
                 keys = {"model": MODELS.index(engine), "ell": ell, "lam": lam, "seed": seed,
@@ -402,7 +402,7 @@ def reduce(folders: dict[tuple[str, float, float, int], Path], data: Path,
                 "speed_reference": float(series[0][2][-1]),
                 "time_reference": float(series[0][3][-1]),
                 "layer_reference": float(ref["layer"][0]),
-                "central_reference": float(radial_nutrients.solve(R, lam, ell, n=2).p[0]),
+                "central_reference": float(ref["p0"][0]),
                 "wavelength_unfed": A.exact_ring_measure(lam, R).outer_pair}
             for engine, values in finals.items():
                 for q in FINALS + (("core_drift",) if engine == "continuum" else ()):
